@@ -1,0 +1,93 @@
+"""Discovery of channel-model plugins through the entry-point group ``adaptsky.channel_models``.
+
+Each entry point is loaded on its own: one that fails to import, or that does not follow the
+contract, is recorded as broken with its error and fails only the run that asks for it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cache
+from importlib.metadata import EntryPoint, entry_points
+
+from pydantic import ValidationError
+
+from adaptsky_cli.channels.contract import ChannelModel, ChannelParams
+from adaptsky_cli.errors import PluginError
+
+ENTRY_POINT_GROUP = "adaptsky.channel_models"
+
+
+@dataclass(frozen=True)
+class PluginInfo:
+    """One discovered channel model; ``model`` is None when the plugin is broken."""
+
+    name: str
+    package: str
+    version: str
+    target: str
+    model: type[ChannelModel] | None
+    error: str = ""
+
+    @property
+    def status(self) -> str:
+        return "ok" if self.model is not None else "broken"
+
+    @property
+    def description(self) -> str:
+        return self.model.description if self.model is not None else ""
+
+
+def _load(entry_point: EntryPoint) -> PluginInfo:
+    dist = entry_point.dist
+    package = dist.name if dist is not None else "?"
+    version = dist.version if dist is not None else "?"
+    info = dict(name=entry_point.name, package=package, version=version,
+                target=entry_point.value)
+    try:
+        model = entry_point.load()
+    except Exception as error:  # any import failure of third-party code
+        return PluginInfo(**info, model=None, error=f"{type(error).__name__}: {error}")
+    if not (isinstance(model, type) and issubclass(model, ChannelModel)):
+        return PluginInfo(**info, model=None,
+                          error=f"{entry_point.value} is not a ChannelModel subclass")
+    if not (isinstance(model.Params, type) and issubclass(model.Params, ChannelParams)):
+        return PluginInfo(**info, model=None,
+                          error=f"{entry_point.value}.Params is not a ChannelParams subclass")
+    try:
+        model.Params()
+    except ValidationError:
+        return PluginInfo(**info, model=None,
+                          error=f"{entry_point.value}.Params has a field without a default")
+    return PluginInfo(**info, model=model)
+
+
+@cache
+def discover() -> dict[str, PluginInfo]:
+    """All registered channel models by name (a name registered twice is broken)."""
+    found: dict[str, PluginInfo] = {}
+    seen: set[tuple[str, str]] = set()
+    for entry_point in entry_points(group=ENTRY_POINT_GROUP):
+        info = _load(entry_point)
+        key = (info.name, info.target)
+        if key in seen:  # the same distribution seen twice on sys.path
+            continue
+        seen.add(key)
+        if info.name in found:
+            other = found[info.name]
+            error = f"name '{info.name}' is registered by both {other.package} and {info.package}"
+            info = PluginInfo(info.name, info.package, info.version, info.target, None, error)
+        found[info.name] = info
+    return dict(sorted(found.items()))
+
+
+def get_model_class(name: str) -> type[ChannelModel]:
+    """The channel-model class registered as ``name``; PluginError if unknown or broken."""
+    plugins = discover()
+    if name not in plugins:
+        installed = ", ".join(plugins) or "none"
+        raise PluginError(f"unknown channel model '{name}'; installed: {installed}")
+    info = plugins[name]
+    if info.model is None:
+        raise PluginError(f"channel model '{name}' ({info.package}) is broken: {info.error}")
+    return info.model

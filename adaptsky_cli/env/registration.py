@@ -1,0 +1,14 @@
+"""Registers ``adaptsky/NomaUav-v0`` with Gymnasium (done on ``import adaptsky_cli``)."""
+
+ENV_ID = "adaptsky/NomaUav-v0"
+
+
+def register_envs() -> None:
+    import gymnasium
+
+    if ENV_ID not in gymnasium.registry:
+        gymnasium.register(
+            id=ENV_ID,
+            entry_point="adaptsky_cli.env.gym_env:NomaUavEnv",
+            vector_entry_point="adaptsky_cli.env.gym_env:NomaUavVectorEnv",
+        )

@@ -1,0 +1,248 @@
+"""Pydantic models of a scenario file (SPEC sections 1-5). Every key is documented in
+``docs/scenario-format.md``; defaults are the paper's mmWave training set-up (Table I, sec. V).
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+PAPER_TRAINING_LAYOUT_M = [[4.0, 15.0], [-44.0, -49.0], [-5.0, 21.0], [47.0, 49.0]]
+
+
+class Section(BaseModel):
+    """Strict base: unknown keys are errors and no string is silently turned into a number."""
+
+    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
+
+
+class Area(Section):
+    side_m: float = Field(100.0, gt=0, description="side L of the square area |x|,|y| <= L/2, m")
+
+
+class Users(Section):
+    positions_m: list[list[float]] | None = Field(
+        None, description="explicit user positions [[x, y], ...], m; even count"
+    )
+    count: int | None = Field(None, ge=2, description="number of users N_UE = 2K (even)")
+    placement: Literal["listed", "uniform"] | None = Field(
+        None, description="'listed' (positions_m) or 'uniform' over the area (count, layout_seed)"
+    )
+    layout_seed: int = Field(0, ge=0, description="seed of the uniform layouts")
+    pairing: Literal["listed", "near-far"] | None = Field(
+        None, description="NOMA pairs: listed order (1,2),(3,4)... or k-th strongest with k-th weakest"
+    )
+    speed_m_per_step: float = Field(0.0, ge=0, description="random-walk speed of every user, m/step")
+
+    @field_validator("positions_m")
+    @classmethod
+    def _even_pairs_of_xy(cls, value: list[list[float]] | None) -> list[list[float]] | None:
+        if value is None:
+            return value
+        for i, xy in enumerate(value):
+            if len(xy) != 2:
+                raise ValueError(f"entry {i} has {len(xy)} numbers, each user needs [x, y]")
+        if len(value) < 2 or len(value) % 2:
+            raise ValueError(f"{len(value)} users given; NOMA pairs need an even count >= 2")
+        return value
+
+    @field_validator("count")
+    @classmethod
+    def _even_count(cls, value: int | None) -> int | None:
+        if value is not None and value % 2:
+            raise ValueError(f"{value} users; NOMA pairs need an even count")
+        return value
+
+    @model_validator(mode="after")
+    def _resolve(self) -> Users:
+        if self.positions_m is not None:
+            if self.placement == "uniform":
+                raise ValueError("positions_m and placement = 'uniform' exclude each other")
+            if self.count is not None and self.count != len(self.positions_m):
+                raise ValueError(f"count = {self.count} but positions_m lists "
+                                 f"{len(self.positions_m)} users")
+            self.placement = "listed"
+            self.count = len(self.positions_m)
+        else:
+            if self.count is None:
+                raise ValueError("give positions_m, or count with placement = 'uniform'")
+            if self.placement == "listed":
+                raise ValueError("placement = 'listed' needs positions_m")
+            self.placement = "uniform"
+        if self.pairing is None:
+            self.pairing = "listed" if self.placement == "listed" else "near-far"
+        return self
+
+
+def _default_users() -> Users:
+    return Users(positions_m=[list(p) for p in PAPER_TRAINING_LAYOUT_M])
+
+
+class Uav(Section):
+    start_m: list[float] = Field([0.0, 0.0, 50.0], min_length=3, max_length=3,
+                                 description="position [x, y, h] at the start of every episode, m")
+    min_height_m: float = Field(10.0, gt=0, description="lowest flying height h_min, m")
+    max_height_m: float = Field(200.0, gt=0, description="highest flying height h_max, m")
+    step_m: list[float] = Field([1.0, 1.0, 1.0], min_length=3, max_length=3,
+                                description="move per step [delta_x, delta_y, delta_h], m")
+    power_step: float = Field(0.01, gt=0, lt=0.5, description="change of alpha per step")
+    start_alpha: float = Field(0.5, gt=0, lt=1, description="alpha of every cluster's first "
+                               "user at the start of every episode")
+    actions: Literal["paper", "with-hover"] = Field(
+        "paper", description="'paper': each component in {-1,+1}; 'with-hover': in {-1,0,+1}"
+    )
+
+    @field_validator("step_m")
+    @classmethod
+    def _positive_steps(cls, value: list[float]) -> list[float]:
+        if min(value) <= 0:
+            raise ValueError(f"every step must be > 0 m, got {value}")
+        return value
+
+    @model_validator(mode="after")
+    def _consistent(self) -> Uav:
+        if self.min_height_m >= self.max_height_m:
+            raise ValueError(f"min_height_m ({self.min_height_m}) must be below "
+                             f"max_height_m ({self.max_height_m})")
+        if not self.min_height_m <= self.start_m[2] <= self.max_height_m:
+            raise ValueError(f"start_m height {self.start_m[2]} m lies outside "
+                             f"[{self.min_height_m}, {self.max_height_m}] m")
+        if not self.power_step <= self.start_alpha <= 1 - self.power_step:
+            raise ValueError(f"start_alpha {self.start_alpha} lies outside "
+                             f"[power_step, 1 - power_step]")
+        return self
+
+
+class Radio(Section):
+    tx_power_dbm: float = Field(20.0, description="power P_T of each cluster, dBm")
+    bandwidth_hz: float = Field(2e9, gt=0, description="bandwidth W of each cluster, Hz")
+    thermal_noise_dbm: float = Field(-84.0, description="thermal noise over W, dBm")
+    noise_figure_db: float = Field(0.0, ge=0, description="receiver noise figure, dB")
+    antennas_uav: int = Field(8, ge=1, description="antennas at the UAV, N_UAV")
+    antennas_ue: int = Field(8, ge=1, description="antennas at each user, N_UE")
+
+    @property
+    def noise_w(self) -> float:
+        """sigma^2 = thermal noise + noise figure, in W (SPEC 1)."""
+        return 10 ** ((self.thermal_noise_dbm + self.noise_figure_db - 30) / 10)
+
+    @property
+    def tx_power_w(self) -> float:
+        return 10 ** ((self.tx_power_dbm - 30) / 10)
+
+    @property
+    def antenna_gain(self) -> int:
+        """G = N_UAV x N_UE (sec. II-A)."""
+        return self.antennas_uav * self.antennas_ue
+
+
+class Channel(Section):
+    model: str = Field("mmwave-nyc", min_length=1, description="name of a channel-model plugin")
+    los: Literal["always", "sampled", "expected"] = Field(
+        "always", description="LoS handling: always LoS, drawn per user per step, or expected gain"
+    )
+    params: dict[str, Any] = Field(default_factory=dict,
+                                   description="the plugin's parameters (its own Params model)")
+
+
+class Reward(Section):
+    """Weights of eq. 13, all >= 0 as the paper requires."""
+
+    min_se: float = Field(0.0, ge=0, description="minimum spectral efficiency R_min/W, bit/s/Hz")
+    w_rate: float = Field(1.0, ge=0, description="w_r, sum-rate term")
+    w_fairness: float = Field(0.0, ge=0, description="w_f, Jain term (only when min_se = 0)")
+    w_gain: float = Field(0.0, ge=0, description="w_g, total channel gain term")
+    w_satisfied: float = Field(0.0, ge=0, description="w_s, per user at or above R_min")
+    w_unsatisfied: float = Field(0.0, ge=0, description="w_u, SE of users below R_min")
+
+
+class Agent(Section):
+    """The dueling DQN of sec. IV and V-A; extensions are off by default."""
+
+    hidden_sizes: list[int] = Field([128, 128], min_length=1, description="hidden ReLU layers")
+    dueling: bool = Field(True, description="dueling head; false gives the paper's plain 'DRL'")
+    double_dqn: bool = Field(False, description="double-DQN target (extension)")
+    loss: Literal["mse", "huber"] = Field("mse", description="TD loss; the paper uses MSE (eq. 12)")
+    grad_clip_norm: float = Field(0.0, ge=0, description="gradient-norm clip; 0 disables")
+    gamma: float = Field(0.999, ge=0, le=1, description="discount factor")
+    lr: float = Field(1e-3, gt=0, description="Adam learning rate l_r")
+    batch_size: int = Field(128, ge=1, description="mini-batch size B")
+    memory_size: int = Field(15000, ge=1, description="replay memory capacity M")
+    epsilon_start: float = Field(0.9, ge=0, le=1, description="epsilon_s")
+    epsilon_end: float = Field(0.1, ge=0, le=1, description="epsilon_e")
+    epsilon_decay_steps: float = Field(200.0, gt=0, description="chi, decay constant in steps")
+    target_update_episodes: int = Field(10, ge=1, description="hard target copy period")
+    observation: Literal["scaled", "raw"] = Field(
+        "scaled", description="observation scaling, see docs/environment.md"
+    )
+
+    @field_validator("hidden_sizes")
+    @classmethod
+    def _positive_sizes(cls, value: list[int]) -> list[int]:
+        if min(value) < 1:
+            raise ValueError(f"layer sizes must be >= 1, got {value}")
+        return value
+
+    @model_validator(mode="after")
+    def _memory_holds_a_batch(self) -> Agent:
+        if self.memory_size < self.batch_size:
+            raise ValueError(f"memory_size ({self.memory_size}) must hold at least one batch "
+                             f"({self.batch_size})")
+        return self
+
+
+class Train(Section):
+    episodes: int = Field(1000, ge=1, description="episodes E")
+    steps: int = Field(300, ge=1, description="steps per episode T (time limit)")
+    seeds: list[int] = Field([0], min_length=1, description="seeds, one run each")
+    checkpoint_every: int = Field(50, ge=1, description="episodes between checkpoints")
+    trajectory_every: int = Field(0, ge=0, description="also store every k-th episode's "
+                                  "trajectory; 0 keeps only the last")
+
+    @field_validator("seeds")
+    @classmethod
+    def _distinct_seeds(cls, value: list[int]) -> list[int]:
+        if len(set(value)) != len(value) or min(value) < 0:
+            raise ValueError(f"seeds must be distinct and >= 0, got {value}")
+        return value
+
+
+class Scenario(Section):
+    name: str = Field(min_length=1, description="short name, used in output file names")
+    description: str = ""
+    area: Area = Field(default_factory=Area)
+    users: Users = Field(default_factory=_default_users)
+    uav: Uav = Field(default_factory=Uav)
+    radio: Radio = Field(default_factory=Radio)
+    channel: Channel = Field(default_factory=Channel)
+    reward: Reward = Field(default_factory=Reward)
+    agent: Agent = Field(default_factory=Agent)
+    train: Train = Field(default_factory=Train)
+
+    @model_validator(mode="after")
+    def _inside_area(self) -> Scenario:
+        half_m = self.area.side_m / 2
+        for i, (x, y) in enumerate(self.users.positions_m or []):
+            if abs(x) > half_m or abs(y) > half_m:
+                raise ValueError(f"users.positions_m: user {i + 1} at ({x}, {y}) lies outside "
+                                 f"the area |x|, |y| <= {half_m:g} m")
+        x, y, _ = self.uav.start_m
+        if abs(x) > half_m or abs(y) > half_m:
+            raise ValueError(f"uav.start_m: ({x}, {y}) lies outside the area "
+                             f"|x|, |y| <= {half_m:g} m")
+        return self
+
+    @property
+    def num_users(self) -> int:
+        assert self.users.count is not None  # resolved by Users._resolve
+        return self.users.count
+
+    @property
+    def num_clusters(self) -> int:
+        return self.num_users // 2
+
+    @property
+    def min_rate_bps(self) -> float:
+        """R_min = min_se * W (eq. 13)."""
+        return self.reward.min_se * self.radio.bandwidth_hz

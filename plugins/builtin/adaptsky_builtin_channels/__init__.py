@@ -1,0 +1,1 @@
+"""adaptsky's built-in channel models, registered through entry points like any plugin."""

@@ -1,0 +1,39 @@
+"""28 GHz mmWave channel, New York City measurements (Akdeniz et al. 2014), sec. II-C.1.
+
+LoS probability, eq. 4:  P_LoS = 1 / (1 + C exp(-Y (theta - C))), theta in degrees.
+Gain, eq. 5:             g_k = C_k d^(-a_k),  k in {LoS, NLoS}, d in m.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydantic import Field
+
+from adaptsky_cli.channels import ChannelModel, ChannelParams, LinkGeometry, db_to_linear
+
+
+class MmWaveNycParams(ChannelParams):
+    los_c: float = Field(9.6117, gt=0, description="C of eq. 4 (environment), 1")
+    los_y: float = Field(0.1581, gt=0, description="Y of eq. 4 (environment), 1/deg")
+    intercept_los_db: float = Field(-64.0, description="C_LoS of eq. 5 (gain at 1 m), dB")
+    intercept_nlos_db: float = Field(-72.0, description="C_NLoS of eq. 5 (gain at 1 m), dB")
+    exponent_los: float = Field(2.0, gt=0, description="path-loss exponent a_LoS, 1")
+    exponent_nlos: float = Field(2.92, gt=0, description="path-loss exponent a_NLoS, 1")
+
+
+class MmWaveNyc(ChannelModel):
+    Params = MmWaveNycParams
+    description = "28 GHz mmWave, NYC path loss (Akdeniz 2014), sigmoid LoS probability"
+    params: MmWaveNycParams
+
+    def los_probability(self, geometry: LinkGeometry) -> np.ndarray:
+        c, y = self.params.los_c, self.params.los_y
+        return 1.0 / (1.0 + c * np.exp(-y * (geometry.elevation_deg - c)))
+
+    def gain_los(self, geometry: LinkGeometry) -> np.ndarray:
+        return db_to_linear(self.params.intercept_los_db) * geometry.distance_m ** (
+            -self.params.exponent_los)
+
+    def gain_nlos(self, geometry: LinkGeometry) -> np.ndarray:
+        return db_to_linear(self.params.intercept_nlos_db) * geometry.distance_m ** (
+            -self.params.exponent_nlos)
