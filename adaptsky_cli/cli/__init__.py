@@ -1,0 +1,1 @@
+"""The ``adaptsky`` command: one thin Typer module per command group."""

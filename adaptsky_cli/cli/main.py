@@ -1,0 +1,53 @@
+"""Entry point of the ``adaptsky`` command.
+
+Errors of the project's own kind print one line (per problem) and exit 1;
+``ADAPTSKY_DEBUG=1`` shows the traceback instead.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+import typer
+
+from adaptsky_cli import __version__
+from adaptsky_cli.cli import plugins_cmd, scenario_cmd
+from adaptsky_cli.cli.console import err
+from adaptsky_cli.errors import AdaptskyError
+
+app = typer.Typer(name="adaptsky", no_args_is_help=True, pretty_exceptions_enable=False,
+                  help="NOMA-UAV network simulator and dueling-DQN framework (AdaptSky).")
+app.add_typer(scenario_cmd.app, name="scenario")
+app.add_typer(plugins_cmd.app, name="plugins")
+
+
+def _version(value: bool) -> None:
+    if value:
+        print(f"adaptsky {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(version: bool = typer.Option(False, "--version", callback=_version, is_eager=True,
+                                       help="print the version and exit")) -> None:
+    """NOMA-UAV network simulator and dueling-DQN framework (AdaptSky)."""
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line with ``argv``; return the exit code (never raises for user errors)."""
+    try:
+        app(args=argv, prog_name="adaptsky")  # standalone: ends with SystemExit
+    except SystemExit as done:
+        return done.code if isinstance(done.code, int) else (0 if done.code is None else 1)
+    except AdaptskyError as error:
+        if os.environ.get("ADAPTSKY_DEBUG") == "1":
+            raise
+        err.print(str(error))
+        return 1
+    return 0
+
+
+def run() -> None:
+    """Console-script entry point."""
+    sys.exit(main())

@@ -1,0 +1,13 @@
+"""Argument and option aliases shared by several commands."""
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+ScenarioFile = Annotated[Path, typer.Argument(help="scenario file (TOML)", show_default=False)]
+ScenarioFiles = Annotated[list[Path], typer.Argument(help="scenario files (TOML)",
+                                                     show_default=False)]
+PluginName = Annotated[str, typer.Argument(help="channel-model name, as in 'plugins list'",
+                                           show_default=False)]
+Json = Annotated[bool, typer.Option("--json", help="print JSON on stdout, nothing else")]

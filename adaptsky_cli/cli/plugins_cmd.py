@@ -1,0 +1,48 @@
+"""``adaptsky plugins list|show``."""
+
+import json
+
+import typer
+from rich.table import Table
+
+from adaptsky_cli.channels.registry import discover, get_model_class
+from adaptsky_cli.cli.console import out
+from adaptsky_cli.cli.options import Json, PluginName
+
+app = typer.Typer(help="Channel-model plugins (entry-point group adaptsky.channel_models).",
+                  no_args_is_help=True)
+
+
+@app.command("list")
+def list_plugins(as_json: Json = False) -> None:
+    """List every installed channel model, broken ones with their error."""
+    plugins = discover().values()
+    if as_json:
+        print(json.dumps([{"name": p.name, "package": p.package, "version": p.version,
+                           "status": p.status, "description": p.description,
+                           "error": p.error} for p in plugins], indent=2))
+        return
+    table = Table("name", "package", "version", "status", "description")
+    for p in plugins:
+        status = "[green]ok[/]" if p.status == "ok" else "[red]broken[/]"
+        table.add_row(p.name, p.package, p.version, status, p.description or p.error)
+    out.print(table)
+
+
+@app.command()
+def show(name: PluginName, as_json: Json = False) -> None:
+    """Print a channel model's parameters with defaults and units."""
+    model = get_model_class(name)
+    info = discover()[name]
+    fields = model.Params.model_fields
+    if as_json:
+        print(json.dumps({"name": name, "package": info.package, "version": info.version,
+                          "description": model.description,
+                          "params": {key: {"default": f.default, "description": f.description}
+                                     for key, f in fields.items()}}, indent=2))
+        return
+    out.print(f"[bold]{name}[/] ({info.package} {info.version}): {model.description}")
+    table = Table("parameter", "default", "description (unit)")
+    for key, field in fields.items():
+        table.add_row(key, repr(field.default), field.description or "")
+    out.print(table)

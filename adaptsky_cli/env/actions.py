@@ -1,0 +1,57 @@
+"""The discrete action set (sec. IV-B.2, SPEC 3).
+
+An action moves the UAV by d_x delta_x, d_y delta_y, d_h delta_h and changes the first user's
+alpha of each of the K clusters by d_k delta_alpha. Action index a encodes the 3 + K
+components as digits in base 2 (``paper``: d in {-1, +1}, 2^(3+K) actions) or base 3
+(``with-hover``: d in {-1, 0, +1}); digit j = (a // base^j) % base, component order
+x, y, h, cluster 1, ..., cluster K.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+ActionMode = Literal["paper", "with-hover"]
+
+MAX_ACTIONS = 2**31 - 1
+
+
+@dataclass(frozen=True)
+class ActionSet:
+    num_clusters: int
+    mode: ActionMode = "paper"
+
+    @property
+    def base(self) -> int:
+        return 2 if self.mode == "paper" else 3
+
+    @property
+    def num_components(self) -> int:
+        return 3 + self.num_clusters
+
+    @property
+    def count(self) -> int:
+        return self.base**self.num_components
+
+    def __post_init__(self) -> None:
+        if self.count > MAX_ACTIONS:
+            raise ValueError(f"{self.count} actions for {self.num_clusters} clusters is more "
+                             f"than a discrete action space can index")
+
+    def decode(self, actions: NDArray[np.integer]) -> NDArray[np.int64]:
+        """Directions d in {-1, 0, +1} of shape (*actions.shape, 3 + K)."""
+        actions = np.asarray(actions, dtype=np.int64)
+        powers = self.base ** np.arange(self.num_components, dtype=np.int64)
+        digits = (actions[..., None] // powers) % self.base
+        return 2 * digits - 1 if self.mode == "paper" else digits - 1
+
+    def encode(self, directions: NDArray[np.integer]) -> NDArray[np.int64]:
+        """Inverse of :meth:`decode`."""
+        directions = np.asarray(directions, dtype=np.int64)
+        digits = (directions + 1) // 2 if self.mode == "paper" else directions + 1
+        powers = self.base ** np.arange(self.num_components, dtype=np.int64)
+        return (digits * powers).sum(axis=-1)

@@ -1,0 +1,67 @@
+"""Reading scenario files: TOML -> validated :class:`Scenario` with the plugin's params resolved.
+
+Every problem becomes one ``file: field.path: message`` line in a :class:`ScenarioError`.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from adaptsky_cli.channels.registry import get_model_class
+from adaptsky_cli.errors import PluginError, ScenarioError
+from adaptsky_cli.scenario.models import Scenario
+
+
+def _error_lines(source: str, error: ValidationError, prefix: tuple[str | int, ...] = ()) -> list[str]:
+    lines = []
+    for item in error.errors(include_url=False):
+        loc = ".".join(str(part) for part in (*prefix, *item["loc"]))
+        message = item["msg"].removeprefix("Value error, ")
+        if item["type"] == "extra_forbidden":
+            message = "unknown key"
+        elif "input" in item and item["type"] not in ("missing",) and not isinstance(
+                item["input"], dict):
+            shown = repr(item["input"])
+            message = f"{message} (got {shown if len(shown) <= 60 else shown[:57] + '...'})"
+        lines.append(f"{source}: {loc}: {message}" if loc else f"{source}: {message}")
+    return lines
+
+
+def parse_scenario(data: dict[str, Any], source: str = "<scenario>") -> Scenario:
+    """Validate a scenario mapping; resolve ``channel.params`` with the named plugin's model."""
+    try:
+        scenario = Scenario.model_validate(data)
+    except ValidationError as error:
+        raise ScenarioError(_error_lines(source, error)) from None
+    try:
+        model_class = get_model_class(scenario.channel.model)
+    except PluginError as error:
+        raise ScenarioError([f"{source}: channel.model: {error}"]) from None
+    try:
+        params = model_class.Params.model_validate(scenario.channel.params)
+    except ValidationError as error:
+        raise ScenarioError(_error_lines(source, error, ("channel", "params"))) from None
+    channel = scenario.channel.model_copy(update={"params": params.model_dump()})
+    return scenario.model_copy(update={"channel": channel})
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate the scenario file at ``path``."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as error:
+        reason = error.strerror if isinstance(error, OSError) and error.strerror else str(error)
+        raise ScenarioError([f"{path}: cannot read scenario file: {reason}"]) from None
+    return parse_scenario(parse_toml(text, str(path)), str(path))
+
+
+def parse_toml(text: str, source: str) -> dict[str, Any]:
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise ScenarioError([f"{source}: invalid TOML: {error}"]) from None
