@@ -7,6 +7,6 @@ try:
 except PackageNotFoundError:  # running from a source tree that is not installed
     __version__ = "0.0.0+unknown"
 
-from adaptsky_cli.env.registration import register_envs  # noqa: E402
+from adaptsky_cli.env.registration import register_envs
 
 register_envs()

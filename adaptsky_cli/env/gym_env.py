@@ -22,7 +22,7 @@ Arguments
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
@@ -30,7 +30,7 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from adaptsky_cli.env.batch import NomaUavBatch, NetworkState
+from adaptsky_cli.env.batch import NetworkState, NomaUavBatch
 from adaptsky_cli.env.observation import observation_bounds
 from adaptsky_cli.scenario import Scenario, load_scenario
 
@@ -47,7 +47,7 @@ def _spaces(scenario: Scenario, batch: NomaUavBatch) -> tuple[spaces.Box, spaces
 class NomaUavEnv(gym.Env[np.ndarray, np.int64]):
     """One UAV serving one layout (B = 1)."""
 
-    metadata: dict[str, Any] = {"render_modes": []}
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": []}
 
     def __init__(self, scenario: Scenario | str | Path,
                  users_m: np.ndarray | None = None) -> None:
@@ -76,7 +76,8 @@ class NomaUavVectorEnv(VectorEnv):
     after the end resets every environment and returns the first observation, reward 0.
     """
 
-    metadata: dict[str, Any] = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+    metadata: ClassVar[dict[str, Any]] = {
+        "autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
 
     def __init__(self, scenario: Scenario | str | Path, num_envs: int = 1,
                  users_m: np.ndarray | None = None) -> None:

@@ -31,7 +31,10 @@ def observation_size(num_users: int) -> int:
 
 def observe(scenario: Scenario, uav_m: NDArray[np.float64], users_m: NDArray[np.float64],
             alpha: NDArray[np.float64], gain: NDArray[np.float64]) -> NDArray[np.float32]:
-    """Observations (B, 4 N + 1), float32, from UAV (B, 3), users (B, N, 2), alpha and gain (B, N)."""
+    """Observations (B, 4 N + 1), float32.
+
+    From UAV (B, 3), users (B, N, 2), alpha and gain (B, N).
+    """
     delta = uav_m[:, None, :2] - users_m
     height = uav_m[:, 2:3]
     if scenario.agent.observation == "scaled":

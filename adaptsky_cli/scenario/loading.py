@@ -16,7 +16,8 @@ from adaptsky_cli.errors import PluginError, ScenarioError
 from adaptsky_cli.scenario.models import Scenario
 
 
-def _error_lines(source: str, error: ValidationError, prefix: tuple[str | int, ...] = ()) -> list[str]:
+def _error_lines(source: str, error: ValidationError,
+                 prefix: tuple[str | int, ...] = ()) -> list[str]:
     lines = []
     for item in error.errors(include_url=False):
         loc = ".".join(str(part) for part in (*prefix, *item["loc"]))

@@ -31,9 +31,11 @@ class Users(Section):
     )
     layout_seed: int = Field(0, ge=0, description="seed of the uniform layouts")
     pairing: Literal["listed", "near-far"] | None = Field(
-        None, description="NOMA pairs: listed order (1,2),(3,4)... or k-th strongest with k-th weakest"
+        None, description="NOMA pairs: listed order (1,2),(3,4)... or k-th strongest with "
+        "k-th weakest"
     )
-    speed_m_per_step: float = Field(0.0, ge=0, description="random-walk speed of every user, m/step")
+    speed_m_per_step: float = Field(0.0, ge=0,
+                                    description="random-walk speed of every user, m/step")
 
     @field_validator("positions_m")
     @classmethod
