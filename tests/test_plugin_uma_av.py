@@ -170,6 +170,7 @@ DENSE_HEIGHTS_M = np.array([1.5, 5.0, 10.0, 13.0, 17.0, 22.5, 22.6, 40.0, 100.0,
 DENSE_HORIZONTALS_M = np.concatenate([[0.0], np.geomspace(0.5, 5000.0, 200)])
 
 
+@pytest.mark.filterwarnings("error")  # no numpy divide/overflow warnings, even at d2D = 0
 @pytest.mark.parametrize("carrier_hz", CARRIERS_HZ)
 def test_shapes_finite_and_bounds(carrier_hz):
     geometry = grid_geometry(DENSE_HEIGHTS_M, DENSE_HORIZONTALS_M)

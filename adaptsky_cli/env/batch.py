@@ -133,9 +133,7 @@ class NomaUavBatch:
             los = self.channel.sample_los(geometry, self.rng)
             gain = np.where(los, self.channel.gain_los(geometry), self.channel.gain_nlos(geometry))
             return gain, los, p_los
-        gain = p_los * self.channel.gain_los(geometry) + (1 - p_los) * self.channel.gain_nlos(
-            geometry)
-        return gain, p_los > 0.5, p_los
+        return self.channel.expected_gain(geometry), p_los > 0.5, p_los
 
     def per_user_alpha(self, alpha_first: FloatArray) -> FloatArray:
         """alpha (B, N) of every user from the first users' shares (B, K)."""

@@ -1,0 +1,150 @@
+"""The command line: one clear line and exit 1 for every kind of bad scenario, plugin
+listing (broken plugins included), the example third-party plugin."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from adaptsky_cli.cli.main import main
+from adaptsky_cli.env.batch import NomaUavBatch
+from adaptsky_cli.scenario import load_scenario
+from tests.conftest import SCENARIOS
+
+ADAPTSKY = Path(sys.executable).with_name("adaptsky")
+
+MALFORMED = {
+    "wrong_type": ('name = "x"\n[area]\nside_m = "big"\n', "area.side_m",
+                   "valid number"),
+    "unknown_key": ('name = "x"\n[radio]\nbandwith_hz = 1e6\n', "radio.bandwith_hz",
+                    "unknown key"),
+    "odd_user_count": ('name = "x"\n[users]\npositions_m = [[0, 0], [1, 1], [2, 2]]\n',
+                       "users.positions_m", "even count"),
+    "negative_bandwidth": ('name = "x"\n[radio]\nbandwidth_hz = -5.0\n', "radio.bandwidth_hz",
+                           "greater than 0"),
+    "unknown_plugin": ('name = "x"\n[channel]\nmodel = "nope"\n', "channel.model",
+                       "unknown channel model 'nope'"),
+    "bad_plugin_params": ('name = "x"\n[channel]\nmodel = "mmwave-nyc"\n[channel.params]\n'
+                          'exponent_los = -2.0\n', "channel.params.exponent_los",
+                          "greater than 0"),
+    "invalid_toml": ('name = "x"\n[area\nside_m = 1\n', "invalid TOML", "line 2"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(MALFORMED))
+def test_malformed_scenario_gives_one_line_and_exit_1(case, tmp_path, capsys):
+    text, field, message = MALFORMED[case]
+    path = tmp_path / f"{case}.toml"
+    path.write_text(text)
+    for command in (["scenario", "validate"], ["scenario", "show"]):
+        assert main([*command, str(path)]) == 1
+        captured = capsys.readouterr()
+        lines = captured.err.strip().splitlines()
+        assert len(lines) == 1, lines
+        assert lines[0].startswith(f"{path}: {field}")
+        assert message in lines[0]
+        assert "Traceback" not in captured.err and captured.out == ""
+
+
+def test_missing_file(tmp_path, capsys):
+    assert main(["scenario", "show", str(tmp_path / "none.toml")]) == 1
+    assert "cannot read scenario file: No such file" in capsys.readouterr().err
+
+
+def test_installed_command_prints_no_traceback(tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text(MALFORMED["unknown_plugin"][0])
+    done = subprocess.run([str(ADAPTSKY), "scenario", "validate", str(path)],
+                          capture_output=True, text=True, check=False)
+    assert done.returncode == 1
+    assert done.stderr.strip().count("\n") == 0 and "Traceback" not in done.stderr
+    assert done.stdout == ""
+
+
+def test_validate_accepts_every_shipped_scenario(capsys):
+    paths = [str(p) for p in sorted(SCENARIOS.glob("*.toml"))]
+    assert main(["scenario", "validate", *paths]) == 0
+    assert capsys.readouterr().out.count("ok  ") == len(paths)
+
+
+def test_show_prints_resolved_toml(capsys):
+    assert main(["scenario", "show", str(SCENARIOS / "nyc_mmwave.toml")]) == 0
+    out = capsys.readouterr().out
+    assert "[channel.params]\nlos_c = 9.6117" in out
+    assert "epsilon_decay_steps = 200.0" in out
+
+
+def test_plugins_list_and_show(capsys):
+    assert main(["plugins", "list", "--json"]) == 0
+    plugins = {p["name"]: p for p in json.loads(capsys.readouterr().out)}
+    assert plugins["mmwave-nyc"]["status"] == "ok"
+    assert plugins["uma-av"]["package"] == "adaptsky-example-channel"
+    assert main(["plugins", "show", "sub6-al-hourani", "--json"]) == 0
+    shown = json.loads(capsys.readouterr().out)
+    assert shown["params"]["theta0_deg"]["default"] == 15.0
+    assert "deg" in shown["params"]["theta0_deg"]["description"]
+    assert main(["plugins", "show", "nope"]) == 1
+    assert "unknown channel model 'nope'" in capsys.readouterr().err
+
+
+def _fake_distribution(root: Path, name: str, module_text: str) -> None:
+    """A plugin distribution on ``root`` (a dist-info folder and its module), as pip leaves it."""
+    module = name.replace("-", "_")
+    (root / f"{module}.py").write_text(textwrap.dedent(module_text))
+    info = root / f"{module}-0.3.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {name}\nVersion: 0.3\n")
+    (info / "entry_points.txt").write_text(
+        f"[adaptsky.channel_models]\n{name} = {module}:Model\n")
+
+
+def test_a_broken_plugin_is_listed_and_breaks_nothing_else(tmp_path):
+    _fake_distribution(tmp_path, "broken-channel", "import no_such_module\n")
+    env = {**os.environ, "PYTHONPATH": str(tmp_path)}
+    run = lambda *args: subprocess.run([str(ADAPTSKY), *args], capture_output=True,  # noqa: E731
+                                       text=True, env=env, check=False)
+    listed = run("plugins", "list", "--json")
+    assert listed.returncode == 0
+    plugins = {p["name"]: p for p in json.loads(listed.stdout)}
+    assert plugins["broken-channel"]["status"] == "broken"
+    assert "No module named 'no_such_module'" in plugins["broken-channel"]["error"]
+    assert plugins["mmwave-nyc"]["status"] == "ok"
+    assert run("scenario", "validate", str(SCENARIOS / "nyc_mmwave.toml")).returncode == 0
+    scenario = tmp_path / "uses_broken.toml"
+    scenario.write_text('name = "x"\n[channel]\nmodel = "broken-channel"\n')
+    failed = run("scenario", "validate", str(scenario))
+    assert failed.returncode == 1
+    assert failed.stderr.strip() == (f"{scenario}: channel.model: channel model 'broken-channel' "
+                                     "(broken-channel) is broken: ModuleNotFoundError: No module "
+                                     "named 'no_such_module'")
+
+
+def test_example_third_party_plugin_validates_and_steps(tmp_path):
+    path = tmp_path / "uma.toml"
+    path.write_text(textwrap.dedent("""\
+        name = "uma"
+        [radio]
+        tx_power_dbm = 30.0
+        bandwidth_hz = 20e6
+        thermal_noise_dbm = -101.0
+        antennas_uav = 1
+        antennas_ue = 1
+        [channel]
+        model = "uma-av"
+        los = "sampled"
+        [channel.params]
+        carrier_hz = 2e9
+        """))
+    assert main(["scenario", "validate", str(path)]) == 0
+    env = NomaUavBatch(load_scenario(path), num_envs=4, seed=0)
+    env.reset()
+    for _ in range(5):
+        _, reward, _, state = env.step(np.arange(4))
+    assert np.all(np.isfinite(reward)) and np.all(state.sum_rate_bps > 0)
