@@ -23,6 +23,8 @@ def list_plugins(as_json: Json = False) -> None:
                            "error": p.error} for p in plugins], indent=2))
         return
     table = Table("name", "package", "version", "status", "description")
+    for column in table.columns[:3]:
+        column.no_wrap = True
     for p in plugins:
         status = "[green]ok[/]" if p.status == "ok" else "[red]broken[/]"
         table.add_row(p.name, p.package, p.version, status, p.description or p.error)
