@@ -12,7 +12,7 @@ import sys
 import typer
 
 from adaptsky_cli import __version__
-from adaptsky_cli.cli import plugins_cmd, scenario_cmd
+from adaptsky_cli.cli import inspect_cmd, plugins_cmd, scenario_cmd, train_cmd
 from adaptsky_cli.cli.console import err
 from adaptsky_cli.errors import AdaptskyError
 
@@ -20,6 +20,8 @@ app = typer.Typer(name="adaptsky", no_args_is_help=True, pretty_exceptions_enabl
                   help="NOMA-UAV network simulator and dueling-DQN framework (AdaptSky).")
 app.add_typer(scenario_cmd.app, name="scenario")
 app.add_typer(plugins_cmd.app, name="plugins")
+app.command()(train_cmd.train)
+app.command()(inspect_cmd.inspect)
 
 
 def _version(value: bool) -> None:

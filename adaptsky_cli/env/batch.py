@@ -75,7 +75,8 @@ class NomaUavBatch:
     LoS states and user moves, ``users_m`` (B, N, 2) to override the scenario's layouts.
     """
 
-    def __init__(self, scenario: Scenario, num_envs: int = 1, seed: int | None = None,
+    def __init__(self, scenario: Scenario, num_envs: int = 1,
+                 seed: int | np.random.SeedSequence | None = None,
                  users_m: FloatArray | None = None) -> None:
         if num_envs < 1:
             raise ValueError(f"num_envs must be >= 1, got {num_envs}")

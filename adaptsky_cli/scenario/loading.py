@@ -52,13 +52,18 @@ def parse_scenario(data: dict[str, Any], source: str = "<scenario>") -> Scenario
 
 def load_scenario(path: str | Path) -> Scenario:
     """Read and validate the scenario file at ``path``."""
+    return load_scenario_with_text(path)[0]
+
+
+def load_scenario_with_text(path: str | Path) -> tuple[Scenario, str]:
+    """The validated scenario and the file's text (kept verbatim in run files)."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as error:
         reason = error.strerror if isinstance(error, OSError) and error.strerror else str(error)
         raise ScenarioError([f"{path}: cannot read scenario file: {reason}"]) from None
-    return parse_scenario(parse_toml(text, str(path)), str(path))
+    return parse_scenario(parse_toml(text, str(path)), str(path)), text
 
 
 def parse_toml(text: str, source: str) -> dict[str, Any]:

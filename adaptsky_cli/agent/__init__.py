@@ -1,0 +1,1 @@
+"""The learning agent: network, replay memory, DQN update, schedules. No I/O."""

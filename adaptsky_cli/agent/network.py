@@ -1,0 +1,44 @@
+"""Q-networks of sec. IV-A: an MLP torso with a dueling head (AdaptSky) or a plain head (the
+paper's "DRL" baseline)."""
+
+from __future__ import annotations
+
+from itertools import pairwise
+
+import torch
+from torch import nn
+
+
+def mlp(sizes: list[int]) -> nn.Sequential:
+    """Linear layers with ReLU after each, ``sizes`` = [in, hidden..., last hidden]."""
+    layers: list[nn.Module] = []
+    for size_in, size_out in pairwise(sizes):
+        layers += [nn.Linear(size_in, size_out), nn.ReLU()]
+    return nn.Sequential(*layers)
+
+
+class QNetwork(nn.Module):
+    """Q(s, .) for every action.
+
+    Dueling: Q = V + A - mean_a A, the mean taken per sample (the released code subtracts one
+    mean over the whole batch, a bug; SPEC 4). Plain: Q from one linear head.
+    """
+
+    def __init__(self, observation_size: int, num_actions: int, hidden_sizes: list[int],
+                 dueling: bool) -> None:
+        super().__init__()
+        self.dueling = dueling
+        self.torso = mlp([observation_size, *hidden_sizes])
+        last = hidden_sizes[-1]
+        if dueling:
+            self.value = nn.Linear(last, 1)
+            self.advantage = nn.Linear(last, num_actions)
+        else:
+            self.q = nn.Linear(last, num_actions)
+
+    def forward(self, observations: torch.Tensor) -> torch.Tensor:
+        features = self.torso(observations)
+        if not self.dueling:
+            return self.q(features)
+        advantage = self.advantage(features)
+        return self.value(features) + advantage - advantage.mean(dim=1, keepdim=True)

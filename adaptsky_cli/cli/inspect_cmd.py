@@ -1,0 +1,25 @@
+"""``adaptsky inspect``."""
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from adaptsky_cli.cli.console import out
+from adaptsky_cli.cli.options import Json
+from adaptsky_cli.report.summary import summarize, summary_table
+
+
+def inspect(
+    run: Annotated[Path, typer.Argument(help="run file (HDF5)", show_default=False)],
+    as_json: Json = False,
+) -> None:
+    """Summarise a run file: seeds, episodes done, R_e^tot and J_e per seed and over seeds."""
+    summary = summarize(run)
+    if as_json:
+        print(json.dumps(summary, indent=2))
+        return
+    out.print(f"{summary['file']}: adaptsky {summary['adaptsky_version']}, format "
+              f"{summary['format_version']}, created {summary['created_utc']}", markup=False)
+    out.print(summary_table(summary))

@@ -1,0 +1,57 @@
+"""``adaptsky train``."""
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from adaptsky_cli.cli.console import err, out
+from adaptsky_cli.errors import AdaptskyError
+from adaptsky_cli.report.summary import summarize, summary_table
+from adaptsky_cli.train import api
+
+
+def _seeds(value: str | None) -> list[int] | None:
+    if value is None:
+        return None
+    try:
+        return [int(part) for part in value.split(",") if part.strip()]
+    except ValueError:
+        raise typer.BadParameter(f"'{value}' is not a comma-separated list of integers") from None
+
+
+def train(
+    scenario: Annotated[Path | None, typer.Argument(help="scenario file (TOML)",
+                                                    show_default=False)] = None,
+    out_file: Annotated[Path | None, typer.Option("--out", help="run file to write (default: "
+                                                  "runs/<scenario>-<time>.h5)")] = None,
+    seeds: Annotated[str | None, typer.Option(help="comma-separated seeds, e.g. 0,1,2 "
+                                              "(default: the scenario's)")] = None,
+    episodes: Annotated[int | None, typer.Option(min=1, help="episodes per seed")] = None,
+    steps: Annotated[int | None, typer.Option(min=1, help="steps per episode")] = None,
+    workers: Annotated[int | None, typer.Option(min=1, help="parallel processes (default: "
+                                                "one per seed, at most the cores)")] = None,
+    checkpoint_every: Annotated[int | None, typer.Option(min=1, help="episodes between "
+                                                         "checkpoints")] = None,
+    resume: Annotated[Path | None, typer.Option(help="continue this run file from its last "
+                                                "checkpoints")] = None,
+    quiet: Annotated[bool, typer.Option(help="print only the final table")] = False,
+) -> None:
+    """Train the dueling DQN on a scenario (algorithm 1), one process per seed."""
+    if resume is not None:
+        if scenario is not None or seeds or steps or checkpoint_every or out_file:
+            raise AdaptskyError("--resume continues a run as it was configured: give only "
+                                "--episodes, --workers and --quiet with it")
+        path, outcome = api.resume(run_path=resume, episodes=episodes, workers=workers,
+                                   quiet=quiet, console=err)
+    elif scenario is None:
+        raise AdaptskyError("give a scenario file, or --resume RUN.h5")
+    else:
+        path, outcome = api.train(scenario_path=scenario, out=out_file, seeds=_seeds(seeds),
+                                  episodes=episodes, steps=steps, workers=workers,
+                                  checkpoint_every=checkpoint_every, quiet=quiet, console=err)
+    out.print(summary_table(summarize(path)))
+    if outcome.interrupted:
+        err.print(f"interrupted; checkpoints saved. Continue with: adaptsky train --resume {path}")
+        raise typer.Exit(130)
+    err.print(f"run file: {path}")

@@ -1,0 +1,1 @@
+"""The one place that knows the HDF5 layout of run files (``docs/file-format.md``)."""

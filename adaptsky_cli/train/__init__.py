@@ -1,0 +1,1 @@
+"""Training loops: one seed (algorithm 1) and several seeds in parallel processes."""

@@ -1,0 +1,96 @@
+"""``train`` and ``resume`` as keyword-only library functions (the CLI only forwards)."""
+
+from __future__ import annotations
+
+from datetime import datetime
+from pathlib import Path
+
+from rich.console import Console
+
+from adaptsky_cli.channels.registry import discover
+from adaptsky_cli.errors import AdaptskyError
+from adaptsky_cli.scenario import Scenario, parse_scenario
+from adaptsky_cli.scenario.loading import load_scenario_with_text
+from adaptsky_cli.store import run_file
+from adaptsky_cli.store.run_file import RunReader
+from adaptsky_cli.train.progress import TrainingProgress
+from adaptsky_cli.train.runner import RunOutcome, SeedTask, run_tasks
+
+
+class OutputExistsError(AdaptskyError):
+    pass
+
+
+def default_output(scenario: Scenario, directory: Path = Path("runs")) -> Path:
+    """runs/<scenario name>-<UTC time>.h5, with a -2, -3, ... suffix rather than overwrite."""
+    stem = f"{scenario.name}-{datetime.now().strftime('%Y%m%d-%H%M%S')}"
+    path, n = directory / f"{stem}.h5", 1
+    while path.exists():
+        n += 1
+        path = directory / f"{stem}-{n}.h5"
+    return path
+
+
+def _with_train(scenario: Scenario, **overrides: object) -> Scenario:
+    """The scenario with ``[train]`` overrides, validated again."""
+    changes = {key: value for key, value in overrides.items() if value is not None}
+    if not changes:
+        return scenario
+    data = scenario.model_dump(mode="json")
+    data["train"] |= changes
+    return parse_scenario(data, "command line")
+
+
+def _plugins_used(scenario: Scenario) -> dict[str, dict[str, str]]:
+    info = discover()[scenario.channel.model]
+    return {info.name: {"package": info.package, "version": info.version,
+                        "target": info.target}}
+
+
+def train(*, scenario_path: Path, out: Path | None = None, seeds: list[int] | None = None,
+          episodes: int | None = None, steps: int | None = None, workers: int | None = None,
+          checkpoint_every: int | None = None, quiet: bool = False,
+          console: Console | None = None) -> tuple[Path, RunOutcome]:
+    """Train every seed of the scenario into a new run file; returns its path."""
+    scenario, text = load_scenario_with_text(scenario_path)
+    scenario = _with_train(scenario, seeds=seeds, episodes=episodes, steps=steps,
+                           checkpoint_every=checkpoint_every)
+    path = out if out is not None else default_output(scenario)
+    if path.exists():
+        raise OutputExistsError(f"{path}: exists; choose another --out, or continue it with "
+                                f"--resume {path}")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    t = scenario.train
+    run_file.create_run(path, text, scenario.model_dump(mode="json"), _plugins_used(scenario),
+                        t.seeds, t.episodes, scenario.num_users)
+    tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every)
+             for seed in t.seeds]
+    return path, _run(path, tasks, workers, quiet, console)
+
+
+def resume(*, run_path: Path, episodes: int | None = None, workers: int | None = None,
+           quiet: bool = False, console: Console | None = None) -> tuple[Path, RunOutcome]:
+    """Continue every seed of a run file from its last checkpoint."""
+    run_file.remove_stale_copies(run_path)
+    with RunReader(run_path) as run:
+        config = run.config
+        checkpoints = {seed: run.checkpoint(seed) for seed in run.seeds}
+    scenario = parse_scenario(config, f"{run_path}:/config")
+    if episodes is not None:
+        scenario = _with_train(scenario, episodes=episodes)
+        run_file.set_planned_episodes(run_path, scenario.model_dump(mode="json"))
+    t = scenario.train
+    tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every,
+                      checkpoint) for seed, checkpoint in checkpoints.items()
+             if int(checkpoint["episode"]) < t.episodes]
+    return run_path, _run(run_path, tasks, workers, quiet, console)
+
+
+def _run(path: Path, tasks: list[SeedTask], workers: int | None, quiet: bool,
+         console: Console | None) -> RunOutcome:
+    console = console or Console(stderr=True)
+    with TrainingProgress(console, quiet) as view:
+        for task in tasks:
+            done = int(task.checkpoint["episode"]) if task.checkpoint else 0
+            view.add_seed(task.seed, done, task.episodes)
+        return run_tasks(path, tasks, workers or len(tasks), view)
