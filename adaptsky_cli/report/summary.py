@@ -21,6 +21,7 @@ def summarize(path: Path) -> dict[str, Any]:
         attrs, config, plugins = run.attrs, run.config, run.plugins
         seeds = []
         for seed in run.seeds:
+            run.require_checkpoint(seed)
             curves = run.episodes(seed)
             sizes = run.seed_attrs(seed)
             rates = curves["sum_rate_bps"][-LAST_EPISODES:]

@@ -128,7 +128,7 @@ class RunReader:
             raise RunFileError(f"{self.path}: damaged or truncated HDF5 file "
                                f"({str(error).splitlines()[0]})") from None
         try:
-            self._check()
+            self._guard("its header", self._check)
         except BaseException:
             self.file.close()
             raise
@@ -154,7 +154,7 @@ class RunReader:
     def _guard(self, what: str, read: Any) -> Any:
         try:
             return read()
-        except (OSError, KeyError, ValueError) as error:
+        except (OSError, KeyError, ValueError, TypeError, AttributeError) as error:
             raise RunFileError(f"{self.path}: damaged run file: cannot read {what} "
                                f"({str(error).splitlines()[0]})") from None
 
@@ -178,11 +178,17 @@ class RunReader:
 
     @property
     def seeds(self) -> list[int]:
-        return sorted(int(seed) for seed in self.file["seeds"])
+        return self._guard("/seeds", lambda: sorted(int(seed) for seed in self.file["seeds"]))
 
     def seed_attrs(self, seed: int) -> dict[str, int]:
-        group = self.file[f"seeds/{seed}"]
-        return {key: int(value) for key, value in group.attrs.items()}
+        return self._guard(f"seed {seed}", lambda: {
+            key: int(value) for key, value in self.file[f"seeds/{seed}"].attrs.items()})
+
+    def has_checkpoint(self, seed: int) -> bool:
+        def read() -> bool:
+            group = self.file.get(f"seeds/{seed}/checkpoint")
+            return group is not None and "episode" in group.attrs
+        return self._guard(f"seed {seed}", read)
 
     def episodes(self, seed: int) -> dict[str, np.ndarray]:
         """Learning curves of ``seed`` up to its last checkpoint."""
@@ -192,12 +198,16 @@ class RunReader:
             return {name: group[name][:done] for name in group}
         return self._guard(f"seed {seed}'s episodes", read)
 
-    def trajectory(self, seed: int) -> Tree | None:
-        group = self.file.get(f"seeds/{seed}/trajectory")
-        return None if group is None else self._guard("trajectory", lambda: read_tree(group))
+    def trajectory(self, seed: int) -> Tree:
+        return self._guard(f"seed {seed}'s trajectory",
+                           lambda: read_tree(self.file[f"seeds/{seed}/trajectory"]))
 
     def checkpoint(self, seed: int) -> Tree:
-        group = self.file.get(f"seeds/{seed}/checkpoint")
-        if group is None or "episode" not in group.attrs:
-            raise RunFileError(f"{self.path}: seed {seed} has no checkpoint to resume from")
-        return self._guard(f"seed {seed}'s checkpoint", lambda: read_tree(group))
+        self.require_checkpoint(seed)
+        return self._guard(f"seed {seed}'s checkpoint",
+                           lambda: read_tree(self.file[f"seeds/{seed}/checkpoint"]))
+
+    def require_checkpoint(self, seed: int) -> None:
+        if not self.has_checkpoint(seed):
+            raise RunFileError(f"{self.path}: seed {seed} has no checkpoint (the run stopped "
+                               "before its first one)")

@@ -44,7 +44,7 @@ class SeedTask:
     checkpoint_every: int
     trajectory_every: int
     checkpoint: Tree | None = None
-    parent_pid: int = field(default_factory=os.getpid)
+    parent_pid: int = field(default_factory=os.getpid)  # a worker's parent: the writer
 
 
 def pin_threads() -> None:
@@ -56,8 +56,13 @@ def pin_threads() -> None:
     torch.set_num_threads(1)
 
 
-def train_seed(task: SeedTask, emit: Emit, stop: Callable[[], bool]) -> None:
-    """Run one seed to ``task.episodes``, emitting progress and checkpoint messages."""
+def train_seed(task: SeedTask, emit: Emit, stop: Callable[[], bool],
+               orphaned: Callable[[], bool] = lambda: False) -> None:
+    """Run one seed to ``task.episodes``, emitting progress and checkpoint messages.
+
+    ``stop()`` asks for a checkpoint and an early end; ``orphaned()`` (the parent died) for an
+    end without one.
+    """
     run = SeedRun(task.scenario, task.seed)
     if task.checkpoint is not None:
         run.restore(task.checkpoint)
@@ -68,10 +73,11 @@ def train_seed(task: SeedTask, emit: Emit, stop: Callable[[], bool]) -> None:
         rows.append(result.metrics)
         if task.trajectory_every and result.episode % task.trajectory_every == 0:
             trajectories[result.episode] = result.trajectory
+        if orphaned():
+            return  # nobody is left to write the run file: it keeps its last checkpoint
         emit(("progress", task.seed, result.episode,
               {k: result.metrics[k] for k in ("sum_rate_bps", "fairness", "epsilon")}))
-        orphaned = os.getppid() != task.parent_pid and task.parent_pid != os.getpid()
-        stopping = stop() or orphaned
+        stopping = stop()
         if (result.episode % task.checkpoint_every == 0 or result.episode == task.episodes
                 or stopping):
             stacked = {name: np.array([row[name] for row in rows]) for name in rows[0]}
@@ -85,10 +91,15 @@ def train_seed(task: SeedTask, emit: Emit, stop: Callable[[], bool]) -> None:
 
 def _worker(task: SeedTask, messages: Any, stop_event: Any) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when to stop
-    messages.cancel_join_thread()  # never hang at exit if the parent was killed
     pin_threads()
+    def orphaned() -> bool:
+        if os.getppid() == task.parent_pid:
+            return False
+        messages.cancel_join_thread()  # unsent messages have no reader: do not wait on them
+        return True
+
     try:
-        train_seed(task, messages.put, stop_event.is_set)
+        train_seed(task, messages.put, stop_event.is_set, orphaned)
     except Exception as error:  # reported by the parent as one line
         last = traceback.format_exception_only(type(error), error)[-1].strip()
         messages.put(("error", task.seed, last))

@@ -1,0 +1,1 @@
+"""Rollouts of trained policies and baselines."""
