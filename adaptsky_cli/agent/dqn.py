@@ -35,10 +35,10 @@ class DqnAgent:
         self.optimizer = torch.optim.Adam(self.policy.parameters(), lr=config.lr)
         self.loss_fn = nn.MSELoss() if config.loss == "mse" else nn.SmoothL1Loss()
 
-    @torch.no_grad()
     def greedy(self, observations: np.ndarray) -> np.ndarray:
         """argmax_a Q(s, a) for a batch of observations (B, obs)."""
-        return self.policy(torch.from_numpy(observations)).argmax(dim=1).numpy()
+        with torch.inference_mode():
+            return self.policy(torch.from_numpy(observations)).argmax(dim=1).numpy()
 
     def act(self, observation: np.ndarray, epsilon: float, rng: np.random.Generator) -> int:
         """Epsilon-greedy (alg. 1 line 6); always one uniform draw, then one more to explore."""

@@ -105,6 +105,10 @@ class NomaUavBatch:
         start_uav = np.broadcast_to(self._start_m, (num_envs, 3))
         self.first_user, self.second_user = pair_users(
             self._planning_gain(start_uav, self.layouts_m), scenario.users.pairing)
+        # flat positions of (first users, second users) in a (B, N) array, for fast gathers
+        rows = np.arange(num_envs)[:, None] * self.num_users
+        self._cluster_flat = (rows + np.concatenate([self.first_user, self.second_user],
+                                                    axis=1)).ravel()
         self.rng = np.random.default_rng(seed)
         self.t = 0
         self.uav_m = start_uav.copy()
@@ -136,25 +140,25 @@ class NomaUavBatch:
             return gain, los, p_los
         return self.channel.expected_gain(geometry), p_los > 0.5, p_los
 
+    def _to_users(self, first: FloatArray, second: FloatArray) -> FloatArray:
+        """(B, N) array from the values of every cluster's first and second users (B, K)."""
+        values = np.empty(self.num_envs * self.num_users)
+        values[self._cluster_flat] = np.concatenate([first, second], axis=1).ravel()
+        return values.reshape(self.num_envs, self.num_users)
+
     def per_user_alpha(self, alpha_first: FloatArray) -> FloatArray:
         """alpha (B, N) of every user from the first users' shares (B, K)."""
-        alpha = np.empty((self.num_envs, self.num_users))
-        np.put_along_axis(alpha, self.first_user, alpha_first, axis=1)
-        np.put_along_axis(alpha, self.second_user, 1.0 - alpha_first, axis=1)
-        return alpha
+        return self._to_users(alpha_first, 1.0 - alpha_first)
 
     def _evaluate(self) -> NetworkState:
         geometry = LinkGeometry.between(self.uav_m, self.users_m)
         gain, los, p_los = self._link_gains(geometry)
-        gain_first = np.take_along_axis(gain, self.first_user, axis=1)
-        gain_second = np.take_along_axis(gain, self.second_user, axis=1)
-        sinr_first, sinr_second = noma.cluster_sinr(self.alpha_first, gain_first, gain_second,
-                                                    self.snr_scale)
-        rates = np.empty_like(gain)
-        np.put_along_axis(rates, self.first_user, noma.rate_bps(sinr_first, self.bandwidth_hz),
-                          axis=1)
-        np.put_along_axis(rates, self.second_user,
-                          noma.rate_bps(sinr_second, self.bandwidth_hz), axis=1)
+        clustered = gain.ravel()[self._cluster_flat].reshape(self.num_envs, self.num_users)
+        k = self.num_clusters
+        sinr_first, sinr_second = noma.cluster_sinr(self.alpha_first, clustered[:, :k],
+                                                    clustered[:, k:], self.snr_scale)
+        rates = self._to_users(noma.rate_bps(sinr_first, self.bandwidth_hz),
+                               noma.rate_bps(sinr_second, self.bandwidth_hz))
         fairness = noma.jain_fairness(rates)
         rewards = noma.reward(rates, gain, fairness, self.bandwidth_hz, self.weights)
         return NetworkState(uav_m=self.uav_m.copy(), alpha=self.per_user_alpha(self.alpha_first),
@@ -199,14 +203,14 @@ class NomaUavBatch:
         actions = np.asarray(actions)
         if actions.shape != (self.num_envs,):
             raise ValueError(f"expected {self.num_envs} actions, got shape {actions.shape}")
-        if actions.min() < 0 or actions.max() >= self.actions.count:
+        if not (actions.min() >= 0 and actions.max() < self.actions.count):
             raise ValueError(f"actions must lie in [0, {self.actions.count})")
         directions = self.actions.decode(actions)
-        self.uav_m = np.clip(self.uav_m + directions[:, :3] * self._step_m,
-                             self._low_m, self._high_m)
+        moved_m = self.uav_m + directions[:, :3] * self._step_m
+        self.uav_m = np.minimum(np.maximum(moved_m, self._low_m), self._high_m)
         power_step = self.scenario.uav.power_step
-        self.alpha_first = np.clip(self.alpha_first + directions[:, 3:] * power_step,
-                                   power_step, 1.0 - power_step)
+        alpha = self.alpha_first + directions[:, 3:] * power_step
+        self.alpha_first = np.minimum(np.maximum(alpha, power_step), 1.0 - power_step)
 
     def step(self, actions: NDArray[np.integer]
              ) -> tuple[NDArray[np.float32], FloatArray, bool, NetworkState]:
