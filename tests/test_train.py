@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from adaptsky_cli.cli.main import main
+from adaptsky_cli.env.layout import user_layouts
 from adaptsky_cli.evaluate.rollout import greedy_policy, random_policy, rollout
 from adaptsky_cli.scenario import load_scenario
 from adaptsky_cli.scenario.toml_writer import dumps
@@ -106,8 +107,9 @@ def test_learning_beats_random_by_a_clear_margin(tmp_path):
     scenario = load_scenario(scenario_path)
     with RunReader(run_path) as run:
         policy = greedy_policy(scenario, run.checkpoint(0))
-    greedy = rollout(scenario, policy, 100)["sum_rate_bps"].mean()
-    random = rollout(scenario, random_policy(32, seed=0), 100)["sum_rate_bps"].mean()
+    layout = user_layouts(scenario, 1)
+    greedy = rollout(scenario, policy, 100, layout).sum_rate_bps.mean()
+    random = rollout(scenario, random_policy(32, seed=0), 100, layout).sum_rate_bps.mean()
     assert greedy > 1.15 * random
 
 

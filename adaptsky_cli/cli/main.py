@@ -12,7 +12,7 @@ import sys
 import typer
 
 from adaptsky_cli import __version__
-from adaptsky_cli.cli import inspect_cmd, plugins_cmd, scenario_cmd, train_cmd
+from adaptsky_cli.cli import eval_cmd, inspect_cmd, plugins_cmd, scenario_cmd, train_cmd
 from adaptsky_cli.cli.console import err
 from adaptsky_cli.errors import AdaptskyError
 
@@ -22,6 +22,8 @@ app.add_typer(scenario_cmd.app, name="scenario")
 app.add_typer(plugins_cmd.app, name="plugins")
 app.command()(train_cmd.train)
 app.command()(inspect_cmd.inspect)
+app.command("eval")(eval_cmd.evaluate)
+app.command()(eval_cmd.baseline)
 
 
 def _version(value: bool) -> None:

@@ -165,6 +165,15 @@ class NomaUavBatch:
                             gain=gain, los=los, p_los=p_los, rate_bps=rates,
                             sum_rate_bps=rates.sum(axis=1), fairness=fairness, reward=rewards)
 
+    def evaluate_at(self, uav_m: FloatArray, alpha_first: FloatArray) -> NetworkState:
+        """The network with every UAV at ``uav_m`` (B, 3) and first users' shares
+        ``alpha_first`` (B, K), taken as given (no clipping); LoS is drawn as in a step.
+        Baselines use this to hold a configuration."""
+        self.uav_m = np.array(uav_m, dtype=np.float64)
+        self.alpha_first = np.array(alpha_first, dtype=np.float64)
+        self.state = self._evaluate()
+        return self.state
+
     def observation(self) -> NDArray[np.float32]:
         assert self.state is not None, "call reset() first"
         return observe(self.scenario, self.uav_m, self.users_m, self.state.alpha,

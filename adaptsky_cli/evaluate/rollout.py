@@ -1,37 +1,66 @@
-"""Rollouts of a policy over B layouts at once, and the policies to roll out."""
+"""Rollouts over L layouts at once: a policy stepping from the episode start, or a fixed
+configuration held (baselines). Both give a time-major :class:`Trace`."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from adaptsky_cli.agent.dqn import DqnAgent
-from adaptsky_cli.env.batch import NomaUavBatch
+from adaptsky_cli.env.actions import ActionSet
+from adaptsky_cli.env.batch import NetworkState, NomaUavBatch
 from adaptsky_cli.env.observation import observation_size
 from adaptsky_cli.scenario.models import Scenario
 from adaptsky_cli.store.tree import Tree
 
 Policy = Callable[[NDArray[np.float32]], NDArray[np.int64]]
+FloatArray = NDArray[np.float64]
 
 
-def rollout(scenario: Scenario, policy: Policy, steps: int, num_envs: int = 1, seed: int = 0,
-            users_m: NDArray[np.float64] | None = None) -> dict[str, NDArray]:
-    """Run ``policy`` for ``steps`` steps from the episode start (no time limit); returns
-    time-major arrays: ``sum_rate_bps`` (T, B), ``rate_bps`` (T, B, N), ``uav_m`` (T, B, 3)."""
-    scenario = scenario.model_copy(update={"train": scenario.train.model_copy(
-        update={"steps": steps})})
-    env = NomaUavBatch(scenario, num_envs=num_envs, seed=seed, users_m=users_m)
+@dataclass(frozen=True)
+class Trace:
+    """Per step and layout: rates (T, L, N), UAV positions (T, L, 3), power shares (T, L, N)."""
+
+    rate_bps: FloatArray
+    uav_m: FloatArray
+    alpha: FloatArray
+
+    @property
+    def sum_rate_bps(self) -> FloatArray:
+        return self.rate_bps.sum(axis=-1)
+
+    @classmethod
+    def of(cls, states: list[NetworkState]) -> Trace:
+        return cls(np.array([s.rate_bps for s in states]), np.array([s.uav_m for s in states]),
+                   np.array([s.alpha for s in states]))
+
+
+def _env(scenario: Scenario, users_m: FloatArray, seed: int) -> NomaUavBatch:
+    return NomaUavBatch(scenario, num_envs=len(users_m), seed=seed, users_m=users_m)
+
+
+def rollout(scenario: Scenario, policy: Policy, steps: int, users_m: FloatArray,
+            seed: int = 0) -> Trace:
+    """Run ``policy`` for ``steps`` steps from the episode start, with no time limit."""
+    env = _env(scenario, users_m, seed)
     obs, _ = env.reset()
-    sum_rates, rates, positions = [], [], []
-    for _ in range(steps):
+    states = []
+    for _ in range(steps):  # the batch core reports truncation but never enforces it
         obs, _, _, state = env.step(policy(obs))
-        sum_rates.append(state.sum_rate_bps)
-        rates.append(state.rate_bps)
-        positions.append(state.uav_m)
-    return {"sum_rate_bps": np.array(sum_rates), "rate_bps": np.array(rates),
-            "uav_m": np.array(positions)}
+        states.append(state)
+    return Trace.of(states)
+
+
+def hold(scenario: Scenario, uav_m: FloatArray, alpha_first: FloatArray, steps: int,
+         users_m: FloatArray, seed: int = 0) -> Trace:
+    """Keep every UAV at ``uav_m`` (L, 3) with shares ``alpha_first`` (L, K) for ``steps``
+    steps (LoS drawn every step for ``los = "sampled"``)."""
+    env = _env(scenario, users_m, seed)
+    env.reset()
+    return Trace.of([env.evaluate_at(uav_m, alpha_first) for _ in range(steps)])
 
 
 def random_policy(num_actions: int, seed: int = 0) -> Policy:
@@ -41,8 +70,6 @@ def random_policy(num_actions: int, seed: int = 0) -> Policy:
 
 def greedy_policy(scenario: Scenario, checkpoint: Tree) -> Policy:
     """argmax_a Q(s, a) of a checkpoint's policy network."""
-    from adaptsky_cli.env.actions import ActionSet
-
     num_actions = ActionSet(scenario.num_clusters, scenario.uav.actions).count
     agent = DqnAgent(scenario.agent, observation_size(scenario.num_users), num_actions, seed=0)
     agent.load_state_arrays(checkpoint["agent"])

@@ -8,10 +8,6 @@ any moment leaves the file as it was at its last checkpoint, never half written.
 from __future__ import annotations
 
 import json
-import os
-import shutil
-from collections.abc import Iterator
-from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -21,6 +17,7 @@ import numpy as np
 
 from adaptsky_cli import __version__
 from adaptsky_cli.errors import AdaptskyError
+from adaptsky_cli.store.atomic import rewrite, string_dataset
 from adaptsky_cli.store.tree import Tree, read_tree, write_tree
 
 FORMAT_VERSION = 1
@@ -35,43 +32,17 @@ class RunFileError(AdaptskyError):
     """A run file that is missing, not HDF5, damaged, too new, or lacks what is asked of it."""
 
 
-def _string_dataset(group: h5py.Group, name: str, text: str) -> None:
-    group.create_dataset(name, data=text, dtype=h5py.string_dtype())
-
-
-@contextmanager
-def _rewrite(path: Path) -> Iterator[h5py.File]:
-    """Open a copy of ``path`` for writing; on success it atomically replaces ``path``."""
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        if path.exists():
-            shutil.copyfile(path, tmp)
-        with h5py.File(tmp, "a") as file:
-            yield file
-        with open(tmp, "rb+") as handle:
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
-def remove_stale_copies(path: Path) -> None:
-    """Delete copies left by a run killed while writing (they are never the real file)."""
-    for stale in path.parent.glob(f".{path.name}.tmp-*"):
-        stale.unlink(missing_ok=True)
-
-
 def create_run(path: Path, scenario_text: str, config: dict[str, Any],
                plugins: dict[str, dict[str, str]], seeds: list[int], episodes: int,
                num_users: int) -> None:
     """Write a new run file with empty learning curves for every seed."""
-    with _rewrite(path) as file:
+    with rewrite(path) as file:
         file.attrs.update(format_version=FORMAT_VERSION, kind=KIND,
                           adaptsky_version=__version__,
                           created_utc=datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
                           scenario_name=config["name"])
-        _string_dataset(file, "scenario", scenario_text)
-        _string_dataset(file, "config", json.dumps(config, indent=1))
+        string_dataset(file, "scenario", scenario_text)
+        string_dataset(file, "config", json.dumps(config, indent=1))
         for name, info in plugins.items():
             file.create_group(f"plugins/{name}").attrs.update(info)
         for seed in seeds:
@@ -84,9 +55,9 @@ def create_run(path: Path, scenario_text: str, config: dict[str, Any],
 
 def set_planned_episodes(path: Path, config: dict[str, Any]) -> None:
     """Record a new episode target (``config["train"]["episodes"]``) for every seed."""
-    with _rewrite(path) as file:
+    with rewrite(path) as file:
         del file["config"]
-        _string_dataset(file, "config", json.dumps(config, indent=1))
+        string_dataset(file, "config", json.dumps(config, indent=1))
         for group in file["seeds"].values():
             group.attrs["episodes_planned"] = config["train"]["episodes"]
 
@@ -96,7 +67,7 @@ def append_checkpoint(path: Path, seed: int, rows: dict[str, np.ndarray],
                       checkpoint: Tree) -> None:
     """Append learning-curve ``rows`` (k, ...) of one seed, its trajectories, and replace its
     checkpoint; ``checkpoint["episode"]`` becomes the seed's ``episodes_done``."""
-    with _rewrite(path) as file:
+    with rewrite(path) as file:
         group = file[f"seeds/{seed}"]
         done = int(group.attrs["episodes_done"])
         for name, values in rows.items():

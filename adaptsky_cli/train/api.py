@@ -12,6 +12,7 @@ from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.scenario import Scenario, parse_scenario
 from adaptsky_cli.scenario.loading import load_scenario_with_text
 from adaptsky_cli.store import run_file
+from adaptsky_cli.store.atomic import remove_stale_copies
 from adaptsky_cli.store.run_file import RunReader
 from adaptsky_cli.train.progress import TrainingProgress
 from adaptsky_cli.train.runner import RunOutcome, SeedTask, run_tasks
@@ -71,7 +72,7 @@ def train(*, scenario_path: Path, out: Path | None = None, seeds: list[int] | No
 def resume(*, run_path: Path, episodes: int | None = None, workers: int | None = None,
            quiet: bool = False, console: Console | None = None) -> tuple[Path, RunOutcome]:
     """Continue every seed of a run file from its last checkpoint."""
-    run_file.remove_stale_copies(run_path)
+    remove_stale_copies(run_path)
     with RunReader(run_path) as run:
         config = run.config
         checkpoints = {seed: run.checkpoint(seed) for seed in run.seeds}

@@ -1,0 +1,102 @@
+"""``adaptsky eval`` and ``adaptsky baseline``."""
+
+from __future__ import annotations
+
+import json
+from datetime import datetime
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from adaptsky_cli.cli.console import err, out
+from adaptsky_cli.cli.options import Json, ScenarioFile
+from adaptsky_cli.errors import AdaptskyError
+from adaptsky_cli.evaluate import api
+from adaptsky_cli.report.eval_table import methods_table, oracle_line
+from adaptsky_cli.report.units import format_rate
+from adaptsky_cli.store.eval_file import write_eval
+
+Layouts = Annotated[int | None, typer.Option(min=1, help="evaluate on this many uniform "
+                                             "layouts (default: the scenario's layout)")]
+LayoutSeed = Annotated[int, typer.Option(min=0, help="seed of the uniform layouts")]
+Steps = Annotated[int, typer.Option(min=1, help="steps per layout")]
+
+
+def _show(results: dict[str, Any], as_json: bool) -> None:
+    if as_json:
+        print(json.dumps(results))
+        return
+    out.print(methods_table(results))
+    line = oracle_line(results)
+    if line:
+        out.print(line, markup=False)
+
+
+def _default_out(checkpoint: Path) -> Path:
+    stem = f"{checkpoint.stem}-eval-{datetime.now().strftime('%Y%m%d-%H%M%S')}"
+    path, n = checkpoint.with_name(f"{stem}.h5"), 1
+    while path.exists():
+        n += 1
+        path = checkpoint.with_name(f"{stem}-{n}.h5")
+    return path
+
+
+def evaluate(
+    checkpoint: Annotated[Path, typer.Option(help="run file (HDF5) with the policy",
+                                             show_default=False)],
+    seed: Annotated[int | None, typer.Option(help="which seed's policy (default: the "
+                                             "first)")] = None,
+    scenario: Annotated[Path | None, typer.Option(help="evaluate on this scenario (default: "
+                                                  "the training scenario)")] = None,
+    layouts: Layouts = None,
+    layout_seed: LayoutSeed = 0,
+    steps: Steps = 1000,
+    compare: Annotated[str, typer.Option(help="comma-separated: soa, oracle, random, or "
+                                         "other run files")] = "soa,random",
+    out_file: Annotated[Path | None, typer.Option("--out", help="eval file to write "
+                                                  "(default: next to the run file)")] = None,
+    as_json: Json = False,
+) -> None:
+    """Greedy rollouts of a trained policy, compared with baselines and other runs."""
+    path = out_file if out_file is not None else _default_out(checkpoint)
+    if path.exists():
+        raise AdaptskyError(f"{path}: exists; choose another --out")
+    methods = [item.strip() for item in compare.split(",") if item.strip()]
+    results, traces = api.evaluate(checkpoint=checkpoint, seed=seed, scenario_path=scenario,
+                                   layouts=layouts, layout_seed=layout_seed, steps=steps,
+                                   compare_with=methods)
+    write_eval(path, results, traces)
+    _show(results, as_json)
+    if not as_json:
+        err.print(f"eval file: {path}")
+
+
+def baseline(
+    scenario: ScenarioFile,
+    method: Annotated[str, typer.Option(help="soa, oracle or random")],
+    layouts: Layouts = None,
+    layout_seed: LayoutSeed = 0,
+    steps: Steps = 1000,
+    as_json: Json = False,
+) -> None:
+    """Run one baseline on a scenario; the oracle also reports its optimum."""
+    if method not in api.BASELINES:
+        raise AdaptskyError(f"--method: unknown method '{method}'; choose from "
+                            f"{', '.join(api.BASELINES)}")
+    results, (result,) = api.baseline(scenario_path=scenario, method=method, layouts=layouts,
+                                      layout_seed=layout_seed, steps=steps)
+    if method == "oracle":
+        results["optimum"] = [
+            {"uav_m": result.trace.uav_m[-1, i].tolist(),
+             "alpha": result.trace.alpha[-1, i].tolist(),
+             "rate_bps": result.trace.rate_bps[-1, i].tolist()}
+            for i in range(results["layouts"])]
+    _show(results, as_json)
+    if method == "oracle" and not as_json:
+        for i, best in enumerate(results["optimum"][:10]):
+            rates = ", ".join(format_rate(r) for r in best["rate_bps"])
+            out.print(f"layout {i}: UAV at {best['uav_m']}, alpha "
+                      f"{[round(a, 4) for a in best['alpha']]}, rates {rates}", markup=False)
+        if results["layouts"] > 10:
+            out.print(f"... {results['layouts'] - 10} more layouts (--json lists them all)")
