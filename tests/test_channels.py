@@ -35,17 +35,6 @@ def mmwave_scalar(x, y, h):
     return p_los, 10**-6.4 * d**-2, 10**-7.2 * d**-2.92
 
 
-def test_mmwave_nyc_matches_scalar_formula():
-    model_class = get_model_class("mmwave-nyc")
-    model = model_class()
-    geometry = _geometry(POINTS)
-    for i, point in enumerate(POINTS):
-        p_los, g_los, g_nlos = mmwave_scalar(*point)
-        assert model.los_probability(geometry)[i, 0] == pytest.approx(p_los, rel=1e-12, abs=0.0)
-        assert model.gain_los(geometry)[i, 0] == pytest.approx(g_los, rel=1e-12, abs=0.0)
-        assert model.gain_nlos(geometry)[i, 0] == pytest.approx(g_nlos, rel=1e-12, abs=0.0)
-
-
 def test_mmwave_nyc_by_hand():
     # d = 50 m straight below: g_LoS = 10^-6.4 / 2500 = 1.5924e-10;
     # theta = 90 deg: P_LoS = 1 / (1 + 9.6117 exp(-12.7094)) = 1 / (1 + 2.9052e-5) = 0.99997095
@@ -66,14 +55,16 @@ def sub6_scalar(x, y, h):
     return p_los, free_space * 10 ** (-1 / 10), free_space * 10 ** (-20 / 10)
 
 
-def test_sub6_al_hourani_matches_scalar_formula():
-    model = get_model_class("sub6-al-hourani")()
+@pytest.mark.parametrize(("name", "scalar"), [("mmwave-nyc", mmwave_scalar),
+                                             ("sub6-al-hourani", sub6_scalar)])
+def test_builtin_model_matches_scalar_formula(name, scalar):
+    model = get_model_class(name)()
     geometry = _geometry(POINTS)
+    computed = (model.los_probability(geometry), model.gain_los(geometry),
+                model.gain_nlos(geometry))
     for i, point in enumerate(POINTS):
-        p_los, g_los, g_nlos = sub6_scalar(*point)
-        assert model.los_probability(geometry)[i, 0] == pytest.approx(p_los, rel=1e-12, abs=0.0)
-        assert model.gain_los(geometry)[i, 0] == pytest.approx(g_los, rel=1e-12, abs=0.0)
-        assert model.gain_nlos(geometry)[i, 0] == pytest.approx(g_nlos, rel=1e-12, abs=0.0)
+        for value, expected in zip(computed, scalar(*point), strict=True):
+            assert value[i, 0] == pytest.approx(expected, rel=1e-12, abs=0.0)
 
 
 def test_sub6_below_theta0_is_never_los():

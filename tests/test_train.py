@@ -201,6 +201,7 @@ def test_resume_with_more_episodes_extends_the_run(tmp_path):
     straight, _ = api.train(scenario_path=scenario_path, out=tmp_path / "s.h5", episodes=4,
                             seeds=[0], workers=1, quiet=True)
     assert_same_curves({0: extended}, {0: curves(straight)[0]})
+    assert main(["train", "--resume", str(path), "--episodes", "3", "--quiet"]) == 1
 
 
 def test_existing_output_is_never_overwritten(tmp_path, capsys):

@@ -17,7 +17,8 @@ def _seeds(value: str | None) -> list[int] | None:
     try:
         return [int(part) for part in value.split(",") if part.strip()]
     except ValueError:
-        raise typer.BadParameter(f"'{value}' is not a comma-separated list of integers") from None
+        raise AdaptskyError(f"--seeds: '{value}' is not a comma-separated list of integers, "
+                            "e.g. 0,1,2") from None
 
 
 def train(

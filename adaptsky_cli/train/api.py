@@ -77,6 +77,10 @@ def resume(*, run_path: Path, episodes: int | None = None, workers: int | None =
         config = run.config
         checkpoints = {seed: run.checkpoint(seed) for seed in run.seeds}
     scenario = parse_scenario(config, f"{run_path}:/config")
+    done = max(int(checkpoint["episode"]) for checkpoint in checkpoints.values())
+    if episodes is not None and episodes < done:
+        raise AdaptskyError(f"--episodes {episodes} is fewer than the {done} episodes "
+                            f"{run_path} has done")
     if episodes is not None:
         scenario = _with_train(scenario, episodes=episodes)
         run_file.set_planned_episodes(run_path, scenario.model_dump(mode="json"))
