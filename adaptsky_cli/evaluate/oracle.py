@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from adaptsky_cli.channels.contract import LinkGeometry
 from adaptsky_cli.env import noma
-from adaptsky_cli.env.batch import NomaUavBatch, build_channel
+from adaptsky_cli.env.batch import NomaUavBatch
 from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.scenario.models import Scenario
 
@@ -104,7 +104,7 @@ def oracle(scenario: Scenario, users_m: FloatArray) -> OracleResult:
                             "'expected', not 'sampled'")
     num_layouts = len(users_m)
     env = NomaUavBatch(scenario, num_envs=num_layouts, users_m=users_m)
-    channel = build_channel(scenario)
+    channel = env.channel
     xs, ys, hs, alphas = lattice(scenario)
     grid = np.stack(np.meshgrid(xs, ys, hs, indexing="ij"), axis=-1).reshape(-1, 3)
     k = scenario.num_clusters

@@ -139,8 +139,10 @@ class RunReader:
 
     @property
     def attrs(self) -> dict[str, Any]:
-        return {key: value for key, value in read_tree(self.file).items()
-                if not isinstance(value, dict | np.ndarray)}
+        """The root attributes (format and adaptsky versions, creation time, ...)."""
+        return self._guard("its attributes", lambda: {
+            key: value.item() if isinstance(value, np.generic) else value
+            for key, value in self.file.attrs.items()})
 
     @property
     def plugins(self) -> dict[str, dict[str, str]]:
