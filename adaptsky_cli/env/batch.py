@@ -29,6 +29,11 @@ def build_channel(scenario: Scenario) -> ChannelModel:
     return model_class(model_class.Params.model_validate(scenario.channel.params))
 
 
+def deterministic_gain(channel: ChannelModel, los: str, geometry: LinkGeometry) -> FloatArray:
+    """The gain planning uses: the LoS gain for ``los = "always"``, else the expected gain."""
+    return channel.gain_los(geometry) if los == "always" else channel.expected_gain(geometry)
+
+
 def reward_weights(scenario: Scenario) -> noma.RewardWeights:
     r = scenario.reward
     return noma.RewardWeights(w_rate=r.w_rate, w_fairness=r.w_fairness, w_gain=r.w_gain,
@@ -103,29 +108,20 @@ class NomaUavBatch:
         self._low_m = np.array([-half_m, -half_m, uav.min_height_m])
         self._high_m = np.array([half_m, half_m, uav.max_height_m])
         start_uav = np.broadcast_to(self._start_m, (num_envs, 3))
-        self.first_user, self.second_user = pair_users(
-            self._planning_gain(start_uav, self.layouts_m), scenario.users.pairing)
+        start_gain = deterministic_gain(self.channel, scenario.channel.los,
+                                        LinkGeometry.between(start_uav, self.layouts_m))
+        self.first_user, self.second_user = pair_users(start_gain, scenario.users.pairing)
         # flat positions of (first users, second users) in a (B, N) array, for fast gathers
         rows = np.arange(num_envs)[:, None] * self.num_users
         self._cluster_flat = (rows + np.concatenate([self.first_user, self.second_user],
                                                     axis=1)).ravel()
         self.rng = np.random.default_rng(seed)
-        self.t = 0
-        self.uav_m = start_uav.copy()
-        self.users_m = self.layouts_m.copy()
-        self.alpha_first = np.full((num_envs, self.num_clusters), uav.start_alpha)
+        self._to_start()
         self.state: NetworkState | None = None
 
     @property
     def max_steps(self) -> int:
         return self.scenario.train.steps
-
-    def _planning_gain(self, uav_m: FloatArray, users_m: FloatArray) -> FloatArray:
-        """Deterministic gain used for pairing: LoS gain for ``always``, else expected."""
-        geometry = LinkGeometry.between(uav_m, users_m)
-        if self.scenario.channel.los == "always":
-            return self.channel.gain_los(geometry)
-        return self.channel.expected_gain(geometry)
 
     def _link_gains(self, geometry: LinkGeometry) -> tuple[FloatArray, NDArray[np.bool_],
                                                            FloatArray]:
@@ -186,13 +182,17 @@ class NomaUavBatch:
         """
         if seed is not None:
             self.rng = np.random.default_rng(seed)
+        self._to_start()
+        self.state = self._evaluate()
+        return self.observation(), self.state
+
+    def _to_start(self) -> None:
+        """Step 0: UAV at the start, first users' shares at start_alpha, users at home."""
         self.t = 0
         self.uav_m = np.broadcast_to(self._start_m, (self.num_envs, 3)).copy()
         self.users_m = self.layouts_m.copy()
         self.alpha_first = np.full((self.num_envs, self.num_clusters),
                                    self.scenario.uav.start_alpha)
-        self.state = self._evaluate()
-        return self.observation(), self.state
 
     def _move_users(self) -> None:
         speed = self.scenario.users.speed_m_per_step

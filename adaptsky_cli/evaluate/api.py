@@ -42,6 +42,12 @@ class Method:
     metrics: dict[str, np.ndarray]
     details: dict[str, Any]
 
+    @classmethod
+    def of(cls, name: str, scenario: Scenario, trace: Trace,
+           details: dict[str, Any] | None = None) -> Method:
+        metrics = layout_metrics(trace, scenario.radio.bandwidth_hz, scenario.min_rate_bps)
+        return cls(name, trace, metrics, details or {})
+
 
 def eval_scenario(scenario: Scenario, layouts: int | None, layout_seed: int) -> Scenario:
     """The scenario on ``layouts`` uniform layouts (near-far pairing), or as it is."""
@@ -77,8 +83,7 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
         trace = rollout(scenario, random_policy(count, seed), steps, users_m, seed)
     else:
         raise EvaluationError(f"unknown method '{method}'; choose from {', '.join(BASELINES)}")
-    metrics = layout_metrics(trace, scenario.radio.bandwidth_hz, scenario.min_rate_bps)
-    return Method(method, trace, metrics, details)
+    return Method.of(method, scenario, trace, details)
 
 
 def _read_run(run_path: Path, seed: int | None) -> tuple[Scenario, dict[str, Any], int]:
@@ -119,9 +124,7 @@ def _check_compatible(run_path: Path, trained: Scenario, scenario: Scenario) -> 
 
 def _policy_method(name: str, scenario: Scenario, policy: Policy, steps: int,
                    users_m: np.ndarray) -> Method:
-    trace = rollout(scenario, policy, steps, users_m)
-    metrics = layout_metrics(trace, scenario.radio.bandwidth_hz, scenario.min_rate_bps)
-    return Method(name, trace, metrics, {})
+    return Method.of(name, scenario, rollout(scenario, policy, steps, users_m))
 
 
 def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path | None = None,

@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from adaptsky_cli.channels.contract import LinkGeometry
 from adaptsky_cli.env import noma
-from adaptsky_cli.env.batch import NomaUavBatch
+from adaptsky_cli.env.batch import NomaUavBatch, deterministic_gain
 from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.scenario.models import Scenario
 
@@ -116,8 +116,7 @@ def oracle(scenario: Scenario, users_m: FloatArray) -> OracleResult:
             points = grid[start:start + POINTS_PER_CHUNK]
             users = np.broadcast_to(users_m[layout], (len(points), *users_m.shape[1:]))
             geometry = LinkGeometry.between(points, users)
-            gain = (channel.gain_los(geometry) if scenario.channel.los == "always"
-                    else channel.expected_gain(geometry))
+            gain = deterministic_gain(channel, scenario.channel.los, geometry)
             gain_first = gain[:, env.first_user[layout]]
             gain_second = gain[:, env.second_user[layout]]
             alpha, rate = _best_alpha_first(gain_first, gain_second, alphas, scenario,

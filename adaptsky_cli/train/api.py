@@ -96,6 +96,5 @@ def _run(path: Path, tasks: list[SeedTask], workers: int | None, quiet: bool,
     console = console or Console(stderr=True)
     with TrainingProgress(console, quiet) as view:
         for task in tasks:
-            done = int(task.checkpoint["episode"]) if task.checkpoint else 0
-            view.add_seed(task.seed, done, task.episodes)
+            view.add_seed(task.seed, task.episodes_done, task.episodes)
         return run_tasks(path, tasks, workers or len(tasks), view)

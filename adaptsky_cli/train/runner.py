@@ -46,6 +46,10 @@ class SeedTask:
     checkpoint: Tree | None = None
     parent_pid: int = field(default_factory=os.getpid)  # a worker's parent: the writer
 
+    @property
+    def episodes_done(self) -> int:
+        return int(self.checkpoint["episode"]) if self.checkpoint is not None else 0
+
 
 def pin_threads() -> None:
     """One BLAS and torch thread per process: on this network size one is as fast as two."""
@@ -135,8 +139,7 @@ class RunOutcome:
 def run_tasks(path: Path, tasks: list[SeedTask], workers: int,
               view: TrainingProgress) -> RunOutcome:
     """Train every task, writing each checkpoint to the run file at ``path``."""
-    done: dict[int, int] = {task.seed: (int(task.checkpoint["episode"]) if task.checkpoint
-                                        else 0) for task in tasks}
+    done: dict[int, int] = {task.seed: task.episodes_done for task in tasks}
     errors: list[str] = []
 
     def handle(message: tuple[Any, ...]) -> None:
