@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-from datetime import datetime
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -15,6 +14,7 @@ from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.evaluate import api
 from adaptsky_cli.report.eval_table import methods_table, oracle_line
 from adaptsky_cli.report.units import format_rate
+from adaptsky_cli.store.atomic import fresh_path
 from adaptsky_cli.store.eval_file import write_eval
 
 Layouts = Annotated[int | None, typer.Option(min=1, help="evaluate on this many uniform "
@@ -31,15 +31,6 @@ def _show(results: dict[str, Any], as_json: bool) -> None:
     line = oracle_line(results)
     if line:
         out.print(line, markup=False)
-
-
-def _default_out(checkpoint: Path) -> Path:
-    stem = f"{checkpoint.stem}-eval-{datetime.now().strftime('%Y%m%d-%H%M%S')}"
-    path, n = checkpoint.with_name(f"{stem}.h5"), 1
-    while path.exists():
-        n += 1
-        path = checkpoint.with_name(f"{stem}-{n}.h5")
-    return path
 
 
 def evaluate(
@@ -59,7 +50,8 @@ def evaluate(
     as_json: Json = False,
 ) -> None:
     """Greedy rollouts of a trained policy, compared with baselines and other runs."""
-    path = out_file if out_file is not None else _default_out(checkpoint)
+    path = out_file if out_file is not None else fresh_path(checkpoint.parent,
+                                                            f"{checkpoint.stem}-eval")
     if path.exists():
         raise AdaptskyError(f"{path}: exists; choose another --out")
     methods = [item.strip() for item in compare.split(",") if item.strip()]

@@ -6,6 +6,7 @@ import os
 import shutil
 from collections.abc import Iterator
 from contextlib import contextmanager
+from datetime import UTC, datetime
 from pathlib import Path
 
 import h5py
@@ -35,3 +36,19 @@ def remove_stale_copies(path: Path) -> None:
 
 def string_dataset(group: h5py.Group, name: str, text: str) -> None:
     group.create_dataset(name, data=text, dtype=h5py.string_dtype())
+
+
+def utc_timestamp() -> str:
+    """Now, as stored in ``created_utc`` attributes: 2026-11-22T03:04:15Z."""
+    return datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def fresh_path(directory: Path, prefix: str) -> Path:
+    """<directory>/<prefix>-<local time>.h5, with a -2, -3, ... suffix rather than an
+    existing file's name."""
+    stem = f"{prefix}-{datetime.now().strftime('%Y%m%d-%H%M%S')}"
+    path, n = directory / f"{stem}.h5", 1
+    while path.exists():
+        n += 1
+        path = directory / f"{stem}-{n}.h5"
+    return path

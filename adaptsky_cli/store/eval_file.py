@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -11,7 +10,7 @@ import numpy as np
 
 from adaptsky_cli import __version__
 from adaptsky_cli.evaluate.api import Method
-from adaptsky_cli.store.atomic import rewrite, string_dataset
+from adaptsky_cli.store.atomic import rewrite, string_dataset, utc_timestamp
 from adaptsky_cli.store.tree import write_tree
 
 FORMAT_VERSION = 1
@@ -22,7 +21,7 @@ def write_eval(path: Path, results: dict[str, Any], methods: list[Method]) -> No
     """Write a new eval file at ``path`` in one atomic step."""
     with rewrite(path) as file:
         file.attrs.update(format_version=FORMAT_VERSION, kind=KIND, adaptsky_version=__version__,
-                          created_utc=datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+                          created_utc=utc_timestamp(),
                           scenario_name=results["scenario"], steps=results["steps"],
                           layouts=results["layouts"])
         string_dataset(file, "results_json", json.dumps(results))

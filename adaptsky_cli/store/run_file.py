@@ -8,7 +8,6 @@ any moment leaves the file as it was at its last checkpoint, never half written.
 from __future__ import annotations
 
 import json
-from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -17,7 +16,7 @@ import numpy as np
 
 from adaptsky_cli import __version__
 from adaptsky_cli.errors import AdaptskyError
-from adaptsky_cli.store.atomic import rewrite, string_dataset
+from adaptsky_cli.store.atomic import rewrite, string_dataset, utc_timestamp
 from adaptsky_cli.store.tree import Tree, read_tree, write_tree
 
 FORMAT_VERSION = 1
@@ -39,7 +38,7 @@ def create_run(path: Path, scenario_text: str, config: dict[str, Any],
     with rewrite(path) as file:
         file.attrs.update(format_version=FORMAT_VERSION, kind=KIND,
                           adaptsky_version=__version__,
-                          created_utc=datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+                          created_utc=utc_timestamp(),
                           scenario_name=config["name"])
         string_dataset(file, "scenario", scenario_text)
         string_dataset(file, "config", json.dumps(config, indent=1))

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from datetime import datetime
 from pathlib import Path
 
 from rich.console import Console
@@ -12,7 +11,7 @@ from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.scenario import Scenario, parse_scenario
 from adaptsky_cli.scenario.loading import load_scenario_with_text
 from adaptsky_cli.store import run_file
-from adaptsky_cli.store.atomic import remove_stale_copies
+from adaptsky_cli.store.atomic import fresh_path, remove_stale_copies
 from adaptsky_cli.store.run_file import RunReader
 from adaptsky_cli.train.progress import TrainingProgress
 from adaptsky_cli.train.runner import RunOutcome, SeedTask, run_tasks
@@ -23,13 +22,8 @@ class OutputExistsError(AdaptskyError):
 
 
 def default_output(scenario: Scenario, directory: Path = Path("runs")) -> Path:
-    """runs/<scenario name>-<UTC time>.h5, with a -2, -3, ... suffix rather than overwrite."""
-    stem = f"{scenario.name}-{datetime.now().strftime('%Y%m%d-%H%M%S')}"
-    path, n = directory / f"{stem}.h5", 1
-    while path.exists():
-        n += 1
-        path = directory / f"{stem}-{n}.h5"
-    return path
+    """runs/<scenario name>-<time>.h5, never an existing file."""
+    return fresh_path(directory, scenario.name)
 
 
 def _with_train(scenario: Scenario, **overrides: object) -> Scenario:
