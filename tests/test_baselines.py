@@ -1,5 +1,5 @@
-"""SoA by hand from SPEC 6, and the oracle: SPEC's reference optimum, brute force on a
-reduced lattice, and never below any other method."""
+"""SoA by hand from docs/model.md §6, and the oracle: the reference optimum of docs/model.md,
+brute force on a reduced lattice, and never below any other method."""
 
 import itertools
 import math
@@ -37,7 +37,7 @@ def test_soa_on_nyc_mmwave_by_hand():
     se_1 = math.log2(1 + _mmwave_snr((0.5, 9, 50), (4, 15), -84.0))
     se_3 = math.log2(1 + _mmwave_snr((0.5, 9, 50), (-5, 21), -84.0))
     assert state / 2e9 == pytest.approx([se_1, 0.0, se_3, 0.0], rel=1e-9, abs=1e-12)
-    # SPEC 6: 12.6 bit/s/Hz with the released code's -79 dBm
+    # docs/model.md §6: 12.6 bit/s/Hz with the released code's -79 dBm
     released = load_scenario(SCENARIOS / "nyc_mmwave_released_code.toml")
     result = run_baseline(released, "soa", 5, user_layouts(released, 1))
     assert result.metrics["mean_sum_rate_bps"][0] / 2e9 == pytest.approx(12.59, abs=0.005)
@@ -47,7 +47,7 @@ def test_soa_gives_the_weak_user_exactly_r_min():
     scenario = make_scenario(reward={"min_se": 1.5})
     env = NomaUavBatch(scenario, seed=0)
     uav_m, alpha_first = soa_configuration(env)
-    # SPEC 6 formula for the weak user 2 (at (-44, -49)), by hand
+    # docs/model.md §6 formula for the weak user 2 (at (-44, -49)), by hand
     b = _mmwave_snr(uav_m[0], (-44, -49), -84.0)
     alpha_weak = (2**1.5 - 1) / 2**1.5 * (1 + 1 / b)
     assert alpha_first[0, 0] == pytest.approx(1 - alpha_weak, rel=1e-12)
@@ -56,7 +56,7 @@ def test_soa_gives_the_weak_user_exactly_r_min():
 
 
 def test_oracle_finds_specs_optimum_on_the_training_layout():
-    # SPEC 6: about 21.2 bit/s/Hz at (0, 18, 10) for -79 dBm, min_se = 0
+    # docs/model.md §6: about 21.2 bit/s/Hz at (0, 18, 10) for -79 dBm, min_se = 0
     scenario = load_scenario(SCENARIOS / "nyc_mmwave_released_code.toml")
     result = oracle(scenario, user_layouts(scenario, 1))
     assert result.objective_bps[0] / 2e9 == pytest.approx(21.2, abs=0.05)

@@ -41,7 +41,7 @@ def test_rate_is_shannon():
     ([1.0, 1.0, 1.0, 1.0], 1.0),
     ([4.0, 0.0, 0.0, 0.0], 0.25),                # one user served: 1/N
     ([1.0, 2.0, 3.0, 4.0], 100 / (4 * 30)),      # (10)^2 / (4 (1+4+9+16))
-    ([0.0, 0.0, 0.0, 0.0], 1.0),                 # SPEC 1: J = 1 when all rates are 0
+    ([0.0, 0.0, 0.0, 0.0], 1.0),                 # docs/model.md §1: J = 1 when all rates are 0
 ])
 def test_jain(rates, expected):
     assert noma.jain_fairness(np.array([rates]))[0] == pytest.approx(expected)

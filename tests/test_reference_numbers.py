@@ -1,4 +1,4 @@
-"""SPEC section 2's reference numbers: training layout, UAV at (0, 0, 50), all LoS,
+"""docs/model.md section 8's reference numbers: training layout, UAV at (0, 0, 50), all LoS,
 alpha = 0.5 in both clusters, spectral efficiency per user in bit/s/Hz, listed order."""
 
 import numpy as np

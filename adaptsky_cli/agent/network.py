@@ -21,7 +21,7 @@ class QNetwork(nn.Module):
     """Q(s, .) for every action.
 
     Dueling: Q = V + A - mean_a A, the mean taken per sample (the released code subtracts one
-    mean over the whole batch, a bug; SPEC 4). Plain: Q from one linear head.
+    mean over the whole batch, a bug; docs/model.md §4). Plain: Q from one linear head.
     """
 
     def __init__(self, observation_size: int, num_actions: int, hidden_sizes: list[int],

@@ -1,4 +1,4 @@
-"""Exploration schedule of algorithm 1, line 5 (SPEC 4)."""
+"""Exploration schedule of algorithm 1, line 5 (docs/model.md §4)."""
 
 import math
 

@@ -93,7 +93,7 @@ class ChannelModel(ABC):
         return rng.random(geometry.shape) < self.los_probability(geometry)
 
     def expected_gain(self, geometry: LinkGeometry) -> FloatArray:
-        """``P g_LoS + (1 - P) g_NLoS`` (SPEC 2, ``los = "expected"``)."""
+        """``P g_LoS + (1 - P) g_NLoS`` (docs/model.md §2, ``los = "expected"``)."""
         p_los = self.los_probability(geometry)
         return p_los * self.gain_los(geometry) + (1 - p_los) * self.gain_nlos(geometry)
 

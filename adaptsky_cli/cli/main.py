@@ -12,7 +12,15 @@ import sys
 import typer
 
 from adaptsky_cli import __version__
-from adaptsky_cli.cli import eval_cmd, inspect_cmd, plugins_cmd, scenario_cmd, train_cmd
+from adaptsky_cli.cli import (
+    eval_cmd,
+    inspect_cmd,
+    plot_cmd,
+    plugins_cmd,
+    reproduce_cmd,
+    scenario_cmd,
+    train_cmd,
+)
 from adaptsky_cli.cli.console import err
 from adaptsky_cli.errors import AdaptskyError
 
@@ -24,6 +32,8 @@ app.command()(train_cmd.train)
 app.command()(inspect_cmd.inspect)
 app.command("eval")(eval_cmd.evaluate)
 app.command()(eval_cmd.baseline)
+app.command()(reproduce_cmd.reproduce)
+app.command()(plot_cmd.plot)
 
 
 def _version(value: bool) -> None:

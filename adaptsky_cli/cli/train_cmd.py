@@ -34,13 +34,17 @@ def train(
                                                 "one per seed, at most the cores)")] = None,
     checkpoint_every: Annotated[int | None, typer.Option(min=1, help="episodes between "
                                                          "checkpoints")] = None,
+    set_values: Annotated[list[str] | None, typer.Option(
+        "--set", help="override a scenario key, section.key=value (repeatable), e.g. "
+        "--set reward.min_se=1.5 --set agent.dueling=false; recorded in the run file",
+        show_default=False)] = None,
     resume: Annotated[Path | None, typer.Option(help="continue this run file from its last "
                                                 "checkpoints")] = None,
     quiet: Annotated[bool, typer.Option(help="print only the final table")] = False,
 ) -> None:
     """Train the dueling DQN on a scenario (algorithm 1), one process per seed."""
     if resume is not None:
-        if scenario is not None or seeds or steps or checkpoint_every or out_file:
+        if scenario is not None or seeds or steps or checkpoint_every or out_file or set_values:
             raise AdaptskyError("--resume continues a run as it was configured: give only "
                                 "--episodes, --workers and --quiet with it")
         path, outcome = api.resume(run_path=resume, episodes=episodes, workers=workers,
@@ -50,7 +54,8 @@ def train(
     else:
         path, outcome = api.train(scenario_path=scenario, out=out_file, seeds=_seeds(seeds),
                                   episodes=episodes, steps=steps, workers=workers,
-                                  checkpoint_every=checkpoint_every, quiet=quiet, console=err)
+                                  checkpoint_every=checkpoint_every, set_values=set_values,
+                                  quiet=quiet, console=err)
     out.print(summary_table(summarize(path)))
     if outcome.interrupted:
         err.print(f"interrupted; checkpoints saved. Continue with: adaptsky train --resume {path}")

@@ -1,4 +1,4 @@
-"""The discrete action set (sec. IV-B.2, SPEC 3).
+"""The discrete action set (sec. IV-B.2, docs/model.md §3).
 
 An action moves the UAV by d_x delta_x, d_y delta_y, d_h delta_h and changes the first user's
 alpha of each of the K clusters by d_k delta_alpha. Action index a encodes the 3 + K

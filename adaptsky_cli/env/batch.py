@@ -1,4 +1,4 @@
-"""The NOMA-UAV network of SPEC 1-4, simulated for B independent layouts at once.
+"""The NOMA-UAV network of docs/model.md §1-4, simulated for B independent layouts at once.
 
 One :class:`NomaUavBatch` holds B UAVs, each serving its own layout of N users in K = N/2
 clusters. All B environments step in lockstep: one call to :meth:`NomaUavBatch.step` takes B
@@ -176,7 +176,8 @@ class NomaUavBatch:
                        self.state.gain)
 
     def reset(self, seed: int | None = None) -> tuple[NDArray[np.float32], NetworkState]:
-        """Start an episode: UAV at ``uav.start_m``, every alpha at ``start_alpha`` (SPEC 3).
+        """Start an episode: UAV at ``uav.start_m``, every alpha at ``start_alpha``
+        (docs/model.md §3).
 
         A ``seed`` re-seeds the generator of LoS draws and user moves.
         """
@@ -226,7 +227,7 @@ class NomaUavBatch:
         """Apply B actions; return observations, rewards (eq. 13), truncated, and the state.
 
         The reward and next observation use the channel at the position after the move
-        (the released code's one-step lag is not copied, SPEC 2).
+        (the released code's one-step lag is not copied, docs/model.md §7).
         """
         if self.state is None:
             raise RuntimeError("call reset() before step()")

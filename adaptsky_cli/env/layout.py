@@ -1,4 +1,4 @@
-"""User layouts and NOMA cluster pairing (sec. II-A, SPEC 1)."""
+"""User layouts and NOMA cluster pairing (sec. II-A, docs/model.md §1)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""NOMA maths as pure, vectorised functions (sec. II-B, III, IV-B; SPEC 1 and 4).
+"""NOMA maths as pure, vectorised functions (sec. II-B, III, IV-B; docs/model.md §1 and §4).
 
 Arrays broadcast over any leading batch shape; the last axis is users (N) or clusters (K).
 """

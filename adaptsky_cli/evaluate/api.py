@@ -146,7 +146,7 @@ def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path |
             other = Path(item)
             other_policy = load_policy(other, None, scenario)
             methods.append(_policy_method(other.name, scenario, other_policy, steps, users_m))
-    results = _results(methods, scenario, steps, layouts, layout_seed, users_m)
+    results = results_json(methods, scenario, steps, layouts, layout_seed, users_m)
     results |= {"checkpoint": str(checkpoint), "seed": chosen,
                 "dueling": trained.agent.dueling}
     return results, methods
@@ -158,10 +158,10 @@ def baseline(*, scenario_path: Path, method: str, layouts: int | None = None,
     scenario = eval_scenario(load_scenario(scenario_path), layouts, layout_seed)
     users_m = _users(scenario, layouts)
     result = run_baseline(scenario, method, steps, users_m)
-    return _results([result], scenario, steps, layouts, layout_seed, users_m), [result]
+    return results_json([result], scenario, steps, layouts, layout_seed, users_m), [result]
 
 
-def _results(methods: list[Method], scenario: Scenario, steps: int, layouts: int | None,
+def results_json(methods: list[Method], scenario: Scenario, steps: int, layouts: int | None,
              layout_seed: int, users_m: np.ndarray) -> dict[str, Any]:
     results: dict[str, Any] = {
         "scenario": scenario.name, "channel_model": scenario.channel.model,

@@ -1,5 +1,5 @@
-"""The oracle ceiling (our addition, SPEC 6): the best per-step objective over the reachable
-lattice, for ``los = "always"`` or ``"expected"`` (deterministic gains).
+"""The oracle ceiling (our addition, docs/model.md §6): the best per-step objective over the
+reachable lattice, for ``los = "always"`` or ``"expected"`` (deterministic gains).
 
 Objective: the constrained sum rate (sum of rates if every user meets R_min, else 0).
 Lattice: x, y = start + k delta inside the area, h = start + k delta_h in [h_min, h_max],

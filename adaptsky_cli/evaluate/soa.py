@@ -1,4 +1,4 @@
-"""The SoA baseline (Chen et al. 2019 as the paper uses it; SPEC 6).
+"""The SoA baseline (Chen et al. 2019 as the paper uses it; docs/model.md §6).
 
 The UAV stays at the users' 2D centroid at the start height. Planning assumes LoS: in each
 cluster the user with the smaller LoS gain is weak and gets the least power that meets R_min,

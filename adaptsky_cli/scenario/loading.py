@@ -57,13 +57,18 @@ def load_scenario(path: str | Path) -> Scenario:
 
 def load_scenario_with_text(path: str | Path) -> tuple[Scenario, str]:
     """The validated scenario and the file's text (kept verbatim in run files)."""
+    text = read_scenario_text(path)
+    return parse_scenario(parse_toml(text, str(path)), str(path)), text
+
+
+def read_scenario_text(path: str | Path, what: str = "scenario file") -> str:
+    """The text of a scenario (or experiment) file; one line if it cannot be read."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        return path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as error:
         reason = error.strerror if isinstance(error, OSError) and error.strerror else str(error)
-        raise ScenarioError([f"{path}: cannot read scenario file: {reason}"]) from None
-    return parse_scenario(parse_toml(text, str(path)), str(path)), text
+        raise ScenarioError([f"{path}: cannot read {what}: {reason}"]) from None
 
 
 def parse_toml(text: str, source: str) -> dict[str, Any]:

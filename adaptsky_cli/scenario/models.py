@@ -1,4 +1,4 @@
-"""Pydantic models of a scenario file (SPEC sections 1-5). Every key is documented in
+"""Pydantic models of a scenario file (docs/model.md §1-5). Every key is documented in
 ``docs/scenario-format.md``; defaults are the paper's mmWave training set-up (Table I, sec. V).
 """
 
@@ -126,7 +126,7 @@ class Radio(Section):
 
     @property
     def noise_w(self) -> float:
-        """sigma^2 = thermal noise + noise figure, in W (SPEC 1)."""
+        """sigma^2 = thermal noise + noise figure, in W (docs/model.md §1)."""
         return 10 ** ((self.thermal_noise_dbm + self.noise_figure_db - 30) / 10)
 
     @property

@@ -13,11 +13,12 @@ import h5py
 
 
 @contextmanager
-def rewrite(path: Path) -> Iterator[h5py.File]:
-    """Open a copy of ``path`` (or a new file) for writing; on success it replaces ``path``."""
+def rewrite(path: Path, fresh: bool = False) -> Iterator[h5py.File]:
+    """Open a copy of ``path`` (or a new file, always with ``fresh``) for writing; on success
+    it replaces ``path``."""
     tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
     try:
-        if path.exists():
+        if path.exists() and not fresh:
             shutil.copyfile(path, tmp)
         with h5py.File(tmp, "a") as file:
             yield file
@@ -52,3 +53,17 @@ def fresh_path(directory: Path, prefix: str) -> Path:
         n += 1
         path = directory / f"{stem}-{n}.h5"
     return path
+
+
+def write_bytes_atomic(path: Path, data: bytes) -> None:
+    """Write ``data`` to a copy that replaces ``path`` in one rename: never half written."""
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        tmp.write_bytes(data)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def write_text_atomic(path: Path, text: str) -> None:
+    write_bytes_atomic(path, text.encode("utf-8"))

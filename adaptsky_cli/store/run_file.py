@@ -33,8 +33,9 @@ class RunFileError(AdaptskyError):
 
 def create_run(path: Path, scenario_text: str, config: dict[str, Any],
                plugins: dict[str, dict[str, str]], seeds: list[int], episodes: int,
-               num_users: int) -> None:
-    """Write a new run file with empty learning curves for every seed."""
+               num_users: int, overrides: list[str] | None = None) -> None:
+    """Write a new run file with empty learning curves for every seed; ``overrides`` are the
+    ``--set`` items applied to the scenario text (already part of ``config``)."""
     with rewrite(path) as file:
         file.attrs.update(format_version=FORMAT_VERSION, kind=KIND,
                           adaptsky_version=__version__,
@@ -42,6 +43,7 @@ def create_run(path: Path, scenario_text: str, config: dict[str, Any],
                           scenario_name=config["name"])
         string_dataset(file, "scenario", scenario_text)
         string_dataset(file, "config", json.dumps(config, indent=1))
+        string_dataset(file, "overrides", json.dumps(overrides or []))
         for name, info in plugins.items():
             file.create_group(f"plugins/{name}").attrs.update(info)
         for seed in seeds:
@@ -135,6 +137,12 @@ class RunReader:
     @property
     def config(self) -> dict[str, Any]:
         return self._guard("/config", lambda: json.loads(self.file["config"][()].decode()))
+
+    @property
+    def overrides(self) -> list[str]:
+        """The ``--set`` items of the run (files written before they existed: none)."""
+        return self._guard("/overrides", lambda: json.loads(self.file["overrides"][()].decode())
+                           if "overrides" in self.file else [])
 
     @property
     def attrs(self) -> dict[str, Any]:

@@ -9,7 +9,8 @@ from rich.console import Console
 from adaptsky_cli.channels.registry import discover
 from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.scenario import Scenario, parse_scenario
-from adaptsky_cli.scenario.loading import load_scenario_with_text
+from adaptsky_cli.scenario.loading import parse_toml, read_scenario_text
+from adaptsky_cli.scenario.overrides import apply_overrides
 from adaptsky_cli.store import run_file
 from adaptsky_cli.store.atomic import fresh_path, remove_stale_copies
 from adaptsky_cli.store.run_file import RunReader
@@ -42,22 +43,45 @@ def _plugins_used(scenario: Scenario) -> dict[str, dict[str, str]]:
                         "target": info.target}}
 
 
-def train(*, scenario_path: Path, out: Path | None = None, seeds: list[int] | None = None,
-          episodes: int | None = None, steps: int | None = None, workers: int | None = None,
-          checkpoint_every: int | None = None, quiet: bool = False,
-          console: Console | None = None) -> tuple[Path, RunOutcome]:
-    """Train every seed of the scenario into a new run file; returns its path."""
-    scenario, text = load_scenario_with_text(scenario_path)
-    scenario = _with_train(scenario, seeds=seeds, episodes=episodes, steps=steps,
-                           checkpoint_every=checkpoint_every)
-    path = out if out is not None else default_output(scenario)
+def load_with_overrides(scenario_path: Path, set_values: list[str] | None = None
+                        ) -> tuple[Scenario, str]:
+    """The scenario file with ``--set`` overrides applied, validated as one file; its text."""
+    text = read_scenario_text(scenario_path)
+    data = parse_toml(text, str(scenario_path))
+    source = str(scenario_path)
+    if set_values:
+        data = apply_overrides(data, set_values, source)
+        source = f"{scenario_path} with --set"
+    return parse_scenario(data, source), text
+
+
+def create_run_file(path: Path, scenario: Scenario, text: str,
+                    set_values: list[str] | None = None) -> None:
+    """A new run file for every seed of ``scenario`` (refuses an existing ``path``)."""
     if path.exists():
         raise OutputExistsError(f"{path}: exists; choose another --out, or continue it with "
                                 f"--resume {path}")
     path.parent.mkdir(parents=True, exist_ok=True)
     t = scenario.train
     run_file.create_run(path, text, scenario.model_dump(mode="json"), _plugins_used(scenario),
-                        t.seeds, t.episodes, scenario.num_users)
+                        t.seeds, t.episodes, scenario.num_users, set_values or [])
+
+
+def train(*, scenario_path: Path, out: Path | None = None, seeds: list[int] | None = None,
+          episodes: int | None = None, steps: int | None = None, workers: int | None = None,
+          checkpoint_every: int | None = None, set_values: list[str] | None = None,
+          quiet: bool = False, console: Console | None = None) -> tuple[Path, RunOutcome]:
+    """Train every seed of the scenario into a new run file; returns its path.
+
+    ``set_values`` are ``section.key=value`` overrides, applied before the options above and
+    recorded in the run file.
+    """
+    scenario, text = load_with_overrides(scenario_path, set_values)
+    scenario = _with_train(scenario, seeds=seeds, episodes=episodes, steps=steps,
+                           checkpoint_every=checkpoint_every)
+    path = out if out is not None else default_output(scenario)
+    create_run_file(path, scenario, text, set_values)
+    t = scenario.train
     tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every)
              for seed in t.seeds]
     return path, _run(path, tasks, workers, quiet, console)

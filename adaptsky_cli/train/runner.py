@@ -130,6 +130,26 @@ class _StopOnInterrupt:
         signal.signal(signal.SIGINT, self.previous)
 
 
+class RunFileWriter:
+    """Handles a seed's messages: checkpoints go into the run file at ``path`` (this process is
+    its only writer), progress to ``on_episode``, errors into ``errors``."""
+
+    def __init__(self, path: Path, done: dict[int, int], errors: list[str],
+                 on_episode: Callable[[int, int, dict[str, float]], None] | None = None) -> None:
+        self.path, self.done, self.errors, self.on_episode = path, done, errors, on_episode
+
+    def __call__(self, message: tuple[Any, ...]) -> None:
+        kind, seed = message[0], message[1]
+        if kind == "progress" and self.on_episode is not None:
+            self.on_episode(seed, message[2], message[3])
+        elif kind == "checkpoint":
+            _, _, rows, trajectories, last, checkpoint = message
+            run_file.append_checkpoint(self.path, seed, rows, trajectories, last, checkpoint)
+            self.done[seed] = int(checkpoint["episode"])
+        elif kind == "error":
+            self.errors.append(f"seed {seed} failed: {message[2]}")
+
+
 @dataclass
 class RunOutcome:
     episodes_done: dict[int, int]
@@ -141,17 +161,7 @@ def run_tasks(path: Path, tasks: list[SeedTask], workers: int,
     """Train every task, writing each checkpoint to the run file at ``path``."""
     done: dict[int, int] = {task.seed: task.episodes_done for task in tasks}
     errors: list[str] = []
-
-    def handle(message: tuple[Any, ...]) -> None:
-        kind, seed = message[0], message[1]
-        if kind == "progress":
-            view.episode(seed, message[2], message[3])
-        elif kind == "checkpoint":
-            _, _, rows, trajectories, last, checkpoint = message
-            run_file.append_checkpoint(path, seed, rows, trajectories, last, checkpoint)
-            done[seed] = int(checkpoint["episode"])
-        elif kind == "error":
-            errors.append(f"seed {seed} failed: {message[2]}")
+    handle = RunFileWriter(path, done, errors, view.episode)
 
     workers = max(1, min(workers, len(tasks), os.cpu_count() or 1))
     if workers == 1:

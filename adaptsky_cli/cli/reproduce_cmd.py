@@ -1,0 +1,46 @@
+"""``adaptsky reproduce``."""
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from adaptsky_cli.cli.console import err
+from adaptsky_cli.experiment.reproduce import reproduce as run_reproduce
+
+
+def reproduce(
+    experiment: Annotated[str, typer.Argument(help="a shipped experiment id (e1a, e1b, e2, "
+                                              "e3) or an experiment file (TOML)",
+                                              show_default=False)],
+    out: Annotated[Path | None, typer.Option(help="output folder: runs/, evals/, figures, "
+                                             "CSVs, report.md (default: reproduce/<id>)")] = None,
+    seeds: Annotated[int | None, typer.Option(min=1, help="at most this many runs per group "
+                                              "and sweep point, for a quick look")] = None,
+    episodes: Annotated[int | None, typer.Option(min=1, help="episodes per run")] = None,
+    steps: Annotated[int | None, typer.Option(min=1, help="steps per episode")] = None,
+    workers: Annotated[int | None, typer.Option(min=1, help="parallel local processes "
+                                                "(default: one per core)")] = None,
+    scheduler: Annotated[str | None, typer.Option(help="address of a Dask scheduler, "
+                                                  "tcp://HOST:PORT; OUT must be on storage "
+                                                  "every worker shares")] = None,
+    set_values: Annotated[list[str] | None, typer.Option(
+        "--set", help="override a key of every run's scenario, section.key=value "
+        "(repeatable)", show_default=False)] = None,
+    runs_only: Annotated[bool, typer.Option(help="train the missing runs, then stop before "
+                                            "evaluating and reporting")] = False,
+    quiet: Annotated[bool, typer.Option(help="no progress, only the final lines")] = False,
+) -> None:
+    """Reproduce a paper experiment: run what is missing, resume what was interrupted, skip
+    what is done, evaluate, and write figures, CSVs and report.md."""
+    result = run_reproduce(experiment=experiment, out=out, seeds=seeds, episodes=episodes,
+                           steps=steps, workers=workers, scheduler=scheduler,
+                           set_values=set_values, runs_only=runs_only, quiet=quiet, console=err)
+    if result.interrupted:
+        err.print(f"interrupted; every run keeps its last checkpoint. Continue with the same "
+                  f"command (output folder {result.plan.out})")
+        raise typer.Exit(130)
+    if result.report is not None:
+        err.print(f"report: {result.report}")
+    else:
+        err.print(f"runs are in {result.plan.out / 'runs'}")

@@ -1,0 +1,1 @@
+"""Experiments as data: experiment files, their plans, sweeps of runs, evaluation."""

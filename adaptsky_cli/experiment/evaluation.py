@@ -1,0 +1,127 @@
+"""Evaluating a plan: greedy rollouts of every run of the evaluated groups and the baselines
+on the same layouts, one eval file each in ``DIR/evals/``.
+
+An eval file records what it evaluated (scenario, layouts, steps and, for a policy, the
+episodes its run had done); a later call reuses it when that record matches, so a finished
+folder is not evaluated twice.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from rich.console import Console
+
+from adaptsky_cli.errors import AdaptskyError
+from adaptsky_cli.evaluate.api import Method, eval_scenario, results_json, run_baseline
+from adaptsky_cli.evaluate.rollout import greedy_policy, rollout
+from adaptsky_cli.experiment.plan import Plan, RunSpec
+from adaptsky_cli.experiment.runs import run_state
+from adaptsky_cli.scenario import Scenario, parse_scenario
+from adaptsky_cli.store.eval_file import read_eval_metrics, write_eval
+from adaptsky_cli.store.run_file import RunReader
+
+Metrics = dict[str, np.ndarray]
+
+
+@dataclass
+class Evaluations:
+    """Per-layout metrics of every evaluated run (by run name) and baseline (by method and
+    sweep value); ``missing`` says what could not be evaluated and why."""
+
+    runs: dict[str, Metrics] = field(default_factory=dict)
+    baselines: dict[tuple[str, Any], Metrics] = field(default_factory=dict)
+    missing: dict[str, str] = field(default_factory=dict)
+
+
+def _cached(path: Path, record: dict[str, Any]) -> Metrics | None:
+    if not path.exists():
+        return None
+    try:
+        stored, methods = read_eval_metrics(path)
+    except AdaptskyError:
+        return None  # damaged: evaluate again
+    if stored != json.loads(json.dumps(record)) or len(methods) != 1:
+        return None
+    return next(iter(methods.values()))
+
+
+def _store(path: Path, scenario: Scenario, method: Method, record: dict[str, Any],
+           steps: int, layouts: int | None, layout_seed: int, users_m: np.ndarray) -> Metrics:
+    results = results_json([method], scenario, steps, layouts, layout_seed, users_m)
+    results["record"] = record
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_eval(path, results, [method])
+    return method.metrics
+
+
+def _label(value: Any) -> str:
+    return "" if value is None else f"-{value:g}" if isinstance(value, float) else f"-{value}"
+
+
+def evaluate_plan(plan: Plan, console: Console, quiet: bool) -> Evaluations:
+    """Evaluate every finished run of the evaluated groups and every baseline."""
+    spec = plan.experiment.evaluation
+    evaluations = Evaluations()
+    folder = plan.out / "evals"
+    say = (lambda text: None) if quiet else (
+        lambda text: console.print(text, markup=False, highlight=False))
+    points: dict[Any, RunSpec] = {}
+    for group in (spec.policy, *spec.compare_groups):
+        for run in plan.group_runs(group):
+            state = run_state(run)
+            if state.status != "done":
+                evaluations.missing[run.name] = (f"{state.episodes_done}/{run.episodes} "
+                                                 "episodes")
+                continue
+            trained = parse_scenario(run.config, run.name)
+            scenario = eval_scenario(trained, spec.layouts, spec.layout_seed)
+            users_m = _layouts(scenario, spec.layouts)
+            record = {"kind": "policy", "run": run.name, "episodes_done": state.episodes_done,
+                      "scenario": scenario.model_dump(mode="json"), "steps": spec.steps,
+                      "layouts": spec.layouts, "layout_seed": spec.layout_seed}
+            path = folder / f"{run.name}.h5"
+            metrics = _cached(path, record)
+            if metrics is None:
+                say(f"evaluating {run.name}: {spec.steps} greedy steps on "
+                    f"{len(users_m)} layout(s)")
+                with RunReader(run.path) as reader:
+                    policy = greedy_policy(trained, reader.checkpoint(run.seed))
+                method = Method.of("policy", scenario,
+                                   rollout(scenario, policy, spec.steps, users_m))
+                metrics = _store(path, scenario, method, record, spec.steps, spec.layouts,
+                                 spec.layout_seed, users_m)
+            evaluations.runs[run.name] = metrics
+            if group == spec.policy:
+                points.setdefault(run.sweep_value, run)
+    for value, run in points.items():
+        scenario = eval_scenario(parse_scenario(run.config, run.name), spec.layouts,
+                                 spec.layout_seed)
+        users_m = _layouts(scenario, spec.layouts)
+        for name in spec.baselines:
+            record = {"kind": name, "scenario": scenario.model_dump(mode="json"),
+                      "steps": spec.steps, "layouts": spec.layouts,
+                      "layout_seed": spec.layout_seed}
+            path = folder / f"{name}{_label(value)}.h5"
+            metrics = _cached(path, record)
+            if metrics is None:
+                say(f"evaluating {name}{_label(value)} on {len(users_m)} layout(s)")
+                try:
+                    method = run_baseline(scenario, name, spec.steps, users_m)
+                except AdaptskyError as error:
+                    evaluations.missing[f"{name}{_label(value)}"] = str(error)
+                    continue
+                metrics = _store(path, scenario, method, record, spec.steps, spec.layouts,
+                                 spec.layout_seed, users_m)
+            evaluations.baselines[(name, value)] = metrics
+    return evaluations
+
+
+def _layouts(scenario: Scenario, layouts: int | None) -> np.ndarray:
+    from adaptsky_cli.env.layout import user_layouts
+
+    return user_layouts(scenario, layouts or 1)

@@ -1,0 +1,115 @@
+"""One run of an experiment, wherever it executes: start it, resume it from its file, or
+find it done. The run file is the only state, so a retry (after Ctrl-C, kill -9 or a Dask
+worker that died) is a resume from its last checkpoint.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Literal
+
+from adaptsky_cli.errors import AdaptskyError
+from adaptsky_cli.experiment.plan import RunSpec, scenario_text
+from adaptsky_cli.scenario import parse_scenario
+from adaptsky_cli.store import run_file
+from adaptsky_cli.store.atomic import remove_stale_copies
+from adaptsky_cli.store.run_file import RunFileError, RunReader
+from adaptsky_cli.train.api import create_run_file
+from adaptsky_cli.train.runner import RunFileWriter, SeedTask, pin_threads, train_seed
+
+Status = Literal["missing", "partial", "done"]
+
+
+class RunConflictError(AdaptskyError):
+    """A run file in the output folder was made with a different configuration."""
+
+
+@dataclass(frozen=True)
+class RunState:
+    status: Status
+    episodes_done: int
+
+
+def _first_difference(a: object, b: object, prefix: str = "") -> str:
+    if isinstance(a, dict) and isinstance(b, dict):
+        for key in sorted(set(a) | set(b)):
+            found = _first_difference(a.get(key), b.get(key), f"{prefix}{key}.")
+            if found:
+                return found
+        return ""
+    return "" if a == b else f"{prefix.rstrip('.')} is {a!r} there, {b!r} here"
+
+
+def run_state(spec: RunSpec) -> RunState:
+    """Where ``spec``'s run file stands. A file made before its first checkpoint counts as
+    missing (it holds no work); one with another configuration is refused, except for a
+    larger episode target, which is resumed."""
+    if not spec.path.exists():
+        return RunState("missing", 0)
+    try:
+        with RunReader(spec.path) as run:
+            stored = run.config
+            if spec.seed not in run.seeds or not run.has_checkpoint(spec.seed):
+                return RunState("missing", 0)
+            done = run.seed_attrs(spec.seed)["episodes_done"]
+    except RunFileError as error:
+        raise RunConflictError(f"{error}; remove it to train this run again") from None
+    stored_json = parse_scenario(stored, f"{spec.path}:/config").model_dump(mode="json")
+    mine = {**spec.config, "train": {**spec.config["train"], "episodes": 0}}
+    theirs = {**stored_json, "train": {**stored_json["train"], "episodes": 0}}
+    if mine != theirs:
+        raise RunConflictError(
+            f"{spec.path}: made with another configuration ({_first_difference(theirs, mine)});"
+            " use another --out, or remove the file")
+    if done > spec.episodes:
+        raise RunConflictError(f"{spec.path}: has {done} episodes, more than the "
+                               f"{spec.episodes} asked for; use another --out")
+    return RunState("done" if done == spec.episodes else "partial", done)
+
+
+@dataclass(frozen=True)
+class RunReport:
+    """What a run's execution did, for the log: it may have started from a checkpoint."""
+
+    name: str
+    started_at_episode: int
+    episodes_done: int
+    seconds: float
+    host: str
+    pid: int
+
+
+def execute_run(spec: RunSpec, stop: Callable[[], bool] = lambda: False,
+                orphaned: Callable[[], bool] = lambda: False) -> RunReport:
+    """Train ``spec`` to its episode target in this process (one thread), starting from its
+    file's last checkpoint if it has one. ``stop()`` asks for a checkpoint and an early end."""
+    start = time.perf_counter()
+    pin_threads()
+    remove_stale_copies(spec.path)
+    state = run_state(spec)
+    scenario = parse_scenario(spec.config, spec.name)
+    checkpoint = None
+    if state.status == "missing":
+        spec.path.unlink(missing_ok=True)  # a stub from before the first checkpoint
+        create_run_file(spec.path, scenario, scenario_text(spec), list(spec.set_values))
+    elif state.status == "partial":
+        with RunReader(spec.path) as run:
+            checkpoint = run.checkpoint(spec.seed)
+            planned = run.seed_attrs(spec.seed)["episodes_planned"]
+        if planned != spec.episodes:
+            run_file.set_planned_episodes(spec.path, spec.config)
+    if state.status != "done":
+        t = scenario.train
+        task = SeedTask(scenario, spec.seed, t.episodes, t.checkpoint_every, t.trajectory_every,
+                        checkpoint)
+        errors: list[str] = []
+        writer = RunFileWriter(spec.path, {spec.seed: state.episodes_done}, errors)
+        train_seed(task, writer, stop, orphaned)
+        if errors:
+            raise AdaptskyError(f"{spec.name}: {errors[0]}")
+    final = run_state(spec)
+    return RunReport(spec.name, state.episodes_done, final.episodes_done,
+                     time.perf_counter() - start, os.uname().nodename, os.getpid())

@@ -1,0 +1,155 @@
+"""Running the missing and unfinished runs of a plan on an executor, with progress.
+
+Progress counts runs done / running / left and estimates the time left from the episodes
+written to the run files since the start (the files are the only shared state, also on Dask).
+"""
+
+from __future__ import annotations
+
+import signal
+import time
+from concurrent.futures import Future
+from dataclasses import dataclass, field
+from typing import Any
+
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+
+from adaptsky_cli.errors import AdaptskyError
+from adaptsky_cli.experiment.executors import Executor
+from adaptsky_cli.experiment.plan import RunSpec
+from adaptsky_cli.experiment.runs import RunReport, RunState
+from adaptsky_cli.store.run_file import RunFileError, RunReader
+
+POLL_S = 2.0
+LOG_EVERY_S = 60.0
+
+
+class SweepError(AdaptskyError):
+    """Some runs failed; the others are kept."""
+
+
+def _episodes_in_file(spec: RunSpec) -> int | None:
+    try:
+        with RunReader(spec.path) as run:
+            return run.seed_attrs(spec.seed)["episodes_done"]
+    except (RunFileError, KeyError):
+        return None  # not written yet, or being replaced right now
+
+
+def format_duration(seconds: float) -> str:
+    minutes, secs = divmod(round(seconds), 60)
+    hours, minutes = divmod(minutes, 60)
+    return f"{hours} h {minutes:02d} min" if hours else f"{minutes} min {secs:02d} s"
+
+
+@dataclass
+class SweepOutcome:
+    reports: list[RunReport] = field(default_factory=list)
+    interrupted: bool = False
+    seconds: float = 0.0
+
+
+class _Display:
+    """A Rich bar on a terminal; plain log lines elsewhere (or none with ``quiet``)."""
+
+    def __init__(self, console: Console, quiet: bool, total_episodes: int, done: int) -> None:
+        self.console, self.quiet = console, quiet
+        self.live = console.is_terminal and not quiet
+        self.progress = Progress(TextColumn("{task.description}"), BarColumn(),
+                                 MofNCompleteColumn(), TextColumn("episodes  {task.fields[eta]}"),
+                                 console=console, disable=not self.live)
+        self.task = self.progress.add_task("", total=total_episodes, completed=done, eta="")
+        self.last_log = time.monotonic()
+
+    def __enter__(self) -> _Display:
+        self.progress.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.progress.stop()
+
+    def log(self, text: str) -> None:
+        if not self.quiet:
+            self.progress.console.print(text, markup=False, highlight=False)
+
+    def update(self, status: str, episodes: int, eta: str) -> None:
+        self.progress.update(self.task, description=status, completed=episodes, eta=eta)
+        if not self.live and time.monotonic() - self.last_log >= LOG_EVERY_S:
+            self.last_log = time.monotonic()
+            self.log(f"{status}; {eta}")
+
+
+def run_sweep(todo: list[tuple[RunSpec, RunState]], executor: Executor, capacity: int,
+              console: Console, quiet: bool, total_runs: int) -> SweepOutcome:
+    """Train every run in ``todo`` (resuming partial ones) on ``executor``; ``capacity`` is
+    how many run at once. Ctrl-C checkpoints the running runs and stops."""
+    start = time.monotonic()
+    skipped = total_runs - len(todo)
+    done_episodes = {spec.name: state.episodes_done for spec, state in todo}
+    start_episodes = sum(done_episodes.values())
+    total_episodes = sum(spec.episodes for spec, _ in todo)
+    futures = {spec.name: (spec, executor.submit(spec)) for spec, _ in todo}
+    outcome, failures = SweepOutcome(), []
+    interrupted = False
+
+    def on_interrupt(signum: int, frame: Any) -> None:
+        nonlocal interrupted
+        if interrupted:
+            raise KeyboardInterrupt
+        interrupted = True
+        executor.request_stop()
+        for _, future in futures.values():
+            if isinstance(future, Future):
+                future.cancel()  # local runs not started yet stay as they are
+        display.log("interrupted: checkpointing the running runs at the end of their current "
+                    "episode (Ctrl-C again to quit now)")
+
+    display = _Display(console, quiet, total_episodes, start_episodes)
+    previous = signal.signal(signal.SIGINT, on_interrupt)
+    try:
+        with display:
+            display.log(f"{total_runs} runs: {skipped} done before, {len(todo)} to run on "
+                        f"{executor.description}")
+            while futures:
+                for name, (spec, future) in list(futures.items()):
+                    if not future.done():
+                        episodes = _episodes_in_file(spec)
+                        if episodes is not None:
+                            done_episodes[name] = episodes
+                        continue
+                    del futures[name]
+                    if future.cancelled():
+                        continue
+                    try:
+                        report = future.result()
+                    except Exception as error:  # one line per failed run, the others go on
+                        message = str(error).splitlines()[0] if str(error) else type(error).__name__
+                        failures.append(f"{name}: {message}")
+                        display.log(f"run {name} failed: {message}")
+                        continue
+                    done_episodes[name] = report.episodes_done
+                    outcome.reports.append(report)
+                    resumed = (f", resumed from episode {report.started_at_episode}"
+                               if report.started_at_episode else "")
+                    display.log(f"run {name}: {report.episodes_done}/{spec.episodes} episodes "
+                                f"in {format_duration(report.seconds)}{resumed}")
+                episodes = sum(done_episodes.values())
+                finished = total_runs - len(futures)
+                running = min(len(futures), capacity)
+                elapsed = time.monotonic() - start
+                rate = (episodes - start_episodes) / elapsed if elapsed > 0 else 0.0
+                eta = (f"about {format_duration((total_episodes - episodes) / rate)} left"
+                       if rate > 0 else "estimating time left")
+                display.update(f"runs {finished} done · {running} running · "
+                               f"{len(futures) - running} left", episodes, eta)
+                if futures:
+                    time.sleep(POLL_S)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        executor.close()
+    outcome.interrupted, outcome.seconds = interrupted, time.monotonic() - start
+    if failures and not interrupted:
+        raise SweepError(f"{len(failures)} of {len(todo)} runs failed; the others are saved. "
+                         f"First: {failures[0]}")
+    return outcome

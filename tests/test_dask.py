@@ -1,0 +1,121 @@
+"""``reproduce --scheduler``: a real Dask scheduler and workers started on this machine, a
+tiny experiment through them, and a worker killed mid-run whose run continues elsewhere from
+its last checkpoint."""
+
+from __future__ import annotations
+
+import re
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from adaptsky_cli.cli.main import main
+from adaptsky_cli.experiment.plan import load_experiment, plan_experiment
+from adaptsky_cli.experiment.runs import execute_run
+from adaptsky_cli.store.run_file import RunReader
+from tests.test_reproduce import _episodes, _wait_for, curves_experiment
+
+pytest.importorskip("distributed")
+BIN = Path(sys.executable).parent
+
+
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+class Cluster:
+    """A scheduler and ``workers`` one-thread workers without nannies (a killed worker stays
+    dead), all on 127.0.0.1."""
+
+    def __init__(self, tmp_path: Path, workers: int) -> None:
+        port = _free_port()
+        self.address = f"tcp://127.0.0.1:{port}"
+        self.processes = [subprocess.Popen(
+            [str(BIN / "dask"), "scheduler", "--host", "127.0.0.1", "--port", str(port),
+             "--no-dashboard"], stdout=(tmp_path / "scheduler.log").open("w"),
+            stderr=subprocess.STDOUT)]
+        self.workers = [subprocess.Popen(
+            [str(BIN / "dask"), "worker", self.address, "--nthreads", "1", "--no-nanny",
+             "--no-dashboard", "--host", "127.0.0.1", "--name", f"w{i}"],
+            stdout=(tmp_path / f"worker{i}.log").open("w"), stderr=subprocess.STDOUT)
+            for i in range(workers)]
+        self.processes += self.workers
+        from distributed import Client
+
+        with Client(self.address, timeout="60s") as client:
+            client.wait_for_workers(workers, timeout=60)
+
+    def close(self) -> None:
+        for process in self.processes:
+            if process.poll() is None:
+                process.send_signal(signal.SIGTERM)
+        for process in self.processes:
+            try:
+                process.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                process.kill()
+
+
+@pytest.fixture
+def cluster(tmp_path):
+    started = Cluster(tmp_path, workers=2)
+    yield started
+    started.close()
+
+
+def test_shipped_experiment_through_a_scheduler(cluster, tmp_path, capsys):
+    out = tmp_path / "out"
+    code = main(["reproduce", "e1a", "--episodes", "3", "--steps", "20", "--seeds", "2",
+                 "--scheduler", cluster.address, "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 0, err
+    assert "2 to run on Dask at" in err
+    assert [_episodes(out / "runs" / f"adaptsky-seed{s}.h5") for s in (0, 1)] == [3, 3]
+    assert (out / "report.md").is_file() and (out / "e1a.png").is_file()
+
+
+def test_a_killed_worker_s_run_resumes_from_its_checkpoint(cluster, tmp_path):
+    experiment = curves_experiment(tmp_path)
+    out = tmp_path / "out"
+    runs = [out / "runs" / f"agent-seed{s}.h5" for s in (0, 1)]
+    args = ["reproduce", str(experiment), "--out", str(out), "--episodes", "40", "--steps",
+            "40", "--set", "train.checkpoint_every=2", "--runs-only", "--scheduler",
+            cluster.address]
+    log = tmp_path / "reproduce.log"
+    process = subprocess.Popen([str(BIN / "adaptsky"), *args], stdout=log.open("w"),
+                               stderr=subprocess.STDOUT)
+    # each worker holds one run; kill one once both have a checkpoint
+    _wait_for(lambda: min(_episodes(r) for r in runs) >= 2)
+    cluster.workers[0].kill()
+    cluster.workers[0].wait()
+    assert process.wait(timeout=180) == 0, log.read_text()
+    assert [_episodes(r) for r in runs] == [40, 40]
+    text = log.read_text()
+    resumed = [int(n) for n in re.findall(r"resumed from episode (\d+)", text)]
+    assert len(resumed) == 1 and 2 <= resumed[0] < 40, text
+    # the continued run equals an uninterrupted one, bit for bit
+    model, path = load_experiment(str(experiment))
+    fresh = plan_experiment(model, path, tmp_path / "fresh", episodes=40, steps=40,
+                            set_values=["train.checkpoint_every=2"])
+    for spec, done in zip(fresh.runs, runs, strict=True):
+        execute_run(spec)
+        with RunReader(spec.path) as a, RunReader(done) as b:
+            for name, values in a.episodes(spec.seed).items():
+                assert np.array_equal(values, b.episodes(spec.seed)[name], equal_nan=True)
+
+
+def test_unreachable_scheduler_is_one_line(tmp_path, capsys):
+    start = time.monotonic()
+    code = main(["reproduce", "e1a", "--episodes", "1", "--steps", "5", "--seeds", "1",
+                 "--scheduler", f"tcp://127.0.0.1:{_free_port()}", "--out", str(tmp_path)])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert code == 1 and len(lines) == 1 and "cannot connect" in lines[0], lines
+    assert time.monotonic() - start < 60

@@ -1,0 +1,80 @@
+"""Experiment files: every shipped one validates and plans the paper's runs; malformed ones
+get one line and exit 1."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from adaptsky_cli.cli.main import main
+from adaptsky_cli.experiment.plan import load_experiment, plan_experiment, shipped_experiments
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# runs per shipped experiment: E1a and E1b 10, E2 6 x 8 thresholds, E3 6 + 6 (docs/model.md §5)
+RUNS = {"e1a": 10, "e1b": 10, "e2": 48, "e3": 12}
+
+
+def test_every_shipped_experiment_validates_and_plans(tmp_path):
+    assert set(shipped_experiments()) == set(RUNS)
+    for name, count in RUNS.items():
+        experiment, path = load_experiment(name)
+        plan = plan_experiment(experiment, path, tmp_path / name)
+        assert len(plan.runs) == count
+        assert len({run.path for run in plan.runs}) == count
+        for run in plan.runs:
+            assert run.config["train"]["seeds"] == [run.seed]
+            assert (run.config["train"]["episodes"], run.config["train"]["steps"]) == (1000, 300)
+
+
+def test_plan_applies_sweeps_sets_and_shrinking(tmp_path):
+    experiment, path = load_experiment("e2")
+    plan = plan_experiment(experiment, path, tmp_path, seeds=2, episodes=3, steps=20,
+                           set_values=["agent.lr=0.0005"])
+    assert len(plan.runs) == 16
+    run = plan.run("adaptsky", 1, 2.5)
+    assert run is not None and run.name == "adaptsky-min_se-2.5-seed1"
+    config = run.config
+    assert config["reward"] | {} == {**config["reward"], "min_se": 2.5, "w_rate": 10.0,
+                                      "w_satisfied": 100.0, "w_unsatisfied": 10.0}
+    assert (config["train"]["episodes"], config["train"]["steps"]) == (3, 20)
+    assert config["agent"]["lr"] == 0.0005
+    assert config["radio"]["noise_figure_db"] == 5.0  # the released code's -79 dBm
+    e3, e3_path = load_experiment("e3")
+    dqn = plan_experiment(e3, e3_path, tmp_path).run("dqn", 0)
+    assert dqn is not None and dqn.config["agent"]["dueling"] is False
+
+
+GOOD = (ROOT / "experiments" / "e1a.toml").read_text()
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    (lambda t: t + "\nunknown_key = 1\n", "unknown_key: unknown key"),
+    (lambda t: t.replace("runs = 10", 'runs = "ten"'), "groups.0.runs: Input should be a "
+                                                       "valid integer"),
+    (lambda t: t.replace('policy = "adaptsky"', 'policy = "nobody"'),
+     "evaluation names group 'nobody'"),
+    (lambda t: t.replace('quantity = "fairness"', 'quantity = "happiness"'),
+     "unknown quantity 'happiness'"),
+    (lambda t: t.replace('kind = "learning-curves"', 'kind = "pie"'), "figure.kind"),
+    (lambda t: t.replace("../scenarios/sub6", "../nowhere/sub6"), "no such file"),
+    (lambda t: t + "\n[[[broken\n", "invalid TOML"),
+])
+def test_malformed_experiment_is_one_line(tmp_path, capsys, change, message):
+    folder = tmp_path / "experiments"
+    folder.mkdir()
+    (tmp_path / "scenarios").symlink_to(ROOT / "scenarios")
+    bad = folder / "bad.toml"
+    bad.write_text(change(GOOD))
+    code = main(["reproduce", str(bad), "--out", str(tmp_path / "out")])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert code == 1
+    assert len(lines) == 1 and lines[0].startswith(str(bad)) and message in lines[0], lines
+    assert not (tmp_path / "out").exists()
+
+
+def test_unknown_experiment_names_the_shipped_ones(capsys):
+    assert main(["reproduce", "e9"]) == 1
+    line = capsys.readouterr().err.strip()
+    assert line.startswith("e9: no such experiment") and "e1a, e1b, e2, e3" in line

@@ -1,0 +1,172 @@
+"""``adaptsky reproduce`` end to end on tiny experiments: files written, numbers that match
+the run files, a second call that only redraws, kill -9 and Ctrl-C with a restart that loses
+at most one checkpoint interval."""
+
+from __future__ import annotations
+
+import csv
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from adaptsky_cli.cli.main import main
+from adaptsky_cli.experiment.plan import load_experiment, plan_experiment
+from adaptsky_cli.experiment.runs import execute_run
+from adaptsky_cli.store.run_file import RunReader
+
+ROOT = Path(__file__).resolve().parents[1]
+ADAPTSKY = Path(sys.executable).with_name("adaptsky")
+SMALL_AGENT = ['"agent.hidden_sizes=[32, 32]"', '"agent.batch_size=32"',
+               '"agent.memory_size=2000"']
+
+
+def write_experiment(folder: Path, body: str, name: str = "tiny") -> Path:
+    """An experiment file beside a link to the shipped scenarios."""
+    folder.mkdir(parents=True, exist_ok=True)
+    if not (folder.parent / "scenarios").exists():
+        (folder.parent / "scenarios").symlink_to(ROOT / "scenarios")
+    path = folder / f"{name}.toml"
+    path.write_text(body)
+    return path
+
+
+def curves_experiment(tmp_path: Path, runs: int = 2) -> Path:
+    return write_experiment(tmp_path / "experiments", f"""
+id = "tiny"
+title = "tiny learning curves"
+[[groups]]
+name = "agent"
+scenario = "../scenarios/sub6_al_hourani_released_code.toml"
+runs = {runs}
+set = [{", ".join(SMALL_AGENT)}]
+[evaluation]
+policy = "agent"
+steps = 50
+baselines = ["soa", "oracle"]
+[figure]
+kind = "learning-curves"
+[[claims]]
+text = "sum rate"
+quantity = "sum_rate_bps"
+paper = 400e6
+[[claims]]
+text = "gain"
+quantity = "gain_vs_soa_pct"
+""")
+
+
+def last_mean(path: Path, name: str = "sum_rate_bps") -> float:
+    with h5py.File(path, "r") as file:
+        group = next(iter(file["seeds"].values()))
+        done = int(group.attrs["episodes_done"])
+        return float(np.mean(group["episodes"][name][:done][-100:]))
+
+
+def test_reproduce_writes_report_figure_csv_and_then_only_redraws(tmp_path, capsys):
+    experiment = curves_experiment(tmp_path)
+    out = tmp_path / "out"
+    args = ["reproduce", str(experiment), "--out", str(out), "--episodes", "4", "--steps",
+            "40", "--workers", "2"]
+    assert main(args) == 0
+    for name in ("report.md", "tiny.png", "tiny.csv", "plan.json", "runs/agent-seed0.h5",
+                 "runs/agent-seed1.h5", "evals/soa.h5", "evals/oracle.h5"):
+        assert (out / name).is_file(), name
+    assert (out / "tiny.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    report = (out / "report.md").read_text()
+    # R_e^tot in the report: the mean over runs of each run's mean of its last 100 episodes
+    rates = [last_mean(out / "runs" / f"agent-seed{s}.h5") for s in (0, 1)]
+    expected = f"{np.mean(rates) / 1e6:.2f} Mbit/s ± {np.std(rates) / 1e6:.2f} Mbit/s (n = 2)"
+    assert f"| sum rate | 400.00 Mbit/s | {expected} |" in report
+    assert "--episodes 4 --steps 40" in report
+    with (out / "tiny.csv").open() as handle:
+        rows = list(csv.DictReader(handle))
+    assert len(rows) == 4 and rows[0]["episode"] == "1"  # window 1 for 4 episodes
+    assert float(rows[-1]["agent_runs"]) == 2
+    stamps = {p: p.stat().st_mtime_ns for p in (out / "runs").iterdir()}
+    evals = {p: p.stat().st_mtime_ns for p in (out / "evals").iterdir()}
+    capsys.readouterr()
+    start = time.perf_counter()
+    assert main(args) == 0
+    assert time.perf_counter() - start < 10
+    assert {p: p.stat().st_mtime_ns for p in (out / "runs").iterdir()} == stamps
+    assert {p: p.stat().st_mtime_ns for p in (out / "evals").iterdir()} == evals
+    assert "evaluating" not in capsys.readouterr().err
+    # more episodes on the same folder: the runs continue, the evaluations are redone
+    assert main([*args[:5], "6", *args[6:]]) == 0
+    assert "resumed from episode 4" in capsys.readouterr().err
+
+
+def test_another_configuration_in_the_folder_is_refused(tmp_path, capsys):
+    experiment = curves_experiment(tmp_path, runs=1)
+    out = tmp_path / "out"
+    base = ["reproduce", str(experiment), "--out", str(out), "--episodes", "2"]
+    assert main([*base, "--steps", "10", "--runs-only"]) == 0
+    capsys.readouterr()
+    assert main([*base, "--steps", "20"]) == 1
+    line = capsys.readouterr().err.strip()
+    assert "made with another configuration (train.steps is 10 there, 20 here)" in line
+
+
+def _start(args: list[str], log: Path) -> subprocess.Popen:
+    return subprocess.Popen([str(ADAPTSKY), *args], stdout=log.open("w"),
+                            stderr=subprocess.STDOUT, start_new_session=True)
+
+
+def _episodes(path: Path) -> int:
+    try:
+        with RunReader(path) as run:
+            return run.seed_attrs(run.seeds[0])["episodes_done"]
+    except Exception:
+        return 0
+
+
+def _wait_for(condition, timeout_s: float = 120) -> None:
+    end = time.monotonic() + timeout_s
+    while not condition():
+        assert time.monotonic() < end, "timed out"
+        time.sleep(0.1)
+
+
+def test_kill_and_interrupt_lose_at_most_one_checkpoint_interval(tmp_path):
+    """kill -9 of the whole process group, then Ctrl-C, then a restart: every run ends equal,
+    bit for bit, to an uninterrupted run of the same spec."""
+    experiment = curves_experiment(tmp_path)
+    out = tmp_path / "out"
+    args = ["reproduce", str(experiment), "--out", str(out), "--episodes", "40", "--steps",
+            "40", "--workers", "2", "--set", "train.checkpoint_every=2", "--runs-only"]
+    runs = [out / "runs" / f"agent-seed{s}.h5" for s in (0, 1)]
+    process = _start(args, tmp_path / "first.log")
+    _wait_for(lambda: min(_episodes(r) for r in runs) >= 4)
+    os.killpg(process.pid, signal.SIGKILL)
+    process.wait()
+    at_kill = [_episodes(r) for r in runs]
+    time.sleep(1.0)  # orphaned workers notice their parent is gone and stop
+    assert [_episodes(r) for r in runs] == at_kill  # no writer is left behind
+
+    process = _start(args, tmp_path / "second.log")
+    _wait_for(lambda: min(_episodes(r) for r in runs) >= max(at_kill) + 4)
+    os.killpg(process.pid, signal.SIGINT)
+    assert process.wait(timeout=60) == 130
+    log = (tmp_path / "second.log").read_text()
+    resumed = [int(n) for n in re.findall(r"resumed from episode (\d+)", log)]
+    assert sorted(resumed) == sorted(at_kill)  # each continued from its checkpoint
+    assert "interrupted; every run keeps its last checkpoint" in log
+
+    process = _start(args, tmp_path / "third.log")
+    assert process.wait(timeout=120) == 0
+    assert [_episodes(r) for r in runs] == [40, 40]
+    experiment_model, path = load_experiment(str(experiment))
+    fresh = plan_experiment(experiment_model, path, tmp_path / "fresh", episodes=40, steps=40,
+                            set_values=["train.checkpoint_every=2"])
+    for spec, interrupted in zip(fresh.runs, runs, strict=True):
+        execute_run(spec)
+        with RunReader(spec.path) as a, RunReader(interrupted) as b:
+            for name, values in a.episodes(spec.seed).items():
+                assert np.array_equal(values, b.episodes(spec.seed)[name], equal_nan=True), name
