@@ -15,6 +15,7 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+import pytest
 
 from adaptsky_cli.cli.main import main
 from adaptsky_cli.experiment.plan import load_experiment, plan_experiment
@@ -170,3 +171,90 @@ def test_kill_and_interrupt_lose_at_most_one_checkpoint_interval(tmp_path):
         with RunReader(spec.path) as a, RunReader(interrupted) as b:
             for name, values in a.episodes(spec.seed).items():
                 assert np.array_equal(values, b.episodes(spec.seed)[name], equal_nan=True), name
+
+
+def test_min_se_sweep_marks_what_soa_serves(tmp_path):
+    """At -79 dBm SoA meets R_min = 0 and not 3.5 bit/s/Hz (its weak user's share is capped
+    at 1: docs/model.md section 5)."""
+    experiment = write_experiment(tmp_path / "experiments", f"""
+id = "sweep"
+title = "tiny sweep"
+[[groups]]
+name = "agent"
+scenario = "../scenarios/nyc_mmwave_released_code.toml"
+runs = 2
+set = [{", ".join(SMALL_AGENT)}, "reward.w_satisfied=100"]
+[groups.sweep]
+key = "reward.min_se"
+values = [0.0, 3.5]
+[evaluation]
+policy = "agent"
+steps = 120
+baselines = ["soa", "oracle"]
+[figure]
+kind = "min-se-sweep"
+[[claims]]
+text = "SoA serves"
+quantity = "soa_max_min_se_served"
+paper = 2.5
+""")
+    out = tmp_path / "out"
+    assert main(["reproduce", str(experiment), "--out", str(out), "--episodes", "2",
+                 "--steps", "30"]) == 0
+    with (out / "sweep.csv").open() as handle:
+        rows = list(csv.DictReader(handle))
+    assert [(r["min_se"], r["runs"], r["soa_serves"]) for r in rows] == [
+        ("0.0", "2", "True"), ("3.5", "2", "False")]
+    for row, value in zip(rows, (0.0, 3.5), strict=True):
+        rates = [last_mean(out / "runs" / f"agent-min_se-{value:g}-seed{s}.h5") for s in (0, 1)]
+        assert float(row["policy_mean_bps"]) == pytest.approx(np.mean(rates), rel=1e-12)
+        assert float(row["oracle_bps"]) >= float(row["soa_bps"])
+    assert "| SoA serves | 2.5 bit/s/Hz | 0 bit/s/Hz |" in (out / "report.md").read_text()
+
+
+def test_layout_gains_pairs_runs_by_seed(tmp_path):
+    experiment = write_experiment(tmp_path / "experiments", f"""
+id = "gains"
+title = "tiny gains"
+[[groups]]
+name = "duel"
+scenario = "../scenarios/nyc_mmwave.toml"
+runs = 2
+set = [{", ".join(SMALL_AGENT)}]
+[[groups]]
+name = "plain"
+scenario = "../scenarios/nyc_mmwave.toml"
+runs = 2
+set = [{", ".join(SMALL_AGENT)}, "agent.dueling=false"]
+[evaluation]
+policy = "duel"
+layouts = 3
+steps = 20
+baselines = ["soa", "oracle"]
+compare_groups = ["plain"]
+[figure]
+kind = "layout-gains"
+[[claims]]
+text = "beats SoA"
+quantity = "beats_share_pct_vs_soa"
+[[claims]]
+text = "beats plain"
+quantity = "mean_gain_pct_vs_plain"
+""")
+    out = tmp_path / "out"
+    assert main(["reproduce", str(experiment), "--out", str(out), "--episodes", "2",
+                 "--steps", "30"]) == 0
+    with (out / "gains.csv").open() as handle:
+        rows = list(csv.DictReader(handle))
+    assert [(r["seed"], r["layout"]) for r in rows] == [
+        (s, str(k)) for s in ("0", "1") for k in range(3)]
+    beats = [100 * np.mean([float(r["policy_bps"]) > float(r["soa_bps"]) for r in rows
+                            if r["seed"] == s]) for s in ("0", "1")]
+    gains = [np.mean([100 * (float(r["policy_bps"]) - float(r["plain_bps"]))
+                      / float(r["plain_bps"]) for r in rows if r["seed"] == s])
+             for s in ("0", "1")]
+    report = (out / "report.md").read_text()
+    assert f"| beats SoA | - | {np.mean(beats):.1f}% ± {np.std(beats):.1f}% (n = 2) |" in report
+    assert f"| beats plain | - | {np.mean(gains):+.1f}% ± {np.std(gains):.1f}% (n = 2) |" \
+        in report
+    assert all(float(r["oracle_bps"]) >= float(r["soa_bps"]) for r in rows)

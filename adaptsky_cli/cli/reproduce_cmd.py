@@ -6,6 +6,7 @@ from typing import Annotated
 import typer
 
 from adaptsky_cli.cli.console import err
+from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.experiment.reproduce import reproduce as run_reproduce
 
 
@@ -29,13 +30,18 @@ def reproduce(
         "(repeatable)", show_default=False)] = None,
     runs_only: Annotated[bool, typer.Option(help="train the missing runs, then stop before "
                                             "evaluating and reporting")] = False,
+    report_only: Annotated[bool, typer.Option(help="train nothing: evaluate and report the "
+                                              "runs that are finished")] = False,
     quiet: Annotated[bool, typer.Option(help="no progress, only the final lines")] = False,
 ) -> None:
     """Reproduce a paper experiment: run what is missing, resume what was interrupted, skip
     what is done, evaluate, and write figures, CSVs and report.md."""
+    if runs_only and report_only:
+        raise AdaptskyError("--runs-only and --report-only exclude each other")
     result = run_reproduce(experiment=experiment, out=out, seeds=seeds, episodes=episodes,
                            steps=steps, workers=workers, scheduler=scheduler,
-                           set_values=set_values, runs_only=runs_only, quiet=quiet, console=err)
+                           set_values=set_values, runs_only=runs_only,
+                           report_only=report_only, quiet=quiet, console=err)
     if result.interrupted:
         err.print(f"interrupted; every run keeps its last checkpoint. Continue with the same "
                   f"command (output folder {result.plan.out})")

@@ -40,8 +40,11 @@ def reproduce(*, experiment: str, out: Path | None = None, seeds: int | None = N
               episodes: int | None = None, steps: int | None = None,
               workers: int | None = None, scheduler: str | None = None,
               set_values: list[str] | None = None, runs_only: bool = False,
-              quiet: bool = False, console: Console | None = None) -> ReproduceResult:
-    """Run, evaluate and report an experiment into ``out`` (default reproduce/<id>)."""
+              report_only: bool = False, quiet: bool = False, console: Console | None = None) -> ReproduceResult:
+    """Run, evaluate and report an experiment into ``out`` (default reproduce/<id>).
+
+    ``runs_only`` stops after training; ``report_only`` trains nothing and reports the runs
+    that are finished (for a look while the runs go on elsewhere)."""
     console = console or Console(stderr=True, highlight=False)
     spec, path = load_experiment(experiment)
     out = out if out is not None else default_out(spec.id)
@@ -52,7 +55,7 @@ def reproduce(*, experiment: str, out: Path | None = None, seeds: int | None = N
     write_text_atomic(out / "plan.json", json.dumps(plan.record(), indent=1))
     todo = [(run, state) for run, state in states if state.status != "done"]
     sweep = None
-    if todo:
+    if todo and not report_only:
         capacity = workers or max(1, min(len(todo), os.cpu_count() or 1))
         executor = make_executor(capacity, scheduler)
         sweep = run_sweep(todo, executor, capacity, console, quiet, len(plan.runs))

@@ -341,7 +341,7 @@ def write_report(plan: Plan, evaluations: Evaluations) -> tuple[Path, list[Path]
         lines.append(f"| {claim.text} | {paper} | {ours} | {per_run or '-'} |")
     lines.append("")
     notes = list(analysis.notes)
-    notes += [f"not evaluated: {name} ({why})" for name, why in evaluations.missing.items()]
+    notes += [f"left out: {name} ({why})" for name, why in evaluations.missing.items()]
     if notes:
         lines += ["Notes:", "", *(f"- {note}" for note in notes), ""]
     lines += ["Runs are in `runs/` (one HDF5 run file each), evaluations in `evals/`. "
