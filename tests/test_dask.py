@@ -12,14 +12,15 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from adaptsky_cli.cli.main import main
-from adaptsky_cli.experiment.plan import load_experiment, plan_experiment
-from adaptsky_cli.experiment.runs import execute_run
-from adaptsky_cli.store.run_file import RunReader
-from tests.test_reproduce import _episodes, _wait_for, curves_experiment
+from tests.test_reproduce import (
+    _episodes,
+    _wait_for,
+    assert_equal_to_uninterrupted,
+    curves_experiment,
+)
 
 pytest.importorskip("distributed")
 BIN = Path(sys.executable).parent
@@ -101,15 +102,7 @@ def test_a_killed_worker_s_run_resumes_from_its_checkpoint(cluster, tmp_path):
     text = log.read_text()
     resumed = [int(n) for n in re.findall(r"resumed from episode (\d+)", text)]
     assert len(resumed) == 1 and 2 <= resumed[0] < 40, text
-    # the continued run equals an uninterrupted one, bit for bit
-    model, path = load_experiment(str(experiment))
-    fresh = plan_experiment(model, path, tmp_path / "fresh", episodes=40, steps=40,
-                            set_values=["train.checkpoint_every=2"])
-    for spec, done in zip(fresh.runs, runs, strict=True):
-        execute_run(spec)
-        with RunReader(spec.path) as a, RunReader(done) as b:
-            for name, values in a.episodes(spec.seed).items():
-                assert np.array_equal(values, b.episodes(spec.seed)[name], equal_nan=True)
+    assert_equal_to_uninterrupted(experiment, runs, tmp_path / "fresh")  # bit for bit
 
 
 def test_unreachable_scheduler_is_one_line(tmp_path, capsys):

@@ -21,6 +21,7 @@ from adaptsky_cli.experiment.runs import RunReport, execute_run
 
 class Executor(Protocol):
     description: str
+    capacity: int  # runs at once
 
     def submit(self, spec: RunSpec) -> Any: ...
 
@@ -58,6 +59,7 @@ class LocalExecutor:
         self.pool = ProcessPoolExecutor(workers, mp_context=context,
                                         initializer=_init_local_worker,
                                         initargs=(self.stop_event, os.getpid()))
+        self.capacity = workers
         self.description = f"{workers} local process{'es' if workers > 1 else ''}"
 
     def submit(self, spec: RunSpec) -> Future[RunReport]:
@@ -94,8 +96,9 @@ class DaskExecutor:
                                 f"({str(error).splitlines()[0]})") from None
         self.stop_name = f"adaptsky-stop-{uuid.uuid4().hex}"
         self.stop = Event(self.stop_name, client=self.client)
-        workers = len(self.client.scheduler_info().get("workers", {}))
-        self.description = f"Dask at {address} ({workers} workers now)"
+        workers = self.client.scheduler_info().get("workers", {})
+        self.capacity = max(1, sum(int(w.get("nthreads", 1)) for w in workers.values()))
+        self.description = f"Dask at {address} ({len(workers)} workers now)"
 
     def submit(self, spec: RunSpec) -> Any:
         return self.client.submit(_dask_run, spec, self.stop_name, pure=False,

@@ -40,7 +40,8 @@ def reproduce(*, experiment: str, out: Path | None = None, seeds: int | None = N
               episodes: int | None = None, steps: int | None = None,
               workers: int | None = None, scheduler: str | None = None,
               set_values: list[str] | None = None, runs_only: bool = False,
-              report_only: bool = False, quiet: bool = False, console: Console | None = None) -> ReproduceResult:
+              report_only: bool = False, quiet: bool = False,
+              console: Console | None = None) -> ReproduceResult:
     """Run, evaluate and report an experiment into ``out`` (default reproduce/<id>).
 
     ``runs_only`` stops after training; ``report_only`` trains nothing and reports the runs
@@ -56,9 +57,9 @@ def reproduce(*, experiment: str, out: Path | None = None, seeds: int | None = N
     todo = [(run, state) for run, state in states if state.status != "done"]
     sweep = None
     if todo and not report_only:
-        capacity = workers or max(1, min(len(todo), os.cpu_count() or 1))
-        executor = make_executor(capacity, scheduler)
-        sweep = run_sweep(todo, executor, capacity, console, quiet, len(plan.runs))
+        executor = make_executor(workers or max(1, min(len(todo), os.cpu_count() or 1)),
+                                 scheduler)
+        sweep = run_sweep(todo, executor, console, quiet, len(plan.runs))
         if sweep.interrupted:
             return ReproduceResult(plan, sweep, None, [])
     if runs_only:

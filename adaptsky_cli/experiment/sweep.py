@@ -80,10 +80,10 @@ class _Display:
             self.log(f"{status}; {eta}")
 
 
-def run_sweep(todo: list[tuple[RunSpec, RunState]], executor: Executor, capacity: int,
-              console: Console, quiet: bool, total_runs: int) -> SweepOutcome:
-    """Train every run in ``todo`` (resuming partial ones) on ``executor``; ``capacity`` is
-    how many run at once. Ctrl-C checkpoints the running runs and stops."""
+def run_sweep(todo: list[tuple[RunSpec, RunState]], executor: Executor, console: Console,
+              quiet: bool, total_runs: int) -> SweepOutcome:
+    """Train every run in ``todo`` (resuming partial ones) on ``executor``. Ctrl-C
+    checkpoints the running runs and stops."""
     start = time.monotonic()
     skipped = total_runs - len(todo)
     done_episodes = {spec.name: state.episodes_done for spec, state in todo}
@@ -136,7 +136,7 @@ def run_sweep(todo: list[tuple[RunSpec, RunState]], executor: Executor, capacity
                                 f"in {format_duration(report.seconds)}{resumed}")
                 episodes = sum(done_episodes.values())
                 finished = total_runs - len(futures)
-                running = min(len(futures), capacity)
+                running = min(len(futures), executor.capacity)
                 elapsed = time.monotonic() - start
                 rate = (episodes - start_episodes) / elapsed if elapsed > 0 else 0.0
                 eta = (f"about {format_duration((total_episodes - episodes) / rate)} left"
