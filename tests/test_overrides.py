@@ -51,6 +51,9 @@ def test_train_records_overrides_and_validates_them(tmp_path, capsys):
         config = json.loads(file["config"][()])
     assert config["reward"]["min_se"] == 1.5 and config["channel"]["los"] == "sampled"
     capsys.readouterr()
+    assert main(["inspect", str(out), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["overrides"] == ["reward.min_se=1.5",
+                                                                "channel.los=sampled"]
     for item, message in (("agent.lr=abc", "agent.lr: Input should be a valid number"),
                           ("agent.nope=1", "agent.nope: unknown key"),
                           ("reward.min_se=-1", "reward.min_se: Input should be greater")):

@@ -22,4 +22,6 @@ def inspect(
         return
     out.print(f"{summary['file']}: adaptsky {summary['adaptsky_version']}, format "
               f"{summary['format_version']}, created {summary['created_utc']}", markup=False)
+    if summary["overrides"]:
+        out.print("--set " + " --set ".join(summary["overrides"]), markup=False)
     out.print(summary_table(summary))

@@ -18,7 +18,7 @@ LAST_EPISODES = 100
 def summarize(path: Path) -> dict[str, Any]:
     """Everything ``adaptsky inspect`` shows, as JSON-able values."""
     with RunReader(path) as run:
-        attrs, config, plugins = run.attrs, run.config, run.plugins
+        attrs, config, plugins, overrides = run.attrs, run.config, run.plugins, run.overrides
         seeds = []
         for seed in run.seeds:
             run.require_checkpoint(seed)
@@ -35,7 +35,7 @@ def summarize(path: Path) -> dict[str, Any]:
     summary: dict[str, Any] = {
         "file": str(path), "scenario": config["name"], "format_version": attrs["format_version"],
         "adaptsky_version": attrs["adaptsky_version"], "created_utc": attrs["created_utc"],
-        "channel_model": config["channel"]["model"], "plugins": plugins,
+        "channel_model": config["channel"]["model"], "plugins": plugins, "overrides": overrides,
         "steps_per_episode": config["train"]["steps"], "seeds": seeds}
     for key in ("sum_rate_bps", "fairness"):
         values = [s[key] for s in seeds if s[key] is not None]
