@@ -239,7 +239,7 @@ def layout_gains(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
     if not gains:
         analysis.notes.append("no policy run has been evaluated: nothing to draw")
         return analysis
-    labels = {m: f"vs {experiment.group(m).title if m in spec.compare_groups else m.upper()}"
+    labels = {m: f"vs {experiment.group(m).title if m in spec.compare_groups else NAMES[m]}"
               for m in gains}
     pooled = {labels[m]: np.concatenate(g) for m, g in gains.items()}
     paper = {labels[m]: text for m in gains if (text := _paper_summary(plan, m))}
@@ -254,8 +254,15 @@ def layout_gains(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
     return analysis
 
 
+NAMES = {"soa": "SoA", "random": "random", "oracle": "oracle"}
+PAPER_WORDS = {"beats_share_pct": "beats on", "mean_gain_pct": "mean",
+               "median_gain_pct": "median", "max_gain_pct": "max"}
+
+
 def _paper_summary(plan: Plan, method: str) -> str:
-    texts = [c.paper_text for c in plan.experiment.claims
+    """'paper: beats on 67%, mean +39.11%, max +275.4%' from the claims about ``method``."""
+    texts = [f"{PAPER_WORDS[c.quantity.removesuffix(f'_vs_{method}')]} {c.paper_text}"
+             for c in plan.experiment.claims
              if c.quantity.endswith(f"_vs_{method}") and c.paper_text]
     return f"paper: {', '.join(texts)}" if texts else ""
 
