@@ -7,7 +7,6 @@ Errors of the project's own kind print one line (per problem) and exit 1;
 from __future__ import annotations
 
 import os
-import sys
 
 import typer
 
@@ -61,7 +60,3 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     return 0
 
-
-def run() -> None:
-    """Console-script entry point."""
-    sys.exit(main())

@@ -37,6 +37,7 @@ _parent_pid = 0
 def _init_local_worker(stop_event: Any, parent_pid: int) -> None:
     global _stop_event, _parent_pid
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when to stop
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # blocked while starting
     _stop_event, _parent_pid = stop_event, parent_pid
 
 

@@ -89,7 +89,7 @@ def run_sweep(todo: list[tuple[RunSpec, RunState]], executor: Executor, console:
     done_episodes = {spec.name: state.episodes_done for spec, state in todo}
     start_episodes = sum(done_episodes.values())
     total_episodes = sum(spec.episodes for spec, _ in todo)
-    futures = {spec.name: (spec, executor.submit(spec)) for spec, _ in todo}
+    futures: dict[str, tuple[RunSpec, Any]] = {}
     outcome, failures = SweepOutcome(), []
     interrupted = False
 
@@ -106,7 +106,16 @@ def run_sweep(todo: list[tuple[RunSpec, RunState]], executor: Executor, console:
                     "episode (Ctrl-C again to quit now)")
 
     display = _Display(console, quiet, total_episodes, start_episodes)
-    previous = signal.signal(signal.SIGINT, on_interrupt)
+    # Local workers start with SIGINT blocked (they inherit the mask) and ignore it before
+    # unblocking it, so a Ctrl-C while they start cannot kill them; it waits for this
+    # process's handler, which asks every run to checkpoint and stop.
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        for spec, _ in todo:
+            futures[spec.name] = (spec, executor.submit(spec))
+    finally:
+        previous = signal.signal(signal.SIGINT, on_interrupt)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     try:
         with display:
             display.log(f"{total_runs} runs: {skipped} done before, {len(todo)} to run on "
