@@ -60,7 +60,9 @@ def eval_scenario(scenario: Scenario, layouts: int | None, layout_seed: int) -> 
     return parse_scenario(data, "evaluation layouts")
 
 
-def _users(scenario: Scenario, layouts: int | None) -> np.ndarray:
+def eval_layouts(scenario: Scenario, layouts: int | None) -> np.ndarray:
+    """User positions (L, N, 2) of an evaluation: ``layouts`` uniform ones, or the one
+    scenario layout."""
     return user_layouts(scenario, layouts or 1)
 
 
@@ -136,7 +138,7 @@ def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path |
     base = load_scenario(scenario_path) if scenario_path else trained
     scenario = eval_scenario(base, layouts, layout_seed)
     _check_compatible(checkpoint, trained, scenario)
-    users_m = _users(scenario, layouts)
+    users_m = eval_layouts(scenario, layouts)
     policy = greedy_policy(trained, state)
     methods = [_policy_method("policy", scenario, policy, steps, users_m)]
     for item in compare_with or []:
@@ -156,7 +158,7 @@ def baseline(*, scenario_path: Path, method: str, layouts: int | None = None,
              layout_seed: int = 0, steps: int = 1000) -> tuple[dict[str, Any], list[Method]]:
     """One baseline on the scenario's layout or on uniform layouts."""
     scenario = eval_scenario(load_scenario(scenario_path), layouts, layout_seed)
-    users_m = _users(scenario, layouts)
+    users_m = eval_layouts(scenario, layouts)
     result = run_baseline(scenario, method, steps, users_m)
     return results_json([result], scenario, steps, layouts, layout_seed, users_m), [result]
 

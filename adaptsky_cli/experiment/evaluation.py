@@ -17,7 +17,13 @@ import numpy as np
 from rich.console import Console
 
 from adaptsky_cli.errors import AdaptskyError
-from adaptsky_cli.evaluate.api import Method, eval_scenario, results_json, run_baseline
+from adaptsky_cli.evaluate.api import (
+    Method,
+    eval_layouts,
+    eval_scenario,
+    results_json,
+    run_baseline,
+)
 from adaptsky_cli.evaluate.rollout import greedy_policy, rollout
 from adaptsky_cli.experiment.plan import Plan, RunSpec
 from adaptsky_cli.experiment.runs import run_state
@@ -80,7 +86,7 @@ def evaluate_plan(plan: Plan, console: Console, quiet: bool) -> Evaluations:
                 continue
             trained = parse_scenario(run.config, run.name)
             scenario = eval_scenario(trained, spec.layouts, spec.layout_seed)
-            users_m = _layouts(scenario, spec.layouts)
+            users_m = eval_layouts(scenario, spec.layouts)
             record = {"kind": "policy", "run": run.name, "episodes_done": state.episodes_done,
                       "scenario": scenario.model_dump(mode="json"), "steps": spec.steps,
                       "layouts": spec.layouts, "layout_seed": spec.layout_seed}
@@ -101,7 +107,7 @@ def evaluate_plan(plan: Plan, console: Console, quiet: bool) -> Evaluations:
     for value, run in points.items():
         scenario = eval_scenario(parse_scenario(run.config, run.name), spec.layouts,
                                  spec.layout_seed)
-        users_m = _layouts(scenario, spec.layouts)
+        users_m = eval_layouts(scenario, spec.layouts)
         for name in spec.baselines:
             record = {"kind": name, "scenario": scenario.model_dump(mode="json"),
                       "steps": spec.steps, "layouts": spec.layouts,
@@ -120,8 +126,3 @@ def evaluate_plan(plan: Plan, console: Console, quiet: bool) -> Evaluations:
             evaluations.baselines[(name, value)] = metrics
     return evaluations
 
-
-def _layouts(scenario: Scenario, layouts: int | None) -> np.ndarray:
-    from adaptsky_cli.env.layout import user_layouts
-
-    return user_layouts(scenario, layouts or 1)

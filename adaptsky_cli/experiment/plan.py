@@ -96,10 +96,6 @@ class Plan:
         return next((r for r in self.runs if (r.group, r.seed, r.sweep_value)
                      == (group, seed, sweep_value)), None)
 
-    @property
-    def sweep_key(self) -> str | None:
-        return next((g.sweep.key for g in self.experiment.groups if g.sweep), None)
-
     def record(self) -> dict[str, Any]:
         """The plan as JSON-able values (written to DIR/plan.json)."""
         return {"experiment": self.experiment.id, "file": str(self.experiment_path),
