@@ -82,7 +82,7 @@ def test_paper_scenario_run_file_layout(tmp_path, capsys):
             assert t["action"].dtype == np.int64 and t["los"].dtype == bool
             c = s["checkpoint"]
             assert c.attrs["episode"] == 3
-            assert set(c["agent"]) == {"policy", "target", "optimizer", "torch_rng"}
+            assert set(c["agent"]) == {"policy", "target", "optimizer"}
             assert c["agent/policy/advantage.weight"].shape == (32, 128)
             assert c["replay/observations"].shape == (900, 17)
             assert {"numpy_agent_json", "numpy_env_json"} <= set(c["rng"].attrs)

@@ -1,8 +1,9 @@
-"""A numpy ring-buffer replay memory returning typed batches.
+"""Replay memories of a stack of members: one ring buffer per member, on the training device.
 
-``terminated`` (a true terminal state: no bootstrap) is kept apart from time-limit
-truncation, which is not stored at all: a truncated transition still bootstraps from its
-next observation.
+A transition is one float32 row [s | s' | r | 1 - terminated | a]. ``terminated`` (a true terminal
+state: no bootstrap) is kept apart from time-limit truncation, which is not stored at all: a
+truncated transition still bootstraps from its next observation. Sampling indices are drawn on
+the host from each member's own generator; the rows are gathered on the device.
 """
 
 from __future__ import annotations
@@ -10,62 +11,95 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+import torch
 from numpy.typing import NDArray
+
+FIELDS = ("observations", "actions", "rewards", "next_observations", "terminated")
 
 
 class Batch(NamedTuple):
-    observations: NDArray[np.float32]
-    actions: NDArray[np.int64]
-    rewards: NDArray[np.float32]
-    next_observations: NDArray[np.float32]
-    terminated: NDArray[np.bool_]
+    """A mini-batch per member, on the device: (S, B, obs) observations, (S, B) the rest."""
+
+    observations: torch.Tensor
+    actions: torch.Tensor
+    rewards: torch.Tensor
+    next_observations: torch.Tensor
+    not_terminal: torch.Tensor
 
 
-class ReplayMemory:
-    """Fixed-capacity memory; the oldest transitions are overwritten first."""
+class StackedReplay:
+    """S fixed-capacity memories; each overwrites its oldest transitions first."""
 
-    FIELDS = ("observations", "actions", "rewards", "next_observations", "terminated")
-
-    def __init__(self, capacity: int, observation_size: int) -> None:
-        self.capacity = capacity
-        self.observations = np.zeros((capacity, observation_size), dtype=np.float32)
-        self.actions = np.zeros(capacity, dtype=np.int64)
-        self.rewards = np.zeros(capacity, dtype=np.float32)
-        self.next_observations = np.zeros((capacity, observation_size), dtype=np.float32)
-        self.terminated = np.zeros(capacity, dtype=np.bool_)
+    def __init__(self, stack: int, capacity: int, observation_size: int,
+                 device: torch.device) -> None:
+        self.capacity, self.obs_size = capacity, observation_size
+        self.width = 2 * observation_size + 3
+        self.rows = torch.zeros(stack, capacity, self.width, device=device)
+        self._flat = self.rows.view(stack * capacity, self.width)
+        self._host = self.rows.numpy() if device.type == "cpu" else None
+        self._row = np.zeros((stack, self.width), dtype=np.float32)
+        self._offsets = torch.arange(stack, device=device)[:, None] * capacity
+        # members of a stack are in lockstep: one write position and one size for all
         self.position = 0
         self.size = 0
 
-    def __len__(self) -> int:
-        return self.size
-
-    def add(self, observation: np.ndarray, action: int, reward: float,
-            next_observation: np.ndarray, terminated: bool) -> None:
-        i = self.position
-        self.observations[i] = observation
-        self.actions[i] = action
-        self.rewards[i] = reward
-        self.next_observations[i] = next_observation
-        self.terminated[i] = terminated
-        self.position = (i + 1) % self.capacity
+    def add(self, observations: NDArray[np.float32], actions: NDArray[np.integer],
+            rewards: NDArray[np.floating], next_observations: NDArray[np.float32],
+            terminated: NDArray[np.bool_]) -> None:
+        """One transition per member, host arrays with leading axis S."""
+        n = self.obs_size
+        row = self._row if self._host is None else self._host[:, self.position]
+        row[:, :n] = observations
+        row[:, n:2 * n] = next_observations
+        row[:, 2 * n] = rewards
+        row[:, 2 * n + 1] = ~terminated
+        row[:, 2 * n + 2] = actions
+        if self._host is None:
+            self.rows[:, self.position] = torch.from_numpy(row).to(self.rows.device)
+        self.position = (self.position + 1) % self.capacity
         self.size = min(self.size + 1, self.capacity)
 
-    def sample(self, batch_size: int, rng: np.random.Generator) -> Batch:
-        """``batch_size`` transitions drawn uniformly with replacement."""
-        index = rng.integers(0, self.size, size=batch_size)
-        return Batch(*(getattr(self, name)[index] for name in self.FIELDS))
+    def sample_index(self, batch_size: int, rngs: list[np.random.Generator]) -> NDArray[np.int64]:
+        """(S, B) indices, uniform with replacement over the stored rows, each member's from
+        its own generator: floor(u * size) for u uniform in [0, 1) (a third of the cost of
+        ``Generator.integers`` at this size; the bias is below 2^-40)."""
+        if len(rngs) == 1:
+            uniform = rngs[0].random((1, batch_size))
+        else:
+            uniform = np.stack([rng.random(batch_size) for rng in rngs])
+        uniform *= self.size
+        return uniform.astype(np.int64)
 
-    def arrays(self) -> dict[str, np.ndarray]:
-        """The stored rows of every field in storage order (for checkpoints)."""
-        return {name: getattr(self, name)[: self.size] for name in self.FIELDS}
+    def gather(self, index: torch.Tensor) -> Batch:
+        """The rows at ``index`` (S, B) (a device tensor) as a :class:`Batch`."""
+        stack, batch = index.shape
+        flat = index.view(-1) if stack == 1 else (index + self._offsets).view(-1)
+        rows = self._flat.index_select(0, flat)
+        rows = rows.view(stack, batch, self.width)
+        n = self.obs_size
+        return Batch(rows[..., :n], rows[..., -1].long(), rows[..., 2 * n],
+                     rows[..., n:2 * n], rows[..., 2 * n + 1])
 
-    def load(self, arrays: dict[str, np.ndarray], position: int) -> None:
-        """Refill from :meth:`arrays` output and the write ``position`` saved with it."""
+    def arrays(self, member: int) -> dict[str, np.ndarray]:
+        """A member's stored rows of every field in storage order (for checkpoints)."""
+        rows = self.rows[member, :self.size].cpu().numpy()
+        n = self.obs_size
+        return {"observations": rows[:, :n].copy(), "actions": rows[:, -1].astype(np.int64),
+                "rewards": rows[:, 2 * n].copy(), "next_observations": rows[:, n:2 * n].copy(),
+                "terminated": rows[:, 2 * n + 1] == 0}
+
+    def load(self, member: int, arrays: dict[str, np.ndarray], position: int) -> None:
+        """Refill a member from :meth:`arrays` output and the write ``position`` saved with it
+        (every member of a stack holds as many rows, written up to the same position)."""
         size = len(arrays["actions"])
         if size > self.capacity or not 0 <= position < self.capacity:
             raise ValueError(f"{size} transitions at {position} do not fit a memory of "
                              f"{self.capacity}")
-        for name in self.FIELDS:
-            getattr(self, name)[:size] = arrays[name]
-        self.size = size
-        self.position = position
+        row = np.concatenate([np.asarray(arrays["observations"], np.float32),
+                              np.asarray(arrays["next_observations"], np.float32),
+                              np.asarray(arrays["rewards"], np.float32)[:, None],
+                              ~np.asarray(arrays["terminated"], bool)[:, None],
+                              np.asarray(arrays["actions"], np.float32)[:, None]], axis=1)
+        self.rows[member].zero_()
+        self.rows[member, :size] = torch.from_numpy(row)
+        self.size, self.position = size, position

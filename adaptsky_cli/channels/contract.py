@@ -46,15 +46,33 @@ class LinkGeometry:
     def between(cls, uav_m: FloatArray, users_m: FloatArray) -> LinkGeometry:
         """Geometry of UAVs ``uav_m`` (B, 3) [x, y, h] and users ``users_m`` (B, N, 2)."""
         delta = users_m - uav_m[:, None, :2]
-        horizontal_m = np.hypot(delta[..., 0], delta[..., 1])
-        height_m = np.broadcast_to(uav_m[:, 2:3], horizontal_m.shape)
+        height_m = np.empty_like(delta[..., 0])    # h broadcast over users, as an array
+        height_m[...] = uav_m[:, 2:3]
+        return cls._from_offsets(delta[..., 0], delta[..., 1], height_m)
+
+    @classmethod
+    def _from_offsets(cls, dx_m: FloatArray, dy_m: FloatArray, height_m: FloatArray
+                      ) -> LinkGeometry:
+        """Geometry from the ground offsets between UAV and user (either sign: only their
+        sizes count) and the UAV height, each (B, N)."""
+        horizontal_m = np.hypot(dx_m, dy_m)
         distance_m = np.hypot(horizontal_m, height_m)
         elevation_deg = np.degrees(np.arcsin(height_m / distance_m))
-        return cls(horizontal_m, height_m, distance_m, elevation_deg)
+        # the frozen dataclass's __init__ sets each field through object.__setattr__; filling
+        # the instance's __dict__ at once is the same object, made faster (once per step)
+        geometry = object.__new__(cls)
+        geometry.__dict__.update(horizontal_m=horizontal_m, height_m=height_m,
+                                 distance_m=distance_m, elevation_deg=elevation_deg)
+        return geometry
 
     @property
     def shape(self) -> tuple[int, ...]:
         return self.distance_m.shape
+
+    def rows(self, start: int, stop: int) -> LinkGeometry:
+        """The links of environments ``start:stop`` (a view)."""
+        return LinkGeometry(self.horizontal_m[start:stop], self.height_m[start:stop],
+                            self.distance_m[start:stop], self.elevation_deg[start:stop])
 
 
 class ChannelModel(ABC):

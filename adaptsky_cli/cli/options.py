@@ -11,3 +11,6 @@ ScenarioFiles = Annotated[list[Path], typer.Argument(help="scenario files (TOML)
 PluginName = Annotated[str, typer.Argument(help="channel-model name, as in 'plugins list'",
                                            show_default=False)]
 Json = Annotated[bool, typer.Option("--json", help="print JSON on stdout, nothing else")]
+Device = Annotated[str, typer.Option(
+    "--device", help="where to train: cpu, cuda (or cuda:N) or auto (cuda when available); "
+    "on cuda all seeds train as one stack, recorded as CUDA graphs")]

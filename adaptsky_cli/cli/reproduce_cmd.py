@@ -6,16 +6,20 @@ from typing import Annotated
 import typer
 
 from adaptsky_cli.cli.console import err
+from adaptsky_cli.cli.options import Device
 from adaptsky_cli.errors import AdaptskyError
-from adaptsky_cli.experiment.reproduce import reproduce as run_reproduce
+from adaptsky_cli.experiment.plan import shipped_experiments
+from adaptsky_cli.experiment.reproduce import reproduce_many
 
 
 def reproduce(
     experiment: Annotated[str, typer.Argument(help="a shipped experiment id (e1a, e1b, e2, "
-                                              "e3) or an experiment file (TOML)",
-                                              show_default=False)],
+                                              "e3), 'all' of them, or an experiment file "
+                                              "(TOML)", show_default=False)],
     out: Annotated[Path | None, typer.Option(help="output folder: runs/, evals/, figures, "
-                                             "CSVs, report.md (default: reproduce/<id>)")] = None,
+                                             "CSVs, report.md (default: reproduce/<id>); with "
+                                             "'all', the folder of one subfolder per "
+                                             "experiment")] = None,
     seeds: Annotated[int | None, typer.Option(min=1, help="at most this many runs per group "
                                               "and sweep point, for a quick look")] = None,
     episodes: Annotated[int | None, typer.Option(min=1, help="episodes per run")] = None,
@@ -32,21 +36,29 @@ def reproduce(
                                             "evaluating and reporting")] = False,
     report_only: Annotated[bool, typer.Option(help="train nothing: evaluate and report the "
                                               "runs that are finished")] = False,
+    device: Device = "cpu",
     quiet: Annotated[bool, typer.Option(help="no progress, only the final lines")] = False,
 ) -> None:
     """Reproduce a paper experiment: run what is missing, resume what was interrupted, skip
     what is done, evaluate, and write figures, CSVs and report.md."""
     if runs_only and report_only:
         raise AdaptskyError("--runs-only and --report-only exclude each other")
-    result = run_reproduce(experiment=experiment, out=out, seeds=seeds, episodes=episodes,
-                           steps=steps, workers=workers, scheduler=scheduler,
-                           set_values=set_values, runs_only=runs_only,
-                           report_only=report_only, quiet=quiet, console=err)
-    if result.interrupted:
-        err.print(f"interrupted; every run keeps its last checkpoint. Continue with the same "
-                  f"command (output folder {result.plan.out})")
-        raise typer.Exit(130)
-    if result.report is not None:
-        err.print(f"report: {result.report}")
+    if experiment == "all":
+        names = list(shipped_experiments())
+        outs: list[Path | None] = [out / name if out else None for name in names]
     else:
-        err.print(f"runs are in {result.plan.out / 'runs'}")
+        names, outs = [experiment], [out]
+    results = reproduce_many(experiments=names, outs=outs, seeds=seeds, episodes=episodes,
+                             steps=steps, workers=workers, scheduler=scheduler,
+                             set_values=set_values, runs_only=runs_only,
+                             report_only=report_only, device=device, quiet=quiet, console=err)
+    if any(result.interrupted for result in results):
+        folders = ", ".join(str(result.plan.out) for result in results)
+        err.print(f"interrupted; every run keeps its last checkpoint. Continue with the same "
+                  f"command (output folder {folders})")
+        raise typer.Exit(130)
+    for result in results:
+        if result.report is not None:
+            err.print(f"report: {result.report}")
+        else:
+            err.print(f"runs are in {result.plan.out / 'runs'}")

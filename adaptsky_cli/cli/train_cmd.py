@@ -6,6 +6,7 @@ from typing import Annotated
 import typer
 
 from adaptsky_cli.cli.console import err, out
+from adaptsky_cli.cli.options import Device
 from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.report.summary import summarize, summary_table
 from adaptsky_cli.train import api
@@ -40,22 +41,24 @@ def train(
         show_default=False)] = None,
     resume: Annotated[Path | None, typer.Option(help="continue this run file from its last "
                                                 "checkpoints")] = None,
+    device: Device = "cpu",
     quiet: Annotated[bool, typer.Option(help="print only the final table")] = False,
 ) -> None:
-    """Train the dueling DQN on a scenario (algorithm 1), one process per seed."""
+    """Train the dueling DQN on a scenario (algorithm 1): on a CPU one process per seed, on a
+    GPU every seed in one stack."""
     if resume is not None:
         if scenario is not None or seeds or steps or checkpoint_every or out_file or set_values:
             raise AdaptskyError("--resume continues a run as it was configured: give only "
-                                "--episodes, --workers and --quiet with it")
+                                "--episodes, --workers, --device and --quiet with it")
         path, outcome = api.resume(run_path=resume, episodes=episodes, workers=workers,
-                                   quiet=quiet, console=err)
+                                   device=device, quiet=quiet, console=err)
     elif scenario is None:
         raise AdaptskyError("give a scenario file, or --resume RUN.h5")
     else:
         path, outcome = api.train(scenario_path=scenario, out=out_file, seeds=_seeds(seeds),
                                   episodes=episodes, steps=steps, workers=workers,
                                   checkpoint_every=checkpoint_every, set_values=set_values,
-                                  quiet=quiet, console=err)
+                                  device=device, quiet=quiet, console=err)
     out.print(summary_table(summarize(path)))
     if outcome.interrupted:
         err.print(f"interrupted; checkpoints saved. Continue with: adaptsky train --resume {path}")

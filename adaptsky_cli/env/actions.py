@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 ActionMode = Literal["paper", "with-hover"]
 
 MAX_ACTIONS = 2**31 - 1
+TABLE_MAX_ACTIONS = 4096  # action sets up to this size are looked up in a table, not decoded
 
 
 @dataclass(frozen=True)
@@ -48,6 +49,14 @@ class ActionSet:
         powers = self.base ** np.arange(self.num_components, dtype=np.int64)
         digits = (actions[..., None] // powers) % self.base
         return 2 * digits - 1 if self.mode == "paper" else digits - 1
+
+    def table(self) -> NDArray[np.int64]:
+        """Directions of every action, shape (count, 3 + K): row a is ``decode(a)``.
+
+        A lookup table for small action sets (see ``TABLE_MAX_ACTIONS``), cheaper per step
+        than decoding the digits.
+        """
+        return self.decode(np.arange(self.count, dtype=np.int64))
 
     def encode(self, directions: NDArray[np.integer]) -> NDArray[np.int64]:
         """Inverse of :meth:`decode`."""

@@ -35,15 +35,49 @@ def observe(scenario: Scenario, uav_m: NDArray[np.float64], users_m: NDArray[np.
 
     From UAV (B, 3), users (B, N, 2), alpha and gain (B, N).
     """
-    delta = uav_m[:, None, :2] - users_m
-    height = uav_m[:, 2:3]
-    if scenario.agent.observation == "scaled":
-        delta = delta / (scenario.area.side_m / 2)
-        gain = (10 * np.log10(gain) - GAIN_DB_CENTER) / GAIN_DB_SCALE
-        height = height / scenario.uav.max_height_m
-    per_user = np.stack([delta[..., 0], delta[..., 1], alpha, gain], axis=-1)
-    flat = per_user.reshape(per_user.shape[0], -1)
-    return np.concatenate([flat, height], axis=1).astype(np.float32)
+    features = np.empty((FEATURES_PER_USER, *gain.shape))
+    features[:2] = np.moveaxis(uav_m[:, None, :2] - users_m, -1, 0)
+    features[2] = alpha
+    return Observer(scenario, gain.shape)(features, gain, uav_m[:, 2])
+
+
+class Observer:
+    """:func:`observe` for one scenario and B environments of N users, with its constants
+    prepared once."""
+
+    def __init__(self, scenario: Scenario, shape: tuple[int, int]) -> None:
+        self.scaled = scenario.agent.observation == "scaled"
+        # 0-d arrays: numpy combines them with an array faster than Python floats
+        self._ten = np.array(10.0)
+        self._center = np.array(GAIN_DB_CENTER)
+        self._max_height_m = np.array(scenario.uav.max_height_m)
+        # every feature's divisor: L/2 for dx and dy, 1 for alpha (x / 1 is x), the dB scale
+        divisor = [scenario.area.side_m / 2, scenario.area.side_m / 2, 1.0, GAIN_DB_SCALE]
+        self._divisor = np.repeat(divisor, shape[0] * shape[1]).reshape(
+            FEATURES_PER_USER, *shape)
+
+    def __call__(self, features: NDArray[np.float64], gain: NDArray[np.float64],
+                 height_m: NDArray[np.float64]) -> NDArray[np.float32]:
+        """Observations (B, 4 N + 1) from ``features`` (4, B, N) whose first three rows hold
+        x_UAV - x_i, y_UAV - y_i and alpha_i (the fourth is overwritten with g_i, then every
+        row scaled in place), the gains g_i (B, N) and the UAV heights (B,).
+
+        The features are computed in float64, then rounded to float32 in one copy.
+        """
+        if self.scaled:
+            gain_db = np.log10(gain, out=features[3])
+            np.multiply(self._ten, gain_db, out=gain_db)
+            np.subtract(gain_db, self._center, out=gain_db)
+            np.divide(features, self._divisor, out=features)
+            height_m = height_m / self._max_height_m
+        else:
+            features[3] = gain
+        _, num_envs, num_users = features.shape
+        obs = np.empty((num_envs, observation_size(num_users)), dtype=np.float32)
+        obs[:, :-1].reshape(num_envs, num_users, FEATURES_PER_USER)[...] = features.transpose(
+            1, 2, 0)
+        obs[:, -1] = height_m
+        return obs
 
 
 def observation_bounds(scenario: Scenario) -> tuple[NDArray[np.float32], NDArray[np.float32]]:

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from adaptsky_cli.agent.dqn import DqnAgent
+from adaptsky_cli.agent.stacked import StackedDqn
 from adaptsky_cli.env.actions import ActionSet
 from adaptsky_cli.env.batch import NetworkState, NomaUavBatch
 from adaptsky_cli.env.observation import observation_size
@@ -71,6 +71,7 @@ def random_policy(num_actions: int, seed: int = 0) -> Policy:
 def greedy_policy(scenario: Scenario, checkpoint: Tree) -> Policy:
     """argmax_a Q(s, a) of a checkpoint's policy network."""
     num_actions = ActionSet(scenario.num_clusters, scenario.uav.actions).count
-    agent = DqnAgent(scenario.agent, observation_size(scenario.num_users), num_actions, seed=0)
-    agent.load_state_arrays(checkpoint["agent"])
-    return agent.greedy
+    agent = StackedDqn(scenario.agent, observation_size(scenario.num_users), num_actions,
+                       seeds=[0])
+    agent.load_state_arrays(0, checkpoint["agent"])
+    return lambda observations: agent.greedy(observations[None])[0]

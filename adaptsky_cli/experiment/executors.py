@@ -1,8 +1,8 @@
-"""Where runs execute: local processes (the default) or an existing Dask cluster.
+"""Where runs execute: local processes (the default), stacks on a GPU, or a Dask cluster.
 
-Both speak ``concurrent.futures``: ``submit(spec) -> future`` and ``request_stop()``. A run
-writes only its own file, so results come back through the files, never through memory, and
-a retried run resumes from its last checkpoint.
+All speak ``concurrent.futures``: ``submit_all(specs) -> [future per run]`` and
+``request_stop()``. A run writes only its own file, so results come back through the files,
+never through memory, and a retried run resumes from its last checkpoint.
 """
 
 from __future__ import annotations
@@ -12,18 +12,24 @@ import os
 import signal
 import uuid
 from concurrent.futures import Future, ProcessPoolExecutor
+from pathlib import Path
 from typing import Any, Protocol
 
+import torch
+
+from adaptsky_cli.agent.device_step import describe
 from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.experiment.plan import RunSpec
-from adaptsky_cli.experiment.runs import RunReport, execute_run
+from adaptsky_cli.experiment.runs import RunReport, execute_run, execute_runs
+from adaptsky_cli.scenario import parse_scenario
+from adaptsky_cli.train.stack_run import stack_key
 
 
 class Executor(Protocol):
     description: str
     capacity: int  # runs at once
 
-    def submit(self, spec: RunSpec) -> Any: ...
+    def submit_all(self, specs: list[RunSpec]) -> list[Any]: ...
 
     def request_stop(self) -> None: ...
 
@@ -63,14 +69,59 @@ class LocalExecutor:
         self.capacity = workers
         self.description = f"{workers} local process{'es' if workers > 1 else ''}"
 
-    def submit(self, spec: RunSpec) -> Future[RunReport]:
-        return self.pool.submit(_local_run, spec)
+    def submit_all(self, specs: list[RunSpec]) -> list[Future[RunReport]]:
+        return [self.pool.submit(_local_run, spec) for spec in specs]
 
     def request_stop(self) -> None:
         self.stop_event.set()
 
     def close(self) -> None:
         self.pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _stack_run(specs: list[RunSpec], device: str) -> list[RunReport]:
+    return execute_runs(specs, _stop_event.is_set, _orphaned, torch.device(device))
+
+
+def stacks(specs: list[RunSpec]) -> list[list[RunSpec]]:
+    """Runs grouped into stacks: runs whose scenarios may share one (same network, same
+    environment but for reward weights and seeds), in plan order."""
+    groups: dict[str, list[RunSpec]] = {}
+    for spec in specs:
+        key = stack_key(parse_scenario(spec.config, spec.name))
+        groups.setdefault(key, []).append(spec)
+    return list(groups.values())
+
+
+class StackExecutor(LocalExecutor):
+    """Every stack of runs in one process on ``device`` (a GPU): one trainer updates all its
+    runs together. ``workers`` stacks run at once."""
+
+    def __init__(self, workers: int, device: torch.device) -> None:
+        super().__init__(workers)
+        self.device = device
+        self.description = (f"{describe(device)}, {workers} process"
+                            f"{'es' if workers > 1 else ''} of stacked runs")
+
+    def submit_all(self, specs: list[RunSpec]) -> list[Future[RunReport]]:
+        futures: dict[Path, Future[RunReport]] = {spec.path: Future() for spec in specs}
+        for group in stacks(specs):
+            stacked = self.pool.submit(_stack_run, group, str(self.device))
+            stacked.add_done_callback(lambda done, group=group: _settle(done, group, futures))
+        return [futures[spec.path] for spec in specs]
+
+
+def _settle(done: Future[list[RunReport]], group: list[RunSpec],
+            futures: dict[Path, Future[RunReport]]) -> None:
+    """Hand a finished stack's outcome to the futures of its runs."""
+    for index, spec in enumerate(group):
+        future = futures[spec.path]
+        if done.cancelled():
+            future.cancel()
+        elif done.exception() is not None:
+            future.set_exception(done.exception())
+        else:
+            future.set_result(done.result()[index])
 
 
 def _dask_run(spec: RunSpec, stop_name: str) -> RunReport:
@@ -101,9 +152,10 @@ class DaskExecutor:
         self.capacity = max(1, sum(int(w.get("nthreads", 1)) for w in workers.values()))
         self.description = f"Dask at {address} ({len(workers)} workers now)"
 
-    def submit(self, spec: RunSpec) -> Any:
-        return self.client.submit(_dask_run, spec, self.stop_name, pure=False,
-                                  key=f"adaptsky-run-{spec.name}-{uuid.uuid4().hex[:8]}")
+    def submit_all(self, specs: list[RunSpec]) -> list[Any]:
+        return [self.client.submit(_dask_run, spec, self.stop_name, pure=False,
+                                   key=f"adaptsky-run-{spec.name}-{uuid.uuid4().hex[:8]}")
+                for spec in specs]
 
     def request_stop(self) -> None:
         self.stop.set()
@@ -112,5 +164,11 @@ class DaskExecutor:
         self.client.close()
 
 
-def make_executor(workers: int, scheduler: str | None) -> Executor:
+def make_executor(workers: int, scheduler: str | None,
+                  device: torch.device | None = None) -> Executor:
+    if device is not None and device.type != "cpu":
+        if scheduler:
+            raise AdaptskyError("--scheduler runs on the Dask workers' CPUs; leave out "
+                                "--device or --scheduler")
+        return StackExecutor(workers, device)
     return DaskExecutor(scheduler) if scheduler else LocalExecutor(workers)

@@ -13,11 +13,12 @@ from pathlib import Path
 
 from rich.console import Console
 
-from adaptsky_cli.experiment.executors import make_executor
+from adaptsky_cli.experiment.executors import make_executor, stacks
 from adaptsky_cli.experiment.plan import Plan, load_experiment, plan_experiment
 from adaptsky_cli.experiment.runs import run_state
 from adaptsky_cli.experiment.sweep import SweepOutcome, run_sweep
 from adaptsky_cli.store.atomic import write_text_atomic
+from adaptsky_cli.train.api import training_device
 
 
 @dataclass
@@ -40,37 +41,62 @@ def reproduce(*, experiment: str, out: Path | None = None, seeds: int | None = N
               episodes: int | None = None, steps: int | None = None,
               workers: int | None = None, scheduler: str | None = None,
               set_values: list[str] | None = None, runs_only: bool = False,
-              report_only: bool = False, quiet: bool = False,
+              report_only: bool = False, device: str = "cpu", quiet: bool = False,
               console: Console | None = None) -> ReproduceResult:
     """Run, evaluate and report an experiment into ``out`` (default reproduce/<id>).
 
     ``runs_only`` stops after training; ``report_only`` trains nothing and reports the runs
     that are finished (for a look while the runs go on elsewhere)."""
+    return reproduce_many(experiments=[experiment], outs=[out], seeds=seeds, episodes=episodes,
+                          steps=steps, workers=workers, scheduler=scheduler,
+                          set_values=set_values, runs_only=runs_only, report_only=report_only,
+                          device=device, quiet=quiet, console=console)[0]
+
+
+def reproduce_many(*, experiments: list[str], outs: list[Path | None],
+                   seeds: int | None = None, episodes: int | None = None,
+                   steps: int | None = None, workers: int | None = None,
+                   scheduler: str | None = None, set_values: list[str] | None = None,
+                   runs_only: bool = False, report_only: bool = False, device: str = "cpu",
+                   quiet: bool = False, console: Console | None = None
+                   ) -> list[ReproduceResult]:
+    """:func:`reproduce` for several experiments whose runs train in one sweep (side by side
+    on the executor), then are evaluated and reported one experiment at a time."""
     console = console or Console(stderr=True, highlight=False)
-    spec, path = load_experiment(experiment)
-    out = out if out is not None else default_out(spec.id)
-    plan = plan_experiment(spec, path, out, seeds=seeds, episodes=episodes, steps=steps,
-                           set_values=set_values)
-    states = [(run, run_state(run)) for run in plan.runs]  # refuses conflicting files first
-    out.mkdir(parents=True, exist_ok=True)
-    write_text_atomic(out / "plan.json", json.dumps(plan.record(), indent=1))
-    todo = [(run, state) for run, state in states if state.status != "done"]
+    torch_device = training_device(device)
+    plans = []
+    for experiment, out in zip(experiments, outs, strict=True):
+        spec, path = load_experiment(experiment)
+        plans.append(plan_experiment(spec, path, out if out is not None else default_out(spec.id),
+                                     seeds=seeds, episodes=episodes, steps=steps,
+                                     set_values=set_values))
+    todo = []
+    for plan in plans:
+        states = [(run, run_state(run)) for run in plan.runs]  # refuses conflicting files first
+        plan.out.mkdir(parents=True, exist_ok=True)
+        write_text_atomic(plan.out / "plan.json", json.dumps(plan.record(), indent=1))
+        todo += [(run, state) for run, state in states if state.status != "done"]
     sweep = None
     if todo and not report_only:
-        executor = make_executor(workers or max(1, min(len(todo), os.cpu_count() or 1)),
-                                 scheduler)
-        sweep = run_sweep(todo, executor, console, quiet, len(plan.runs))
-        if sweep.interrupted:
-            return ReproduceResult(plan, sweep, None, [])
+        stacked = torch_device.type != "cpu"
+        units = len(stacks([run for run, _ in todo])) if stacked else len(todo)
+        default_workers = min(units, os.cpu_count() or 1)
+        executor = make_executor(workers or max(1, default_workers), scheduler, torch_device)
+        sweep = run_sweep(todo, executor, console, quiet, sum(len(p.runs) for p in plans))
+        if sweep.interrupted or runs_only:
+            return [ReproduceResult(plan, sweep, None, []) for plan in plans]
     if runs_only:
-        return ReproduceResult(plan, sweep, None, [])
+        return [ReproduceResult(plan, sweep, None, []) for plan in plans]
     from adaptsky_cli.experiment.evaluation import evaluate_plan
     from adaptsky_cli.report.reproduction import write_report
 
-    start = time.monotonic()
-    evaluations = evaluate_plan(plan, console, quiet)
-    report, files = write_report(plan, evaluations)
-    if not quiet:
-        console.print(f"evaluated and reported in {time.monotonic() - start:.1f} s",
-                      markup=False)
-    return ReproduceResult(plan, sweep, report, files)
+    results = []
+    for plan in plans:
+        start = time.monotonic()
+        evaluations = evaluate_plan(plan, console, quiet)
+        report, files = write_report(plan, evaluations)
+        if not quiet:
+            console.print(f"{plan.experiment.id}: evaluated and reported in "
+                          f"{time.monotonic() - start:.1f} s", markup=False)
+        results.append(ReproduceResult(plan, sweep, report, files))
+    return results

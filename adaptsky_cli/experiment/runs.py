@@ -9,7 +9,9 @@ import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
+
+import torch
 
 from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.experiment.plan import RunSpec, scenario_text
@@ -18,7 +20,7 @@ from adaptsky_cli.store import run_file
 from adaptsky_cli.store.atomic import remove_stale_copies
 from adaptsky_cli.store.run_file import RunFileError, RunReader
 from adaptsky_cli.train.api import create_run_file
-from adaptsky_cli.train.runner import RunFileWriter, SeedTask, pin_threads, train_seed
+from adaptsky_cli.train.runner import RunFileWriter, SeedTask, pin_threads, train_stack
 
 Status = Literal["missing", "partial", "done"]
 
@@ -82,12 +84,8 @@ class RunReport:
     pid: int
 
 
-def execute_run(spec: RunSpec, stop: Callable[[], bool] = lambda: False,
-                orphaned: Callable[[], bool] = lambda: False) -> RunReport:
-    """Train ``spec`` to its episode target in this process (one thread), starting from its
-    file's last checkpoint if it has one. ``stop()`` asks for a checkpoint and an early end."""
-    start = time.perf_counter()
-    pin_threads()
+def _prepare(spec: RunSpec) -> tuple[RunState, SeedTask | None]:
+    """Create or open ``spec``'s run file; the task that finishes it (None when done)."""
     remove_stale_copies(spec.path)
     state = run_state(spec)
     scenario = parse_scenario(spec.config, spec.name)
@@ -101,15 +99,44 @@ def execute_run(spec: RunSpec, stop: Callable[[], bool] = lambda: False,
             planned = run.seed_attrs(spec.seed)["episodes_planned"]
         if planned != spec.episodes:
             run_file.set_planned_episodes(spec.path, spec.config)
-    if state.status != "done":
-        t = scenario.train
-        task = SeedTask(scenario, spec.seed, t.episodes, t.checkpoint_every, t.trajectory_every,
-                        checkpoint)
-        errors: list[str] = []
-        writer = RunFileWriter(spec.path, {spec.seed: state.episodes_done}, errors)
-        train_seed(task, writer, stop, orphaned)
-        if errors:
-            raise AdaptskyError(f"{spec.name}: {errors[0]}")
-    final = run_state(spec)
-    return RunReport(spec.name, state.episodes_done, final.episodes_done,
-                     time.perf_counter() - start, os.uname().nodename, os.getpid())
+    if state.status == "done":
+        return state, None
+    t = scenario.train
+    return state, SeedTask(scenario, spec.seed, t.episodes, t.checkpoint_every,
+                           t.trajectory_every, checkpoint, label=spec.path)
+
+
+def execute_runs(specs: list[RunSpec], stop: Callable[[], bool] = lambda: False,
+                 orphaned: Callable[[], bool] = lambda: False,
+                 device: torch.device | None = None) -> list[RunReport]:
+    """Train ``specs`` to their episode targets in this process (one thread) as one stack,
+    each from its file's last checkpoint if it has one (members of a stack must share
+    :func:`adaptsky_cli.train.stack_run.stack_key`). ``stop()`` asks for a checkpoint and an
+    early end."""
+    start = time.perf_counter()
+    pin_threads()
+    prepared = [_prepare(spec) for spec in specs]
+    tasks = [task for _, task in prepared if task is not None]
+    errors: list[str] = []
+    writers = {spec.path: RunFileWriter(spec.path, {spec.seed: state.episodes_done}, errors)
+               for spec, (state, _) in zip(specs, prepared, strict=True)}
+    seeds = {spec.path: spec.seed for spec in specs}
+
+    def route(message: tuple[Any, ...]) -> None:  # a run's messages to its own file
+        kind, path, *rest = message
+        writers[path]((kind, seeds[path], *rest))
+
+    if tasks:
+        train_stack(tasks, route, stop, orphaned, device or torch.device("cpu"))
+    if errors:
+        raise AdaptskyError(f"{specs[0].name}: {errors[0]}")
+    seconds = time.perf_counter() - start
+    return [RunReport(spec.name, state.episodes_done, run_state(spec).episodes_done, seconds,
+                      os.uname().nodename, os.getpid())
+            for spec, (state, _) in zip(specs, prepared, strict=True)]
+
+
+def execute_run(spec: RunSpec, stop: Callable[[], bool] = lambda: False,
+                orphaned: Callable[[], bool] = lambda: False) -> RunReport:
+    """Train one run on the CPU; see :func:`execute_runs`."""
+    return execute_runs([spec], stop, orphaned)[0]

@@ -86,7 +86,7 @@ def run_sweep(todo: list[tuple[RunSpec, RunState]], executor: Executor, console:
     checkpoints the running runs and stops."""
     start = time.monotonic()
     skipped = total_runs - len(todo)
-    done_episodes = {spec.name: state.episodes_done for spec, state in todo}
+    done_episodes = {spec.path: state.episodes_done for spec, state in todo}
     start_episodes = sum(done_episodes.values())
     total_episodes = sum(spec.episodes for spec, _ in todo)
     futures: dict[str, tuple[RunSpec, Any]] = {}
@@ -111,8 +111,9 @@ def run_sweep(todo: list[tuple[RunSpec, RunState]], executor: Executor, console:
     # process's handler, which asks every run to checkpoint and stop.
     signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
-        for spec, _ in todo:
-            futures[spec.name] = (spec, executor.submit(spec))
+        specs = [spec for spec, _ in todo]
+        for spec, future in zip(specs, executor.submit_all(specs), strict=True):
+            futures[spec.path] = (spec, future)
     finally:
         previous = signal.signal(signal.SIGINT, on_interrupt)
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
@@ -121,13 +122,14 @@ def run_sweep(todo: list[tuple[RunSpec, RunState]], executor: Executor, console:
             display.log(f"{total_runs} runs: {skipped} done before, {len(todo)} to run on "
                         f"{executor.description}")
             while futures:
-                for name, (spec, future) in list(futures.items()):
+                for key, (spec, future) in list(futures.items()):
+                    name = spec.name
                     if not future.done():
                         episodes = _episodes_in_file(spec)
                         if episodes is not None:
-                            done_episodes[name] = episodes
+                            done_episodes[key] = episodes
                         continue
-                    del futures[name]
+                    del futures[key]
                     if future.cancelled():
                         continue
                     try:
@@ -137,7 +139,7 @@ def run_sweep(todo: list[tuple[RunSpec, RunState]], executor: Executor, console:
                         failures.append(f"{name}: {message}")
                         display.log(f"run {name} failed: {message}")
                         continue
-                    done_episodes[name] = report.episodes_done
+                    done_episodes[key] = report.episodes_done
                     outcome.reports.append(report)
                     resumed = (f", resumed from episode {report.started_at_episode}"
                                if report.started_at_episode else "")

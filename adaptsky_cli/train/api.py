@@ -4,8 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import torch
 from rich.console import Console
 
+from adaptsky_cli.agent.device_step import resolve_device
 from adaptsky_cli.channels.registry import discover
 from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.scenario import Scenario, parse_scenario
@@ -70,12 +72,14 @@ def create_run_file(path: Path, scenario: Scenario, text: str,
 def train(*, scenario_path: Path, out: Path | None = None, seeds: list[int] | None = None,
           episodes: int | None = None, steps: int | None = None, workers: int | None = None,
           checkpoint_every: int | None = None, set_values: list[str] | None = None,
-          quiet: bool = False, console: Console | None = None) -> tuple[Path, RunOutcome]:
+          device: str = "cpu", quiet: bool = False, console: Console | None = None
+          ) -> tuple[Path, RunOutcome]:
     """Train every seed of the scenario into a new run file; returns its path.
 
     ``set_values`` are ``section.key=value`` overrides, applied before the options above and
-    recorded in the run file.
+    recorded in the run file. ``device``: cpu, cuda or auto (cuda when available).
     """
+    torch_device = training_device(device)
     scenario, text = load_with_overrides(scenario_path, set_values)
     scenario = _with_train(scenario, seeds=seeds, episodes=episodes, steps=steps,
                            checkpoint_every=checkpoint_every)
@@ -84,12 +88,15 @@ def train(*, scenario_path: Path, out: Path | None = None, seeds: list[int] | No
     t = scenario.train
     tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every)
              for seed in t.seeds]
-    return path, _run(path, tasks, workers, quiet, console)
+    return path, _run(path, tasks, workers, torch_device, quiet, console)
 
 
 def resume(*, run_path: Path, episodes: int | None = None, workers: int | None = None,
-           quiet: bool = False, console: Console | None = None) -> tuple[Path, RunOutcome]:
-    """Continue every seed of a run file from its last checkpoint."""
+           device: str = "cpu", quiet: bool = False, console: Console | None = None
+           ) -> tuple[Path, RunOutcome]:
+    """Continue every seed of a run file from its last checkpoint (on any device: only the
+    same device continues bit for bit)."""
+    torch_device = training_device(device)
     remove_stale_copies(run_path)
     with RunReader(run_path) as run:
         config = run.config
@@ -106,13 +113,21 @@ def resume(*, run_path: Path, episodes: int | None = None, workers: int | None =
     tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every,
                       checkpoint) for seed, checkpoint in checkpoints.items()
              if int(checkpoint["episode"]) < t.episodes]
-    return run_path, _run(run_path, tasks, workers, quiet, console)
+    return run_path, _run(run_path, tasks, workers, torch_device, quiet, console)
 
 
-def _run(path: Path, tasks: list[SeedTask], workers: int | None, quiet: bool,
-         console: Console | None) -> RunOutcome:
+def training_device(name: str) -> torch.device:
+    """The torch device for ``--device`` (cpu, cuda, cuda:N or auto), or one clear error."""
+    try:
+        return resolve_device(name)
+    except (ValueError, RuntimeError) as error:
+        raise AdaptskyError(str(error)) from None
+
+
+def _run(path: Path, tasks: list[SeedTask], workers: int | None, device: torch.device,
+         quiet: bool, console: Console | None) -> RunOutcome:
     console = console or Console(stderr=True)
     with TrainingProgress(console, quiet) as view:
         for task in tasks:
             view.add_seed(task.seed, task.episodes_done, task.episodes)
-        return run_tasks(path, tasks, workers or len(tasks), view)
+        return run_tasks(path, tasks, workers or len(tasks), view, device)

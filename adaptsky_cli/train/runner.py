@@ -1,8 +1,10 @@
-"""Training several seeds, in parallel processes, into one run file.
+"""Training several seeds into one run file: processes on a CPU, one stack on a GPU.
 
-Each seed trains in its own process (torch pinned to one thread) and sends its results to
-this process, the only writer of the run file. A seed sends a checkpoint every
-``checkpoint_every`` episodes, at its end, and when asked to stop (Ctrl-C).
+On a CPU the seeds are dealt to worker processes (torch pinned to one thread), each training
+its share as one stack (:mod:`adaptsky_cli.train.stack_run`), and send their results to this
+process, the only writer of the run file. On a GPU one stack in this process trains them all.
+Every seed sends a checkpoint every ``checkpoint_every`` episodes, at its end, and when asked
+to stop (Ctrl-C).
 """
 
 from __future__ import annotations
@@ -19,13 +21,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import torch
 
 from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.scenario.models import Scenario
 from adaptsky_cli.store import run_file
 from adaptsky_cli.store.tree import Tree
 from adaptsky_cli.train.progress import TrainingProgress
-from adaptsky_cli.train.seed_run import SeedRun
+from adaptsky_cli.train.stack_run import Member, StackRun
 
 Emit = Callable[[tuple[Any, ...]], None]
 
@@ -45,6 +48,12 @@ class SeedTask:
     trajectory_every: int
     checkpoint: Tree | None = None
     parent_pid: int = field(default_factory=os.getpid)  # a worker's parent: the writer
+    label: object = None  # names the task in messages when seeds alone do not (see key)
+
+    @property
+    def key(self) -> object:
+        """The task's name in messages: its label, else its seed."""
+        return self.seed if self.label is None else self.label
 
     @property
     def episodes_done(self) -> int:
@@ -62,51 +71,85 @@ def pin_threads() -> None:
 
 def train_seed(task: SeedTask, emit: Emit, stop: Callable[[], bool],
                orphaned: Callable[[], bool] = lambda: False) -> None:
-    """Run one seed to ``task.episodes``, emitting progress and checkpoint messages.
+    """Run one seed to ``task.episodes`` on the CPU (a stack of one)."""
+    train_stack([task], emit, stop, orphaned)
 
-    ``stop()`` asks for a checkpoint and an early end; ``orphaned()`` (the parent died) for an
-    end without one.
+
+def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
+                orphaned: Callable[[], bool] = lambda: False,
+                device: str | torch.device = "cpu") -> None:
+    """Run every task to its ``episodes`` as stacks of members at the same episode, emitting
+    progress and checkpoint messages (keyed by ``task.key``).
+
+    Tasks resumed from different episodes: the ones furthest behind train first and join the
+    others when they catch up. ``stop()`` asks for a checkpoint of every member and an early
+    end; ``orphaned()`` (the parent died) for an end without one.
     """
-    run = SeedRun(task.scenario, task.seed)
-    if task.checkpoint is not None:
-        run.restore(task.checkpoint)
-    rows: list[dict[str, Any]] = []
-    trajectories: dict[int, Tree] = {}
-    while run.episodes_done < task.episodes:
-        result = run.run_episode()
-        rows.append(result.metrics)
-        if task.trajectory_every and result.episode % task.trajectory_every == 0:
-            trajectories[result.episode] = result.trajectory
-        if orphaned():
-            return  # nobody is left to write the run file: it keeps its last checkpoint
-        emit(("progress", task.seed, result.episode,
-              {k: result.metrics[k] for k in ("sum_rate_bps", "fairness", "epsilon")}))
-        stopping = stop()
-        if (result.episode % task.checkpoint_every == 0 or result.episode == task.episodes
-                or stopping):
-            stacked = {name: np.array([row[name] for row in rows]) for name in rows[0]}
-            emit(("checkpoint", task.seed, stacked, trajectories,
-                  (result.episode, result.trajectory), run.checkpoint()))
-            rows, trajectories = [], {}
-        if stopping:
+    states = {task.key: task.checkpoint for task in tasks}
+    done = {task.key: task.episodes_done for task in tasks}
+    rows: dict[object, list[dict[str, Any]]] = {task.key: [] for task in tasks}
+    trajectories: dict[object, dict[int, Tree]] = {task.key: {} for task in tasks}
+    stopping = False
+    while not stopping:
+        left = [task for task in tasks if done[task.key] < task.episodes]
+        if not left:
             break
-    emit(("done", task.seed))
+        episode = min(done[task.key] for task in left)
+        group = [task for task in left if done[task.key] == episode]
+        merge_at = min((done[task.key] for task in left if done[task.key] > episode),
+                       default=None)
+        run = StackRun([Member(task.scenario, task.seed) for task in group], device)
+        for index, task in enumerate(group):
+            if states[task.key] is not None:
+                run.restore(index, states[task.key])
+        while True:
+            results = run.run_episode()
+            if orphaned():
+                return  # nobody is left to write the run file: it keeps its last checkpoint
+            stopping = stop()
+            for index, (task, result) in enumerate(zip(group, results, strict=True)):
+                rows[task.key].append(result.metrics)
+                if task.trajectory_every and result.episode % task.trajectory_every == 0:
+                    trajectories[task.key][result.episode] = result.trajectory
+                emit(("progress", task.key, result.episode,
+                      {k: result.metrics[k] for k in ("sum_rate_bps", "fairness", "epsilon")}))
+                if (result.episode % task.checkpoint_every == 0
+                        or result.episode == task.episodes or stopping):
+                    stacked = {name: np.array([row[name] for row in rows[task.key]])
+                               for name in rows[task.key][0]}
+                    emit(("checkpoint", task.key, stacked, trajectories[task.key],
+                          (result.episode, result.trajectory), run.checkpoint(index)))
+                    rows[task.key], trajectories[task.key] = [], {}
+            if stopping:
+                break
+            if (run.episodes_done == merge_at
+                    or any(run.episodes_done == task.episodes for task in group)):
+                break
+        for index, task in enumerate(group):  # regroup: someone finished or others wait here
+            done[task.key] = run.episodes_done
+            if run.episodes_done < task.episodes:
+                states[task.key] = run.checkpoint(index)
+    for task in tasks:
+        emit(("done", task.key))
 
 
-def _worker(task: SeedTask, messages: Any, stop_event: Any) -> None:
+def _worker(group: list[SeedTask], messages: Any, stop_event: Any) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when to stop
     pin_threads()
+    parent_pid = group[0].parent_pid
+
     def orphaned() -> bool:
-        if os.getppid() == task.parent_pid:
+        if os.getppid() == parent_pid:
             return False
         messages.cancel_join_thread()  # unsent messages have no reader: do not wait on them
         return True
 
     try:
-        train_seed(task, messages.put, stop_event.is_set, orphaned)
+        train_stack(group, messages.put, stop_event.is_set, orphaned)
     except Exception as error:  # reported by the parent as one line
         last = traceback.format_exception_only(type(error), error)[-1].strip()
-        messages.put(("error", task.seed, last))
+        for task in group:
+            messages.put(("error", task.key, last))
 
 
 class _StopOnInterrupt:
@@ -156,56 +199,61 @@ class RunOutcome:
     interrupted: bool
 
 
-def run_tasks(path: Path, tasks: list[SeedTask], workers: int,
-              view: TrainingProgress) -> RunOutcome:
-    """Train every task, writing each checkpoint to the run file at ``path``."""
+def partition(tasks: list[SeedTask], workers: int) -> list[list[SeedTask]]:
+    """Tasks dealt round-robin into at most ``workers`` groups, one process (a stack) each."""
+    count = max(1, min(workers, len(tasks)))
+    return [tasks[start::count] for start in range(count)]
+
+
+def run_tasks(path: Path, tasks: list[SeedTask], workers: int, view: TrainingProgress,
+              device: torch.device | None = None) -> RunOutcome:
+    """Train every task, writing each checkpoint to the run file at ``path``.
+
+    On a CPU the tasks are shared among ``workers`` processes (at most the cores), each
+    training its share as one stack; on another device one stack in this process holds them
+    all.
+    """
     done: dict[int, int] = {task.seed: task.episodes_done for task in tasks}
     errors: list[str] = []
     handle = RunFileWriter(path, done, errors, view.episode)
-
+    device = device or torch.device("cpu")
     workers = max(1, min(workers, len(tasks), os.cpu_count() or 1))
-    if workers == 1:
+    if device.type != "cpu" or workers == 1:
         stop = threading.Event()
         pin_threads()
         with _StopOnInterrupt(stop, view):
-            for task in tasks:
-                if stop.is_set():
-                    break
-                train_seed(task, handle, stop.is_set)
+            train_stack(tasks, handle, stop.is_set, device=device)
+        if errors:
+            raise TrainingError("; ".join(errors))
         return RunOutcome(done, stop.is_set())
 
     context = multiprocessing.get_context("spawn")
     messages, stop_event = context.Queue(), context.Event()
-    pending = list(tasks)
-    running: dict[int, Any] = {}
-    finished: set[int] = set()
+    processes = []
     with _StopOnInterrupt(stop_event, view):
-        while pending or running:
-            while pending and len(running) < workers and not stop_event.is_set():
-                task = pending.pop(0)
-                process = context.Process(target=_worker, args=(task, messages, stop_event),
-                                          daemon=True)
-                process.start()
-                running[task.seed] = process
-            if stop_event.is_set():
-                pending.clear()
+        for group in partition(tasks, workers):
+            process = context.Process(target=_worker, args=(group, messages, stop_event),
+                                      daemon=True)
+            process.start()
+            processes.append((process, {task.key for task in group}))
+        left = {task.key for task in tasks}
+        while left:
             try:
                 message = messages.get(timeout=0.5)
             except queue.Empty:
-                for seed, process in list(running.items()):
-                    if not process.is_alive() and seed not in finished:
-                        errors.append(f"seed {seed} failed: its process ended with exit code "
-                                      f"{process.exitcode}")
-                        running.pop(seed)
+                for process, keys in processes:
+                    if not process.is_alive() and keys & left:
+                        errors.append(f"seeds {sorted(keys & left)} failed: their process "
+                                      f"ended with exit code {process.exitcode}")
+                        left -= keys
                 continue
             handle(message)
             if message[0] in ("done", "error"):
-                finished.add(message[1])
-                process = running.pop(message[1], None)
-                if process is not None:
-                    process.join()
+                left.discard(message[1])
                 if message[0] == "error":
                     stop_event.set()
+        for process, _ in processes:
+            process.join()
     if errors:
         raise TrainingError("; ".join(errors))
     return RunOutcome(done, stop_event.is_set())

@@ -11,6 +11,8 @@ from pydantic import Field
 
 from adaptsky_cli.channels import ChannelModel, ChannelParams, LinkGeometry, db_to_linear
 
+_ONE = np.array(1.0)
+
 
 class MmWaveNycParams(ChannelParams):
     los_c: float = Field(9.6117, gt=0, description="C of eq. 4 (environment), 1")
@@ -26,14 +28,23 @@ class MmWaveNyc(ChannelModel):
     description = "28 GHz mmWave, NYC path loss (Akdeniz 2014), sigmoid LoS probability"
     params: MmWaveNycParams
 
+    def __init__(self, params: MmWaveNycParams | None = None) -> None:
+        super().__init__(params)
+        # the constants of eq. 4 and 5, once (the parameters are frozen), as 0-d arrays:
+        # numpy combines those with an array faster than Python floats, to the same numbers
+        p = self.params
+        self._c, self._minus_y = np.array(p.los_c), np.array(-p.los_y)
+        self._intercept_los = np.asarray(db_to_linear(p.intercept_los_db))
+        self._intercept_nlos = np.asarray(db_to_linear(p.intercept_nlos_db))
+        self._exponent_los = np.array(-p.exponent_los)
+        self._exponent_nlos = np.array(-p.exponent_nlos)
+
     def los_probability(self, geometry: LinkGeometry) -> np.ndarray:
-        c, y = self.params.los_c, self.params.los_y
-        return 1.0 / (1.0 + c * np.exp(-y * (geometry.elevation_deg - c)))
+        c = self._c
+        return _ONE / (_ONE + c * np.exp(self._minus_y * (geometry.elevation_deg - c)))
 
     def gain_los(self, geometry: LinkGeometry) -> np.ndarray:
-        return db_to_linear(self.params.intercept_los_db) * geometry.distance_m ** (
-            -self.params.exponent_los)
+        return self._intercept_los * geometry.distance_m ** self._exponent_los
 
     def gain_nlos(self, geometry: LinkGeometry) -> np.ndarray:
-        return db_to_linear(self.params.intercept_nlos_db) * geometry.distance_m ** (
-            -self.params.exponent_nlos)
+        return self._intercept_nlos * geometry.distance_m ** self._exponent_nlos

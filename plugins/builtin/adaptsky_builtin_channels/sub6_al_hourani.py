@@ -10,13 +10,11 @@ from __future__ import annotations
 import numpy as np
 from pydantic import Field
 
-from adaptsky_cli.channels import (
-    ChannelModel,
-    ChannelParams,
-    LinkGeometry,
-    db_to_linear,
-    free_space_gain,
-)
+from adaptsky_cli.channels import ChannelModel, ChannelParams, LinkGeometry, db_to_linear
+from adaptsky_cli.channels.contract import SPEED_OF_LIGHT_M_PER_S
+
+_ZERO = np.array(0.0)
+_ONE = np.array(1.0)
 
 
 class Sub6AlHouraniParams(ChannelParams):
@@ -33,15 +31,30 @@ class Sub6AlHourani(ChannelModel):
     description = "2 GHz sub-6, free space + mean excess loss (Al-Hourani 2014)"
     params: Sub6AlHouraniParams
 
+    def __init__(self, params: Sub6AlHouraniParams | None = None) -> None:
+        super().__init__(params)
+        # the constants of eq. 6 and 7, once (the parameters are frozen), as 0-d arrays:
+        # numpy combines those with an array faster than Python floats, to the same numbers
+        p = self.params
+        self._c, self._y = np.array(p.los_c), np.array(p.los_y)
+        self._theta0_deg = np.array(p.theta0_deg)
+        self._speed_of_light = np.array(SPEED_OF_LIGHT_M_PER_S)
+        self._four_pi_carrier = np.array(4 * np.pi * p.carrier_hz)
+        self._excess_los = np.asarray(db_to_linear(-p.excess_loss_los_db))
+        self._excess_nlos = np.asarray(db_to_linear(-p.excess_loss_nlos_db))
+
     def los_probability(self, geometry: LinkGeometry) -> np.ndarray:
-        above_deg = np.maximum(geometry.elevation_deg - self.params.theta0_deg, 0.0)
-        p_los = self.params.los_c * above_deg ** self.params.los_y
-        return np.clip(np.where(above_deg > 0, p_los, 0.0), 0.0, 1.0)
+        above_deg = np.maximum(geometry.elevation_deg - self._theta0_deg, _ZERO)
+        p_los = np.where(above_deg > _ZERO, self._c * above_deg ** self._y, _ZERO)
+        # clipped to [0, 1] (np.clip as maximum then minimum, in place: the same numbers)
+        return np.minimum(np.maximum(p_los, _ZERO, out=p_los), _ONE, out=p_los)
+
+    def _free_space_gain(self, geometry: LinkGeometry) -> np.ndarray:
+        """``free_space_gain(distance_m, carrier_hz)`` (eq. 7, first factor)."""
+        return (self._speed_of_light / (self._four_pi_carrier * geometry.distance_m)) ** 2
 
     def gain_los(self, geometry: LinkGeometry) -> np.ndarray:
-        return free_space_gain(geometry.distance_m, self.params.carrier_hz) * db_to_linear(
-            -self.params.excess_loss_los_db)
+        return self._free_space_gain(geometry) * self._excess_los
 
     def gain_nlos(self, geometry: LinkGeometry) -> np.ndarray:
-        return free_space_gain(geometry.distance_m, self.params.carrier_hz) * db_to_linear(
-            -self.params.excess_loss_nlos_db)
+        return self._free_space_gain(geometry) * self._excess_nlos

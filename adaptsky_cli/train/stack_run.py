@@ -1,0 +1,173 @@
+"""Algorithm 1 for a stack of members (seeds) in lockstep: collect, update, log, checkpoint.
+
+Every member is a whole independent run: its own environment generator (LoS draws, user
+moves; seeded with (seed, 0)), its own agent generator (exploration, replay sampling; (seed,
+1)), its own initial weights (torch seeded with the seed), memory and Adam state, and its own
+reward weights. Nothing a member computes reads another member's numbers, so a seed trained in
+a stack of four gives the numbers it gives alone (on a CPU, bit for bit; docs/training.md says
+what holds on a GPU). Members of one stack are at the same episode; every checkpoint is per
+member and holds everything needed to continue bit for bit.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import torch
+
+from adaptsky_cli.agent.device_step import DeviceStep, describe
+from adaptsky_cli.agent.replay import StackedReplay
+from adaptsky_cli.agent.schedule import epsilon
+from adaptsky_cli.agent.stacked import StackedDqn
+from adaptsky_cli.env.batch import NomaUavBatch, reward_weights
+from adaptsky_cli.env.noma import jain_fairness
+from adaptsky_cli.env.observation import observation_size
+from adaptsky_cli.scenario.models import Scenario
+from adaptsky_cli.store.tree import Tree
+
+STATE_FIELDS = ("uav_m", "alpha", "gain", "los", "rate_bps")
+# what members of one stack may differ in; everything else must be equal
+PER_MEMBER = {"name", "description", "reward", "train"}
+
+
+@dataclass(frozen=True)
+class Member:
+    """One run of a stack: a scenario and a seed."""
+
+    scenario: Scenario
+    seed: int
+
+
+@dataclass
+class EpisodeResult:
+    """Learning-curve values of one episode of one member, and its trajectory (time-major)."""
+
+    episode: int  # 1-based count of episodes done after this one
+    metrics: dict[str, Any]
+    trajectory: dict[str, np.ndarray]
+
+
+def stack_key(scenario: Scenario) -> str:
+    """Scenarios with equal keys can train in one stack (they differ at most in PER_MEMBER
+    sections, and share the number of steps per episode)."""
+    data = {k: v for k, v in scenario.model_dump(mode="json").items() if k not in PER_MEMBER}
+    data["steps"] = scenario.train.steps
+    return json.dumps(data, sort_keys=True)
+
+
+class StackRun:
+    """Environments, agent, memories and generators of a stack of members on ``device``."""
+
+    def __init__(self, members: list[Member], device: str | torch.device = "cpu",
+                 graphs: bool | None = None) -> None:
+        keys = {stack_key(member.scenario) for member in members}
+        if len(keys) != 1:
+            raise ValueError("members of a stack may differ only in "
+                             f"{sorted(PER_MEMBER)}; got {len(keys)} different scenarios")
+        self.members = members
+        self.scenario = scenario = members[0].scenario
+        seeds = [member.seed for member in members]
+        self.env = NomaUavBatch(scenario, num_envs=len(members),
+                                seed=[np.random.SeedSequence([s, 0]) for s in seeds],
+                                weights=[reward_weights(m.scenario) for m in members])
+        self.rngs = [np.random.default_rng([s, 1]) for s in seeds]
+        obs_size = observation_size(scenario.num_users)
+        device = torch.device(device)
+        self.agent = StackedDqn(scenario.agent, obs_size, self.env.actions.count, seeds, device)
+        self.memory = StackedReplay(len(members), scenario.agent.memory_size, obs_size, device)
+        self.device_step = DeviceStep(self.agent, self.memory, scenario.agent.batch_size,
+                                      graphs)
+        self.episodes_done = 0
+
+    def _actions(self, observations: np.ndarray, eps: float) -> np.ndarray:
+        """Epsilon-greedy per member (alg. 1 line 6): one uniform draw, one more to explore."""
+        explore = [rng.random() < eps for rng in self.rngs]
+        if not any(explore):
+            return self.device_step.greedy(observations)
+        greedy = None if all(explore) else self.device_step.greedy(observations)
+        count = self.env.actions.count
+        return np.array([rng.integers(count) if explores else greedy[index]  # type: ignore[index]
+                         for index, (rng, explores) in enumerate(zip(self.rngs, explore,
+                                                                     strict=True))],
+                        dtype=np.int64)
+
+    def run_episode(self) -> list[EpisodeResult]:
+        """One episode of T steps, an update per step once the memories hold a batch."""
+        config, steps = self.scenario.agent, self.scenario.train.steps
+        not_terminal = np.zeros(len(self.members), dtype=bool)  # T is a truncation
+        states, rewards, chosen = [], [], []
+        obs, _ = self.env.reset()
+        eps = config.epsilon_start
+        for tau in range(steps):
+            eps = epsilon(self.episodes_done * steps + tau, config.epsilon_start,
+                          config.epsilon_end, config.epsilon_decay_steps)
+            actions = self._actions(obs, eps)
+            next_obs, reward, _, state = self.env.step(actions)
+            self.memory.add(obs, actions, reward, next_obs, not_terminal)
+            if self.memory.size >= config.batch_size:
+                self.device_step.update(self.memory.sample_index(config.batch_size, self.rngs))
+            states.append(state)
+            rewards.append(reward)
+            chosen.append(actions)
+            obs = next_obs
+        if self.episodes_done % config.target_update_episodes == 0:  # alg. 1: ep multiple of delta
+            self.agent.sync_target()
+        self.episodes_done += 1
+        losses = self.agent.take_mean_loss()
+        trajectory = {name: np.stack([getattr(state, name) for state in states])
+                      for name in STATE_FIELDS}  # time-major, (T, S, ...)
+        trajectory["reward"], trajectory["action"] = np.stack(rewards), np.stack(chosen)
+        return [self._result({name: values[:, index] for name, values in trajectory.items()},
+                             eps, losses[index]) for index in range(len(self.members))]
+
+    def _result(self, trajectory: dict[str, np.ndarray], eps: float,
+                loss: float) -> EpisodeResult:
+        trajectory = {name: np.ascontiguousarray(values) for name, values in trajectory.items()}
+        rates = trajectory["rate_bps"]
+        metrics = {
+            "sum_rate_bps": rates.sum(axis=1).mean(),
+            "fairness": float(np.mean(jain_fairness(rates))),
+            "reward": trajectory["reward"].sum(),
+            "mean_height_m": trajectory["uav_m"][:, 2].mean(),
+            "epsilon": eps,
+            "loss": float(loss),
+            "mean_rate_bps": rates.mean(axis=0),
+            "mean_alpha": trajectory["alpha"].mean(axis=0),
+        }
+        return EpisodeResult(self.episodes_done, metrics, trajectory)
+
+    def checkpoint(self, index: int) -> Tree:
+        """Everything member ``index`` needs to continue bit for bit, as arrays and JSON."""
+        return {
+            "episode": self.episodes_done,
+            "global_step": self.episodes_done * self.scenario.train.steps,
+            "seed": self.members[index].seed,
+            "device": describe(self.agent.device),
+            "agent": self.agent.state_arrays(index),
+            "replay": {**self.memory.arrays(index), "position": self.memory.position},
+            "rng": {"numpy_agent_json": json.dumps(self.rngs[index].bit_generator.state),
+                    "numpy_env_json": json.dumps(self._env_rng(index).bit_generator.state)},
+        }
+
+    def _env_rng(self, index: int) -> np.random.Generator:
+        assert self.env.rngs is not None
+        return self.env.rngs[index]
+
+    def restore(self, index: int, checkpoint: Tree) -> None:
+        """Inverse of :meth:`checkpoint` for member ``index``; every member of a stack must be
+        restored to the same episode."""
+        episode = int(checkpoint["episode"])
+        if index and episode != self.episodes_done:
+            raise ValueError(f"members of a stack must be at one episode: member {index} is at "
+                             f"{episode}, member 0 at {self.episodes_done}")
+        self.agent.load_state_arrays(index, checkpoint["agent"])
+        replay = dict(checkpoint["replay"])
+        position = int(replay.pop("position"))
+        self.memory.load(index, replay, position)
+        self.rngs[index].bit_generator.state = json.loads(checkpoint["rng"]["numpy_agent_json"])
+        self._env_rng(index).bit_generator.state = json.loads(
+            checkpoint["rng"]["numpy_env_json"])
+        self.episodes_done = episode

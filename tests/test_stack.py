@@ -1,0 +1,157 @@
+"""Stacks of seeds: a member's numbers do not depend on its stack, members may differ in their
+reward, resumes from different episodes catch up and merge, and reproduce can run a whole
+sweep as one stack. All on the CPU, bit for bit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from adaptsky_cli.experiment.executors import StackExecutor, stacks
+from adaptsky_cli.experiment.plan import load_experiment, plan_experiment
+from adaptsky_cli.experiment.runs import execute_run
+from adaptsky_cli.store.run_file import RunReader
+from adaptsky_cli.train.runner import SeedTask, train_stack
+from adaptsky_cli.train.stack_run import Member, StackRun, stack_key
+from tests.conftest import TRAINING_LAYOUT_M, make_scenario
+
+AGENT = {"hidden_sizes": [16, 16], "batch_size": 16, "memory_size": 300,
+         "target_update_episodes": 2}
+
+
+def scenario(**sections):
+    """A fast scenario that draws: sampled LoS and moving users (every member's generator is
+    used every step)."""
+    base = {"agent": AGENT, "train": {"steps": 40, "episodes": 4},
+            "channel": {"los": "sampled"},
+            "users": {"positions_m": [list(p) for p in TRAINING_LAYOUT_M],
+                      "speed_m_per_step": 1.0}}
+    for name, values in sections.items():
+        base[name] = {**base.get(name, {}), **values}
+    return make_scenario(**base)
+
+
+def episodes(run: StackRun, count: int) -> list[list]:
+    return [run.run_episode() for _ in range(count)]
+
+
+def assert_same_results(a, b) -> None:
+    for name in a.metrics:
+        assert np.array_equal(a.metrics[name], b.metrics[name], equal_nan=True), name
+    for name in a.trajectory:
+        assert np.array_equal(a.trajectory[name], b.trajectory[name]), name
+
+
+def assert_same_checkpoints(a, b) -> None:
+    if isinstance(a, dict):
+        assert a.keys() == b.keys()
+        for key in a:
+            assert_same_checkpoints(a[key], b[key])
+    else:
+        assert np.array_equal(a, b), (a, b)
+
+
+def test_a_seed_in_a_stack_of_four_equals_the_seed_alone():
+    base = scenario()
+    stack = StackRun([Member(base, seed) for seed in (11, 12, 13, 14)])
+    alone = StackRun([Member(base, 13)])
+    for together, single in zip(episodes(stack, 4), episodes(alone, 4), strict=True):
+        assert_same_results(together[2], single[0])
+        assert not np.array_equal(together[0].trajectory["action"],
+                                  together[2].trajectory["action"])
+    assert_same_checkpoints(stack.checkpoint(2), alone.checkpoint(0))
+
+
+def test_members_may_differ_in_their_reward():
+    weights = [{"min_se": 0.0, "w_rate": 1.0}, {"min_se": 2.0, "w_satisfied": 100.0,
+                                                 "w_unsatisfied": 10.0}]
+    members = [Member(scenario(reward=w), seed=5) for w in weights]
+    stack = StackRun(members)
+    alone = StackRun([members[1]])
+    together, single = stack.run_episode(), alone.run_episode()
+    assert_same_results(together[1], single[0])
+    assert not np.array_equal(together[0].trajectory["reward"], together[1].trajectory["reward"])
+
+
+def test_members_must_share_the_environment_and_network():
+    with pytest.raises(ValueError, match="may differ only in"):
+        StackRun([Member(scenario(), 0), Member(scenario(radio={"tx_power_dbm": 10.0}), 1)])
+    assert stack_key(scenario(reward={"w_rate": 3.0})) == stack_key(scenario())
+    assert stack_key(scenario(agent={"dueling": False})) != stack_key(scenario())
+
+
+class Collect:
+    """A stand-in for the run-file writer: keeps every message."""
+
+    def __init__(self) -> None:
+        self.messages: list[tuple] = []
+
+    def __call__(self, message) -> None:
+        self.messages.append(message)
+
+    def checkpoints(self, key):
+        return [m for m in self.messages if m[0] == "checkpoint" and m[1] == key]
+
+
+def test_resumes_from_different_episodes_catch_up_and_merge():
+    """Seeds checkpointed at episodes 1 and 3 train to 4 as a stack: the one behind trains
+    alone first, then both together; each ends as it would uninterrupted."""
+    base = scenario()
+    reference = StackRun([Member(base, 1), Member(base, 2)])
+    states = {}
+    for episode in range(1, 5):
+        reference.run_episode()
+        states[episode] = [reference.checkpoint(0), reference.checkpoint(1)]
+    tasks = [SeedTask(base, 1, 4, 1, 0, states[1][0]), SeedTask(base, 2, 4, 1, 0, states[3][1])]
+    collect = Collect()
+    train_stack(tasks, collect, lambda: False)
+    assert [m[4][0] for m in collect.checkpoints(1)] == [2, 3, 4]
+    assert [m[4][0] for m in collect.checkpoints(2)] == [4]
+    for key, member in ((1, 0), (2, 1)):
+        assert_same_checkpoints(collect.checkpoints(key)[-1][5], states[4][member])
+    assert [m[1] for m in collect.messages if m[0] == "done"] == [1, 2]
+
+
+def test_stop_checkpoints_every_member():
+    base = scenario()
+    tasks = [SeedTask(base, seed, 4, 10, 0) for seed in (0, 1)]
+    collect = Collect()
+    train_stack(tasks, collect, lambda: True)
+    assert [m[4][0] for m in collect.checkpoints(0)] == [1]
+    assert [m[4][0] for m in collect.checkpoints(1)] == [1]
+
+
+def test_reproduce_runs_a_min_se_sweep_as_one_stack(tmp_path):
+    """E2 (8 thresholds) tiny: one stack on the CPU writes the files separate runs write."""
+    spec, path = load_experiment("e2")
+    small = ["agent.hidden_sizes=[16]", "agent.batch_size=16", "agent.memory_size=200"]
+    stacked = plan_experiment(spec, path, tmp_path / "stacked", seeds=1, episodes=2, steps=20,
+                              set_values=small)
+    separate = plan_experiment(spec, path, tmp_path / "separate", seeds=1, episodes=2,
+                               steps=20, set_values=small)
+    assert len(stacks(stacked.runs)) == 1 and len(stacked.runs) == 8
+    executor = StackExecutor(1, torch.device("cpu"))
+    try:
+        reports = [future.result() for future in executor.submit_all(stacked.runs)]
+    finally:
+        executor.close()
+    assert [report.episodes_done for report in reports] == [2] * 8
+    for run in separate.runs[:3]:
+        execute_run(run)
+    for mine, theirs in zip(stacked.runs[:3], separate.runs[:3], strict=True):
+        with RunReader(mine.path) as a, RunReader(theirs.path) as b:
+            for name, values in a.episodes(mine.seed).items():
+                assert np.array_equal(values, b.episodes(theirs.seed)[name], equal_nan=True)
+
+
+def test_reproduce_all_trains_every_experiment_in_one_sweep(tmp_path, capsys):
+    from adaptsky_cli.cli.main import main
+
+    code = main(["reproduce", "all", "--out", str(tmp_path), "--seeds", "1", "--episodes", "1",
+                 "--steps", "10", "--runs-only", "--workers", "2", "--quiet",
+                 "--set", "agent.hidden_sizes=[8]", "--set", "agent.batch_size=8"])
+    assert code == 0, capsys.readouterr().err
+    counts = {folder.name: len(list((folder / "runs").glob("*.h5")))
+              for folder in sorted(tmp_path.iterdir())}
+    assert counts == {"e1a": 1, "e1b": 1, "e2": 8, "e3": 2}
