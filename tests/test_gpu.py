@@ -29,6 +29,14 @@ def test_device_cuda_without_cuda_is_one_line(tmp_path, capsys):
     assert len(err.strip().splitlines()) == 1 and not (tmp_path / "x.h5").exists()
 
 
+@pytest.mark.skipif(torch.cuda.is_available(), reason="this machine has CUDA")
+def test_reproduce_on_cuda_without_cuda_is_one_line(tmp_path, capsys):
+    code = main(["reproduce", "e1a", "--device", "cuda", "--out", str(tmp_path / "e1a")])
+    err = capsys.readouterr().err
+    assert code == 1 and "--device cuda" in err and "Traceback" not in err
+    assert not (tmp_path / "e1a").exists()
+
+
 def test_unknown_device_is_one_line(tmp_path, capsys):
     code = main(["train", str(small_scenario(tmp_path)), "--device", "tpu",
                  "--out", str(tmp_path / "x.h5")])

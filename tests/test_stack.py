@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from adaptsky_cli.experiment.executors import StackExecutor, stacks
+from adaptsky_cli.experiment.executors import LocalExecutor, stacks
 from adaptsky_cli.experiment.plan import load_experiment, plan_experiment
 from adaptsky_cli.experiment.runs import execute_run
 from adaptsky_cli.store.run_file import RunReader
@@ -131,7 +131,7 @@ def test_reproduce_runs_a_min_se_sweep_as_one_stack(tmp_path):
     separate = plan_experiment(spec, path, tmp_path / "separate", seeds=1, episodes=2,
                                steps=20, set_values=small)
     assert len(stacks(stacked.runs)) == 1 and len(stacked.runs) == 8
-    executor = StackExecutor(1, torch.device("cpu"))
+    executor = LocalExecutor(1, torch.device("cpu"))
     try:
         reports = [future.result() for future in executor.submit_all(stacked.runs)]
     finally:

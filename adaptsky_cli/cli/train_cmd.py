@@ -44,8 +44,8 @@ def train(
     device: Device = "cpu",
     quiet: Annotated[bool, typer.Option(help="print only the final table")] = False,
 ) -> None:
-    """Train the dueling DQN on a scenario (algorithm 1): on a CPU one process per seed, on a
-    GPU every seed in one stack."""
+    """Train the dueling DQN on a scenario (algorithm 1): on a CPU one process per core, its
+    seeds as one stack; on a GPU every seed in one stack."""
     if resume is not None:
         if scenario is not None or seeds or steps or checkpoint_every or out_file or set_values:
             raise AdaptskyError("--resume continues a run as it was configured: give only "

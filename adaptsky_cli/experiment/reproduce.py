@@ -78,8 +78,8 @@ def reproduce_many(*, experiments: list[str], outs: list[Path | None],
         todo += [(run, state) for run, state in states if state.status != "done"]
     sweep = None
     if todo and not report_only:
-        stacked = torch_device.type != "cpu"
-        units = len(stacks([run for run, _ in todo])) if stacked else len(todo)
+        on_gpu = torch_device.type != "cpu"
+        units = len(stacks([run for run, _ in todo])) if on_gpu else len(todo)
         default_workers = min(units, os.cpu_count() or 1)
         executor = make_executor(workers or max(1, default_workers), scheduler, torch_device)
         sweep = run_sweep(todo, executor, console, quiet, sum(len(p.runs) for p in plans))
