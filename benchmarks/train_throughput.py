@@ -92,11 +92,15 @@ def stacked(scenario: Scenario, device: torch.device, sizes: list[int], episodes
     table = Table("seeds", "episodes", "seconds", "seed-steps/s", "vs one seed",
                   "wall per step",
                   title=f"stacks of seeds in one process, {describe(device)}")
+    steps = episodes * scenario.train.steps
+    if device.type != "cpu":  # the CPU figure alongside: one seed on one thread
+        seconds = timed_episodes(warm_stack(scenario, 1, torch.device("cpu")), episodes)
+        table.add_row("1 (cpu)", str(episodes), f"{seconds:.2f}", f"{steps / seconds:,.0f}",
+                      "-", f"{seconds / steps * 1e3:.2f} ms")
     base = None
     for size in sizes:
         run = warm_stack(scenario, size, device)
         seconds = timed_episodes(run, episodes)
-        steps = episodes * scenario.train.steps
         rate = size * steps / seconds
         base = base or rate / size
         table.add_row(str(size), str(episodes), f"{seconds:.2f}", f"{rate:,.0f}",
