@@ -1,14 +1,16 @@
 """The DQN of algorithm 1 for a stack of S independent members (seeds) at once.
 
-Every member has its own weights, target weights, Adam moments and step count; they live in
-flat buffers with a leading member axis, (S, P), so one batched matmul serves every member and
-Adam (elementwise) updates each member exactly as if it were alone. The TD update of eq. 12 is
-written out by hand (forward, backward, Adam, per-member gradient clipping): no autograd graph
-per step, a handful of kernels, the same code on a CPU and on a GPU, where
-:class:`adaptsky_cli.agent.graphs.CudaGraphs` records it once and replays it.
+Every member has its own weights, target weights and Adam moments; they live in flat buffers
+with a leading member axis, (S, P), so one batched matmul serves every member and Adam
+(elementwise) updates each member exactly as if it were alone. Members are in lockstep, so
+Adam's step count is one number. The TD update of eq. 12 is written out by hand (forward,
+backward, Adam, per-member gradient clipping): no autograd graph per step, a few dozen kernels,
+the same code on a CPU and on a GPU, where :class:`adaptsky_cli.agent.device_step.Graphed`
+records it once and replays it.
 
 Network (sec. IV-A): ReLU layers ``hidden_sizes``, then a dueling head Q = V + A - mean_a A
-(the mean per sample, docs/model.md §4) or a plain linear head. Per-member checkpoints use the
+(the mean per sample, docs/model.md §4; computed as [V | A] times a fixed matrix) or a plain
+linear head. Per-member checkpoints use the
 names of :class:`adaptsky_cli.agent.network.QNetwork` (``torso.0.weight`` ...), so run files
 from every device and every stack size read alike.
 """
