@@ -94,7 +94,7 @@ class LocalExecutor:
         self.pool = ProcessPoolExecutor(workers, mp_context=context,
                                         initializer=_init_local_worker,
                                         initargs=(self.stop_event, os.getpid()))
-        self.capacity = workers
+        self.workers = self.capacity = workers
         self.device = device
         self.stacks: list[Future[list[RunReport]]] = []
         self.description = (f"{describe(device)}, {workers} process"
@@ -102,8 +102,10 @@ class LocalExecutor:
 
     def submit_all(self, specs: list[RunSpec]) -> list[RunFuture]:
         futures = {spec.path: RunFuture() for spec in specs}
-        max_size = None if self.device.type != "cpu" else -(-len(specs) // self.capacity)
-        for group in stacks(specs, max_size):
+        max_size = None if self.device.type != "cpu" else -(-len(specs) // self.workers)
+        groups = stacks(specs, max_size)
+        self.capacity = sum(sorted(map(len, groups), reverse=True)[:self.workers])
+        for group in groups:
             stacked = self.pool.submit(_stack_run, group, str(self.device))
             self.stacks.append(stacked)
             for spec in group:
