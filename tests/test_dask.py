@@ -16,6 +16,8 @@ import pytest
 
 from adaptsky_cli.cli.main import main
 from tests.test_reproduce import (
+    EPISODES,
+    STEPS,
     _episodes,
     _wait_for,
     assert_equal_to_uninterrupted,
@@ -87,9 +89,9 @@ def test_a_killed_worker_s_run_resumes_from_its_checkpoint(cluster, tmp_path):
     experiment = curves_experiment(tmp_path)
     out = tmp_path / "out"
     runs = [out / "runs" / f"agent-seed{s}.h5" for s in (0, 1)]
-    args = ["reproduce", str(experiment), "--out", str(out), "--episodes", "40", "--steps",
-            "40", "--set", "train.checkpoint_every=2", "--runs-only", "--scheduler",
-            cluster.address]
+    args = ["reproduce", str(experiment), "--out", str(out), "--episodes", str(EPISODES),
+            "--steps", str(STEPS), "--set", "train.checkpoint_every=2", "--runs-only",
+            "--scheduler", cluster.address]
     log = tmp_path / "reproduce.log"
     process = subprocess.Popen([str(BIN / "adaptsky"), *args], stdout=log.open("w"),
                                stderr=subprocess.STDOUT)
@@ -98,10 +100,10 @@ def test_a_killed_worker_s_run_resumes_from_its_checkpoint(cluster, tmp_path):
     cluster.workers[0].kill()
     cluster.workers[0].wait()
     assert process.wait(timeout=180) == 0, log.read_text()
-    assert [_episodes(r) for r in runs] == [40, 40]
+    assert [_episodes(r) for r in runs] == [EPISODES, EPISODES]
     text = log.read_text()
     resumed = [int(n) for n in re.findall(r"resumed from episode (\d+)", text)]
-    assert len(resumed) == 1 and 2 <= resumed[0] < 40, text
+    assert len(resumed) == 1 and 2 <= resumed[0] < EPISODES, text
     assert_equal_to_uninterrupted(experiment, runs, tmp_path / "fresh")  # bit for bit
 
 
