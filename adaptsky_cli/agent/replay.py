@@ -14,8 +14,6 @@ import numpy as np
 import torch
 from numpy.typing import NDArray
 
-FIELDS = ("observations", "actions", "rewards", "next_observations", "terminated")
-
 
 class Batch(NamedTuple):
     """A mini-batch per member, on the device: (S, B, obs) observations, (S, B) the rest."""

@@ -69,12 +69,6 @@ def pin_threads() -> None:
     torch.set_num_threads(1)
 
 
-def train_seed(task: SeedTask, emit: Emit, stop: Callable[[], bool],
-               orphaned: Callable[[], bool] = lambda: False) -> None:
-    """Run one seed to ``task.episodes`` on the CPU (a stack of one)."""
-    train_stack([task], emit, stop, orphaned)
-
-
 def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
                 orphaned: Callable[[], bool] = lambda: False,
                 device: str | torch.device = "cpu") -> None:
@@ -89,8 +83,7 @@ def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
     done = {task.key: task.episodes_done for task in tasks}
     rows: dict[object, list[dict[str, Any]]] = {task.key: [] for task in tasks}
     trajectories: dict[object, dict[int, Tree]] = {task.key: {} for task in tasks}
-    stopping = False
-    while not stopping:
+    while True:
         left = [task for task in tasks if done[task.key] < task.episodes]
         if not left:
             break
@@ -125,6 +118,8 @@ def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
             if (run.episodes_done == merge_at
                     or any(run.episodes_done == task.episodes for task in group)):
                 break
+        if stopping:
+            break  # every member has just sent its checkpoint
         for index, task in enumerate(group):  # regroup: someone finished or others wait here
             done[task.key] = run.episodes_done
             if run.episodes_done < task.episodes:
