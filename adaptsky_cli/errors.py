@@ -18,3 +18,11 @@ class ScenarioError(AdaptskyError):
 
 class PluginError(AdaptskyError):
     """A channel-model plugin is unknown, broken, or does not follow the contract."""
+
+
+class ResourceError(ScenarioError):
+    """A scenario needs more memory than this machine has (one line: needed vs available)."""
+
+
+class NonFiniteError(AdaptskyError):
+    """A training step produced a NaN or an infinity; the run stops before storing it."""

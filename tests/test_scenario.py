@@ -80,7 +80,7 @@ def test_inconsistent_user_sections(users, message):
      "must be below max_height_m"),
     ({"uav": {"start_m": [0, 0, 5]}}, "lies outside"),
     ({"uav": {"start_m": [80, 0, 50]}}, "uav.start_m"),
-    ({"uav": {"step_m": [1, 0, 1]}}, "every step must be > 0"),
+    ({"uav": {"step_m": [1, 0, 1]}}, "uav.step_m.1: Input should be greater than or equal to 0.01"),
     ({"agent": {"memory_size": 10}}, "must hold at least one batch"),
     ({"train": {"seeds": [1, 1]}}, "distinct"),
 ])

@@ -6,6 +6,7 @@ from adaptsky_cli.cli.console import err, out
 from adaptsky_cli.cli.options import ScenarioFile, ScenarioFiles
 from adaptsky_cli.errors import ScenarioError
 from adaptsky_cli.scenario import load_scenario
+from adaptsky_cli.scenario.resources import check_fits, format_bytes
 from adaptsky_cli.scenario.toml_writer import dumps
 
 app = typer.Typer(help="Check and print scenario files.", no_args_is_help=True)
@@ -13,18 +14,21 @@ app = typer.Typer(help="Check and print scenario files.", no_args_is_help=True)
 
 @app.command()
 def validate(files: ScenarioFiles) -> None:
-    """Validate scenario files: one 'ok' line each, or one line per problem (exit 1)."""
+    """Validate scenario files and check that this machine can train them: one 'ok' line
+    each, or one line per problem (exit 1)."""
     failed = 0
     for path in files:
         try:
             scenario = load_scenario(path)
+            needed = check_fits(scenario, str(path))
         except ScenarioError as error:
             failed += 1
             for line in error.lines:
                 err.print(line)
             continue
         out.print(f"ok  {path}  ({scenario.name}: {scenario.num_users} users, "
-                  f"channel {scenario.channel.model}, LoS {scenario.channel.los})",
+                  f"channel {scenario.channel.model}, LoS {scenario.channel.los}, "
+                  f"about {format_bytes(needed.total)} of memory to train)",
                   markup=False, soft_wrap=True)
     if failed:
         raise typer.Exit(1)
@@ -34,4 +38,4 @@ def validate(files: ScenarioFiles) -> None:
 def show(file: ScenarioFile) -> None:
     """Print the resolved scenario, every default filled in, as TOML."""
     scenario = load_scenario(file)
-    print(dumps(scenario.model_dump(mode="json")))
+    print(dumps(scenario.model_dump(mode="json")), end="")

@@ -11,7 +11,7 @@ from typing import Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from adaptsky_cli.scenario.models import Section
+from adaptsky_cli.scenario.models import NAME_MAX_LENGTH, Section, safe_name
 
 FigureKind = Literal["learning-curves", "min-se-sweep", "layout-gains"]
 Baseline = Literal["soa", "oracle", "random"]
@@ -30,18 +30,29 @@ QUANTITIES: dict[str, tuple[str, ...]] = {
 class Sweep(Section):
     """One scenario key swept over values: one run per value and seed (E2's grid)."""
 
-    key: str = Field(min_length=1, description="scenario key, section.key (e.g. reward.min_se)")
+    key: str = Field(min_length=1, max_length=200,
+                     description="scenario key, section.key (e.g. reward.min_se)")
     values: list[float | int | bool | str] = Field(min_length=1, description="its values")
+
+    @field_validator("values")
+    @classmethod
+    def _strings_are_safe(cls, values: list[float | int | bool | str]
+                          ) -> list[float | int | bool | str]:
+        """A value becomes part of run file names (``<group>-<key>-<value>-seed<n>.h5``)."""
+        for value in values:
+            if isinstance(value, str):
+                safe_name(value)
+        return values
 
 
 class Group(Section):
     """Runs of one agent on one scenario: seeds 0..runs-1, optionally over a sweep."""
 
-    name: str = Field(pattern=r"^[a-z0-9][a-z0-9_-]*$", description="short id, used in file "
-                      "names")
+    name: str = Field(pattern=r"^[a-z0-9][a-z0-9_-]*$", max_length=NAME_MAX_LENGTH,
+                      description="short id, used in file names")
     label: str = Field("", description="name in figures and tables (default: the id)")
-    scenario: str = Field(min_length=1, description="scenario file, relative to the "
-                          "experiment file")
+    scenario: str = Field(min_length=1, max_length=4096, pattern=r"^[^\x00-\x1f\x7f]*$",
+                          description="scenario file, relative to the experiment file")
     runs: int = Field(ge=1, le=1000, description="number of runs: seeds 0 .. runs-1")
     set: list[str] = Field(default_factory=list, description="overrides section.key=value, "
                            "as train --set")
@@ -86,7 +97,8 @@ class Figure(Section):
 
 
 class Experiment(Section):
-    id: str = Field(pattern=r"^[a-z0-9][a-z0-9_-]*$", description="short id, e.g. e3")
+    id: str = Field(pattern=r"^[a-z0-9][a-z0-9_-]*$", max_length=NAME_MAX_LENGTH,
+                    description="short id, e.g. e3")
     title: str = Field(min_length=1)
     paper_figure: str = Field("", description="the paper's figure, e.g. 'Fig. 2'")
     scenario_note: str = Field("", description="which noise setting the figure uses and why")

@@ -63,16 +63,35 @@ def load_scenario_with_text(path: str | Path) -> tuple[Scenario, str]:
 
 def read_scenario_text(path: str | Path, what: str = "scenario file") -> str:
     """The text of a scenario (or experiment) file; one line if it cannot be read."""
-    path = Path(path)
     try:
-        return path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as error:
-        reason = error.strerror if isinstance(error, OSError) and error.strerror else str(error)
-        raise ScenarioError([f"{path}: cannot read {what}: {reason}"]) from None
+        return Path(path).read_text(encoding="utf-8")
+    except Exception as error:  # OSError, UnicodeDecodeError, ValueError (a NUL in the path)...
+        raise ScenarioError([f"{_shown(path)}: cannot read {what}: {_reason(error)}"]) from None
 
 
 def parse_toml(text: str, source: str) -> dict[str, Any]:
+    """The TOML document ``text``; one line naming ``source`` whatever the parser raises
+    (a TOMLDecodeError, a RecursionError on arrays nested hundreds deep, ...)."""
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise ScenarioError([f"{source}: invalid TOML: {error}"]) from None
+    except RecursionError:
+        raise ScenarioError([f"{source}: invalid TOML: nested too deeply for the parser; "
+                             "scenario and experiment files need a few levels"]) from None
+    except Exception as error:  # whatever else the parser may raise
+        raise ScenarioError([f"{source}: cannot parse TOML: {_reason(error)}"]) from None
+
+
+def _shown(path: str | Path) -> str:
+    """``path`` printable on one line (control characters escaped)."""
+    text = str(path)
+    return text if text.isprintable() else repr(text)[1:-1]
+
+
+def _reason(error: BaseException) -> str:
+    """An exception as a short one-line reason."""
+    if isinstance(error, OSError) and error.strerror:
+        return error.strerror
+    text = " ".join(str(error).split()) or type(error).__name__
+    return text if len(text) <= 200 else text[:197] + "..."

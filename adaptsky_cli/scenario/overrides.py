@@ -17,7 +17,7 @@ def parse_value(text: str) -> Any:
     """The TOML value written in ``text``, or ``text`` itself if it is not one."""
     try:
         return tomllib.loads(f"value = {text}")["value"]
-    except tomllib.TOMLDecodeError:
+    except (tomllib.TOMLDecodeError, RecursionError):  # not TOML, or nested too deeply
         return text
 
 

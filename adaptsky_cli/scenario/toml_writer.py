@@ -1,46 +1,27 @@
-"""A small TOML writer for resolved scenarios (tables of scalars, lists and nested tables)."""
+"""TOML text of resolved scenarios, written by tomli-w (keys quoted and strings escaped as
+TOML requires, so every string, control characters included, reads back as it was)."""
 
 from __future__ import annotations
 
-import json
-import math
 from typing import Any
 
+import tomli_w
 
-def _value(value: Any) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        if math.isnan(value):
-            return "nan"
-        if math.isinf(value):
-            return "inf" if value > 0 else "-inf"
-        return repr(value)
-    if isinstance(value, str):
-        return json.dumps(value, ensure_ascii=False)
+
+def _without_none(value: Any) -> Any:
+    """``value`` with every None entry of its tables left out (TOML has no null)."""
+    if isinstance(value, dict):
+        return {key: _without_none(item) for key, item in value.items() if item is not None}
     if isinstance(value, list | tuple):
-        return "[" + ", ".join(_value(item) for item in value) + "]"
-    raise TypeError(f"cannot write {type(value).__name__} as a TOML value")
+        return [_without_none(item) for item in value]
+    return value
 
 
-def dumps(data: dict[str, Any], _table: str = "") -> str:
-    """TOML text of ``data``; None values are left out (TOML has no null)."""
-    lines: list[str] = []
-    tables: list[tuple[str, dict[str, Any]]] = []
-    for key, value in data.items():
-        if value is None:
-            continue
-        if isinstance(value, dict):
-            tables.append((f"{_table}.{key}" if _table else key, value))
-        else:
-            lines.append(f"{key} = {_value(value)}")
-    parts = []
-    if _table:
-        parts.append(f"[{_table}]")
-    parts.extend(lines)
-    text = "\n".join(parts)
-    for name, table in tables:
-        text += ("\n\n" if text else "") + dumps(table, name)
-    return text
+def dumps(data: dict[str, Any]) -> str:
+    """TOML text of ``data``; None values are left out."""
+    return tomli_w.dumps(_without_none(data))
+
+
+def toml_value(value: Any) -> str:
+    """One TOML value as text, e.g. for a ``--set key=value`` override."""
+    return tomli_w.dumps({"v": _without_none(value)}).removeprefix("v = ").rstrip("\n")

@@ -25,12 +25,22 @@ from adaptsky_cli.agent.stacked import StackedDqn
 from adaptsky_cli.env.batch import NomaUavBatch, reward_weights
 from adaptsky_cli.env.noma import jain_fairness
 from adaptsky_cli.env.observation import observation_size
+from adaptsky_cli.errors import NonFiniteError
 from adaptsky_cli.scenario.models import Scenario
 from adaptsky_cli.store.tree import Tree
 
 STATE_FIELDS = ("uav_m", "alpha", "gain", "los", "rate_bps")
 # what members of one stack may differ in; everything else must be equal
 PER_MEMBER = {"name", "description", "reward", "train"}
+# the scenario keys each checked quantity depends on (named when it is not finite)
+_GAIN_KEYS = "channel.model, channel.params, uav.*, users.*, area.side_m"
+DEPENDS_ON = {
+    "gain": _GAIN_KEYS,
+    "rate_bps": f"radio.*, {_GAIN_KEYS}",
+    "reward": f"reward.*, radio.*, {_GAIN_KEYS}",
+    "loss": "agent.lr, agent.gamma, agent.hidden_sizes, agent.loss, agent.grad_clip_norm, "
+            "agent.observation, reward.*",
+}
 
 
 @dataclass(frozen=True)
@@ -99,29 +109,54 @@ class StackRun:
         config, steps = self.scenario.agent, self.scenario.train.steps
         not_terminal = np.zeros(len(self.members), dtype=bool)  # T is a truncation
         states, rewards, chosen = [], [], []
-        obs, _ = self.env.reset()
         eps = config.epsilon_start
-        for tau in range(steps):
-            eps = epsilon(self.episodes_done * steps + tau, config.epsilon_start,
-                          config.epsilon_end, config.epsilon_decay_steps)
-            actions = self._actions(obs, eps)
-            next_obs, reward, _, state = self.env.step(actions)
-            self.memory.add(obs, actions, reward, next_obs, not_terminal)
-            if self.memory.size >= config.batch_size:
-                self.device_step.update(self.memory.sample_index(config.batch_size, self.rngs))
-            states.append(state)
-            rewards.append(reward)
-            chosen.append(actions)
-            obs = next_obs
+        # a NaN or infinity is reported once, by _check_finite, not as numpy warnings
+        with np.errstate(all="ignore"):
+            obs, _ = self.env.reset()
+            for tau in range(steps):
+                eps = epsilon(self.episodes_done * steps + tau, config.epsilon_start,
+                              config.epsilon_end, config.epsilon_decay_steps)
+                actions = self._actions(obs, eps)
+                next_obs, reward, _, state = self.env.step(actions)
+                self.memory.add(obs, actions, reward, next_obs, not_terminal)
+                if self.memory.size >= config.batch_size:
+                    self.device_step.update(self.memory.sample_index(config.batch_size,
+                                                                     self.rngs))
+                states.append(state)
+                rewards.append(reward)
+                chosen.append(actions)
+                obs = next_obs
         if self.episodes_done % config.target_update_episodes == 0:  # alg. 1: ep multiple of delta
             self.agent.sync_target()
         self.episodes_done += 1
-        losses = self.agent.take_mean_loss()
+        updated = self.agent.updates > 0
+        losses = self.agent.take_mean_loss()  # NaN without updates: not an error
         trajectory = {name: np.stack([getattr(state, name) for state in states])
                       for name in STATE_FIELDS}  # time-major, (T, S, ...)
         trajectory["reward"], trajectory["action"] = np.stack(rewards), np.stack(chosen)
+        self._check_finite(trajectory, losses if updated else None)
         return [self._result({name: values[:, index] for name, values in trajectory.items()},
                              eps, losses[index]) for index in range(len(self.members))]
+
+    def _check_finite(self, trajectory: dict[str, np.ndarray], losses: np.ndarray | None
+                      ) -> None:
+        """Raise :class:`NonFiniteError` for the first NaN or infinity among the episode's
+        gains, rates, rewards (T, S, ...) and losses (S,): nothing of the episode is stored."""
+        checked = {name: trajectory[name] for name in ("gain", "rate_bps", "reward")}
+        if losses is not None:
+            checked["loss"] = np.asarray(losses)[None]
+        for name, values in checked.items():
+            if np.isfinite(values).all():
+                continue
+            where = tuple(int(i) for i in np.argwhere(~np.isfinite(values))[0])
+            seed = self.members[where[1]].seed  # axis 1 is the member
+            value = values[where]
+            step = "" if name == "loss" else f", step {where[0] + 1}"
+            user = f" of user {where[2] + 1}" if len(where) > 2 else ""
+            raise NonFiniteError(
+                f"{self.scenario.name}: seed {seed}, episode {self.episodes_done}{step}: "
+                f"{name}{user} is {value}; it depends on {DEPENDS_ON[name]}. Training stopped; "
+                "the run file keeps its last checkpoint")
 
     def _result(self, trajectory: dict[str, np.ndarray], eps: float,
                 loss: float) -> EpisodeResult:

@@ -15,12 +15,18 @@ _ONE = np.array(1.0)
 
 
 class MmWaveNycParams(ChannelParams):
-    los_c: float = Field(9.6117, gt=0, description="C of eq. 4 (environment), 1")
-    los_y: float = Field(0.1581, gt=0, description="Y of eq. 4 (environment), 1/deg")
-    intercept_los_db: float = Field(-64.0, description="C_LoS of eq. 5 (gain at 1 m), dB")
-    intercept_nlos_db: float = Field(-72.0, description="C_NLoS of eq. 5 (gain at 1 m), dB")
-    exponent_los: float = Field(2.0, gt=0, description="path-loss exponent a_LoS, 1")
-    exponent_nlos: float = Field(2.92, gt=0, description="path-loss exponent a_NLoS, 1")
+    """Ranges keep exp() in eq. 4 finite (Y (90 + C) < 700) and every gain at or below its
+    1 m intercept, which is at most 0 dB (links are >= 1 m long)."""
+
+    los_c: float = Field(9.6117, gt=0, le=100.0, description="C of eq. 4 (environment), 1")
+    los_y: float = Field(0.1581, gt=0, le=2.0, description="Y of eq. 4 (environment), 1/deg")
+    intercept_los_db: float = Field(-64.0, ge=-200.0, le=0.0,
+                                    description="C_LoS of eq. 5 (gain at 1 m), dB")
+    intercept_nlos_db: float = Field(-72.0, ge=-200.0, le=0.0,
+                                     description="C_NLoS of eq. 5 (gain at 1 m), dB")
+    exponent_los: float = Field(2.0, gt=0, le=10.0, description="path-loss exponent a_LoS, 1")
+    exponent_nlos: float = Field(2.92, gt=0, le=10.0,
+                                 description="path-loss exponent a_NLoS, 1")
 
 
 class MmWaveNyc(ChannelModel):

@@ -18,12 +18,16 @@ _ONE = np.array(1.0)
 
 
 class Sub6AlHouraniParams(ChannelParams):
-    carrier_hz: float = Field(2e9, gt=0, description="carrier frequency f_c, Hz")
-    los_c: float = Field(0.6, gt=0, description="C of eq. 6, 1")
-    los_y: float = Field(0.11, gt=0, description="Y of eq. 6, 1")
+    """Ranges: physical values (an excess loss is a loss, >= 0 dB) whose gains stay finite."""
+
+    carrier_hz: float = Field(2e9, ge=1e8, le=1e11, description="carrier frequency f_c, Hz")
+    los_c: float = Field(0.6, gt=0, le=10.0, description="C of eq. 6, 1")
+    los_y: float = Field(0.11, gt=0, le=5.0, description="Y of eq. 6, 1")
     theta0_deg: float = Field(15.0, ge=0, lt=90, description="minimum elevation theta_0, deg")
-    excess_loss_los_db: float = Field(1.0, description="mean excess loss eta_LoS, dB")
-    excess_loss_nlos_db: float = Field(20.0, description="mean excess loss eta_NLoS, dB")
+    excess_loss_los_db: float = Field(1.0, ge=0.0, le=100.0,
+                                      description="mean excess loss eta_LoS, dB")
+    excess_loss_nlos_db: float = Field(20.0, ge=0.0, le=100.0,
+                                       description="mean excess loss eta_NLoS, dB")
 
 
 class Sub6AlHourani(ChannelModel):

@@ -52,7 +52,9 @@ NLOS_MAX_HEIGHT_M = 100.0
 
 
 class UmaAvParams(ChannelParams):
-    carrier_hz: float = Field(2e9, gt=0, description="carrier frequency f_c, Hz")
+    """TR 38.901's UMa path loss is specified for 0.5 to 100 GHz."""
+
+    carrier_hz: float = Field(2e9, ge=0.5e9, le=100e9, description="carrier frequency f_c, Hz")
 
 
 def _los_probability_aerial(height_m: np.ndarray, horizontal_m: np.ndarray) -> np.ndarray:
