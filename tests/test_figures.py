@@ -22,7 +22,13 @@ from adaptsky_cli.report.figures import (
     min_se_sweep,
 )
 from adaptsky_cli.report.plot_runs import default_figure_path, plot_runs
-from adaptsky_cli.store.run_file import append_checkpoint, create_run
+from adaptsky_cli.store.run_file import (
+    EPISODE_METRICS,
+    PER_USER_METRICS,
+    append_checkpoint,
+    create_run,
+)
+from tests.conftest import make_scenario
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 GBPS = 1e9
@@ -139,14 +145,20 @@ def test_series_shapes_are_checked():
 
 def make_run(path: Path, name: str, rates_bps: dict[int, np.ndarray]) -> Path:
     """A run file of scenario ``name`` whose seeds have the episode sum rates ``rates_bps``,
-    each appended in two checkpoints (a seed with none stays at episode 0)."""
-    create_run(path, f'name = "{name}"\n', {"name": name}, {}, seeds=list(rates_bps),
-               episodes=100, num_users=2)
+    each appended in two checkpoints (a seed with none stays at episode 0). Only its curves
+    are real (its checkpoints are stubs): it is read as ``RunReader(path, needs="curves")``."""
+    seeds = list(rates_bps)
+    config = make_scenario(name=name, train={"seeds": seeds, "episodes": 100})
+    create_run(path, f'name = "{name}"\n', config.model_dump(mode="json"), {}, seeds=seeds,
+               episodes=100, num_users=config.num_users)
     for seed, rates in rates_bps.items():
         half = len(rates) // 2
         for start, stop in ((0, half), (half, len(rates))):
             if stop > start:
-                append_checkpoint(path, seed, {"sum_rate_bps": rates[start:stop]}, {},
+                rows = {metric: np.zeros(stop - start) for metric in EPISODE_METRICS}
+                rows |= {metric: np.zeros((stop - start, config.num_users))
+                         for metric in PER_USER_METRICS}
+                append_checkpoint(path, seed, {**rows, "sum_rate_bps": rates[start:stop]}, {},
                                   (stop, {}), {"episode": stop})
     return path
 

@@ -36,7 +36,7 @@ def read_sum_rates(run_paths: list[Path]) -> dict[str, list[np.ndarray]]:
         if path.resolve() in seen:
             continue
         seen.add(path.resolve())
-        with RunReader(path) as run:
+        with RunReader(path, needs="curves") as run:
             name = run.config["name"]
             rates = [run.episodes(seed)["sum_rate_bps"] for seed in run.seeds]
         groups.setdefault(name, []).extend(r for r in rates if len(r))

@@ -1,13 +1,19 @@
 """Run files: HDF5 holding a training run's scenario, learning curves, trajectories and
-checkpoints (layout in ``docs/file-format.md``).
+checkpoints (layout in ``docs/file-format.md``, as data in ``store.layout``).
 
 Every change is made on a copy that replaces the file in one ``os.replace``: a run killed at
-any moment leaves the file as it was at its last checkpoint, never half written.
+any moment leaves the file as it was at its last checkpoint, never half written. Every file is
+validated against the layout when it is opened, before anything is read or written.
 """
 
 from __future__ import annotations
 
 import json
+import os
+import platform
+import stat
+import sys
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
@@ -15,32 +21,54 @@ import h5py
 import numpy as np
 
 from adaptsky_cli import __version__
-from adaptsky_cli.errors import AdaptskyError
+from adaptsky_cli.scenario import Scenario
 from adaptsky_cli.store.atomic import rewrite, string_dataset, utc_timestamp
+from adaptsky_cli.store.layout import (
+    EPISODES,
+    FORMAT_VERSION,
+    KIND,
+    TRAJECTORY,
+    UNITS,
+    Needs,
+    RunFileError,
+    require_finite,
+    validate_run,
+)
 from adaptsky_cli.store.tree import Tree, read_tree, write_tree
 
-FORMAT_VERSION = 1
-KIND = "adaptsky-run"
+__all__ = ["FORMAT_VERSION", "KIND", "RunFileError", "RunReader", "append_checkpoint",
+           "create_run", "environment", "record_session", "set_planned_episodes"]
 
-EPISODE_METRICS = ("sum_rate_bps", "fairness", "reward", "mean_height_m", "epsilon", "loss")
-PER_USER_METRICS = ("mean_rate_bps", "mean_alpha")
-TRAJECTORY_FIELDS = ("uav_m", "alpha", "gain", "los", "rate_bps", "reward", "action")
+EPISODE_METRICS = tuple(field.name for field in EPISODES if len(field.shape) == 1)
+PER_USER_METRICS = tuple(field.name for field in EPISODES if len(field.shape) == 2)
+TRAJECTORY_FIELDS = tuple(field.name for field in TRAJECTORY)
 
 
-class RunFileError(AdaptskyError):
-    """A run file that is missing, not HDF5, damaged, too new, or lacks what is asked of it."""
+def environment() -> dict[str, str]:
+    """Versions of Python, numpy, torch (read without importing it) and h5py; the platform."""
+    try:
+        torch_version = version("torch")
+    except PackageNotFoundError:
+        torch_version = "not installed"
+    return {"python_version": platform.python_version(), "numpy_version": np.__version__,
+            "torch_version": torch_version, "h5py_version": h5py.__version__,
+            "platform": platform.platform()}
 
 
 def create_run(path: Path, scenario_text: str, config: dict[str, Any],
                plugins: dict[str, dict[str, str]], seeds: list[int], episodes: int,
-               num_users: int, overrides: list[str] | None = None) -> None:
+               num_users: int, overrides: list[str] | None = None,
+               argv: list[str] | None = None) -> None:
     """Write a new run file with empty learning curves for every seed; ``overrides`` are the
-    ``--set`` items applied to the scenario text (already part of ``config``)."""
+    ``--set`` items applied to the scenario text (already part of ``config``), ``argv`` the
+    command line that made it (default ``sys.argv``)."""
     with rewrite(path) as file:
         file.attrs.update(format_version=FORMAT_VERSION, kind=KIND,
                           adaptsky_version=__version__,
                           created_utc=utc_timestamp(),
-                          scenario_name=config["name"])
+                          scenario_name=config["name"],
+                          command_line=json.dumps(sys.argv if argv is None else argv),
+                          **environment())
         string_dataset(file, "scenario", scenario_text)
         string_dataset(file, "config", json.dumps(config, indent=1))
         string_dataset(file, "overrides", json.dumps(overrides or []))
@@ -51,7 +79,7 @@ def create_run(path: Path, scenario_text: str, config: dict[str, Any],
             group.attrs.update(seed=seed, episodes_done=0, episodes_planned=episodes)
             empty: Tree = {name: np.zeros(0) for name in EPISODE_METRICS}
             empty |= {name: np.zeros((0, num_users)) for name in PER_USER_METRICS}
-            write_tree(group.create_group("episodes"), empty, compress=True)
+            write_tree(group.create_group("episodes"), empty, compress=True, units=UNITS)
 
 
 def set_planned_episodes(path: Path, config: dict[str, Any]) -> None:
@@ -77,45 +105,82 @@ def append_checkpoint(path: Path, seed: int, rows: dict[str, np.ndarray],
             dataset[done:] = values
         for episode, trajectory in trajectories.items():
             write_tree(group.require_group(f"trajectories/{episode}"),
-                       {**trajectory, "episode": episode}, compress=True)
+                       {**trajectory, "episode": episode}, compress=True, units=UNITS)
         episode, trajectory = last_trajectory
         write_tree(group.require_group("trajectory"), {**trajectory, "episode": episode},
-                   compress=True)
-        write_tree(group.require_group("checkpoint"), checkpoint)
+                   compress=True, units=UNITS)
+        write_tree(group.require_group("checkpoint"), checkpoint, units=UNITS)
         group.attrs["episodes_done"] = int(checkpoint["episode"])
 
 
-class RunReader:
-    """Read access to a run file, checked on opening; use as a context manager."""
+def record_session(path: Path, kind: str, argv: list[str], started_utc: str, wall_s: float,
+                   episodes_before: dict[int, int]) -> None:
+    """Append one row to the run's ``/sessions`` (a JSON list): what ran (``kind``: train or
+    resume; the command line), when and for how long, where (versions, platform), and every
+    seed's episodes done before and after."""
+    with rewrite(path) as file:
+        sessions = json.loads(file["sessions"][()].decode()) if "sessions" in file else []
+        after = {seed: int(group.attrs["episodes_done"]) for seed, group in file["seeds"].items()}
+        sessions.append({"kind": kind, "command_line": list(argv), "started_utc": started_utc,
+                         "wall_s": round(wall_s, 3), "adaptsky_version": __version__,
+                         **environment(),
+                         "episodes_before": {str(k): v for k, v in episodes_before.items()},
+                         "episodes_after": after})
+        if "sessions" in file:
+            del file["sessions"]
+        string_dataset(file, "sessions", json.dumps(sessions))
 
-    def __init__(self, path: str | Path) -> None:
+
+def open_run_file(path: Path) -> h5py.File:
+    """``path`` opened read-only: a regular, readable HDF5 file, never through a link."""
+    try:
+        info = os.lstat(path)
+    except FileNotFoundError:
+        raise RunFileError(f"{path}: no such run file") from None
+    except OSError as error:
+        raise RunFileError(f"{path}: cannot read run file ({error.strerror})") from None
+    if stat.S_ISLNK(info.st_mode):
+        try:
+            what = f"a symbolic link to {os.path.realpath(path, strict=True)}"
+        except OSError:
+            what = "a symbolic link that points to itself or to nothing"
+        raise RunFileError(f"{path}: is {what}; run files are not opened through links, "
+                           "give the file's own path")
+    if stat.S_ISDIR(info.st_mode):
+        raise RunFileError(f"{path}: is a directory, not a run file")
+    if not stat.S_ISREG(info.st_mode):
+        raise RunFileError(f"{path}: is not a regular file, not a run file")
+    try:
+        os.close(os.open(path, os.O_RDONLY | os.O_NOFOLLOW))
+        hdf5 = h5py.is_hdf5(path)
+    except OSError as error:
+        raise RunFileError(f"{path}: cannot read run file ({error.strerror or error}); check "
+                           "its permissions") from None
+    if not hdf5:
+        raise RunFileError(f"{path}: not an HDF5 file")
+    try:
+        return h5py.File(path, "r")
+    except OSError as error:
+        raise RunFileError(f"{path}: damaged or truncated HDF5 file "
+                           f"({str(error).splitlines()[0]})") from None
+
+
+class RunReader:
+    """Read access to a run file, validated on opening against the documented layout
+    (``store.layout``: names, dtypes, declared shapes, attributes; no array is read); every
+    array read is checked to be finite. Use as a context manager. ``needs="curves"`` leaves
+    checkpoints and trajectories unchecked and unreadable, for readers of learning curves."""
+
+    def __init__(self, path: str | Path, needs: Needs = "all") -> None:
         self.path = Path(path)
-        if not self.path.is_file():
-            raise RunFileError(f"{self.path}: no such run file")
-        if not h5py.is_hdf5(self.path):
-            raise RunFileError(f"{self.path}: not an HDF5 file")
+        self.needs = needs
+        self.file = open_run_file(self.path)
         try:
-            self.file = h5py.File(self.path, "r")
-        except OSError as error:
-            raise RunFileError(f"{self.path}: damaged or truncated HDF5 file "
-                               f"({str(error).splitlines()[0]})") from None
-        try:
-            self._guard("its header", self._check)
+            self.scenario: Scenario = self._guard(
+                "its layout", lambda: validate_run(self.file, self.path, needs))
         except BaseException:
             self.file.close()
             raise
-
-    def _check(self) -> None:
-        attrs = self.file.attrs
-        if attrs.get("kind") != KIND:
-            raise RunFileError(f"{self.path}: not an adaptsky run file")
-        version = int(attrs.get("format_version", -1))
-        if version > FORMAT_VERSION:
-            raise RunFileError(f"{self.path}: format version {version} is newer than this "
-                               f"adaptsky ({__version__}) reads ({FORMAT_VERSION}); upgrade")
-        for name in ("scenario", "config", "seeds"):
-            if name not in self.file:
-                raise RunFileError(f"{self.path}: damaged run file: /{name} is missing")
 
     def __enter__(self) -> RunReader:
         return self
@@ -126,27 +191,35 @@ class RunReader:
     def _guard(self, what: str, read: Any) -> Any:
         try:
             return read()
-        except (OSError, KeyError, ValueError, TypeError, AttributeError) as error:
+        except (OSError, KeyError, ValueError, TypeError, AttributeError,
+                RuntimeError) as error:
             raise RunFileError(f"{self.path}: damaged run file: cannot read {what} "
                                f"({str(error).splitlines()[0]})") from None
 
+    def _text(self, name: str) -> str:
+        return self._guard(f"/{name}", lambda: self.file[name][()].decode())
+
     @property
     def scenario_text(self) -> str:
-        return self._guard("/scenario", lambda: self.file["scenario"][()].decode())
+        return self._text("scenario")
 
     @property
     def config(self) -> dict[str, Any]:
-        return self._guard("/config", lambda: json.loads(self.file["config"][()].decode()))
+        return json.loads(self._text("config"))  # valid JSON: checked on opening
 
     @property
     def overrides(self) -> list[str]:
         """The ``--set`` items of the run (files written before they existed: none)."""
-        return self._guard("/overrides", lambda: json.loads(self.file["overrides"][()].decode())
-                           if "overrides" in self.file else [])
+        return json.loads(self._text("overrides")) if "overrides" in self.file else []
+
+    @property
+    def sessions(self) -> list[dict[str, Any]]:
+        """One row per ``train`` or ``--resume`` (files written before they existed: none)."""
+        return json.loads(self._text("sessions")) if "sessions" in self.file else []
 
     @property
     def attrs(self) -> dict[str, Any]:
-        """The root attributes (format and adaptsky versions, creation time, ...)."""
+        """The root attributes (format and adaptsky versions, creation time, provenance)."""
         return self._guard("its attributes", lambda: {
             key: value.item() if isinstance(value, np.generic) else value
             for key, value in self.file.attrs.items()})
@@ -158,36 +231,51 @@ class RunReader:
 
     @property
     def seeds(self) -> list[int]:
-        return self._guard("/seeds", lambda: sorted(int(seed) for seed in self.file["seeds"]))
+        """The seeds of /config train.seeds, sorted (each has its group: checked on opening)."""
+        return sorted(self.scenario.train.seeds)
 
     def seed_attrs(self, seed: int) -> dict[str, int]:
         return self._guard(f"seed {seed}", lambda: {
             key: int(value) for key, value in self.file[f"seeds/{seed}"].attrs.items()})
 
     def has_checkpoint(self, seed: int) -> bool:
-        def read() -> bool:
-            group = self.file.get(f"seeds/{seed}/checkpoint")
-            return group is not None and "episode" in group.attrs
-        return self._guard(f"seed {seed}", read)
+        return self._guard(f"seed {seed}", lambda: f"seeds/{seed}/checkpoint" in self.file)
 
     def episodes(self, seed: int) -> dict[str, np.ndarray]:
-        """Learning curves of ``seed`` up to its last checkpoint."""
+        """Learning curves of ``seed`` up to its last checkpoint (only ``loss`` may be NaN)."""
         def read() -> dict[str, np.ndarray]:
             done = int(self.file[f"seeds/{seed}"].attrs["episodes_done"])
             group = self.file[f"seeds/{seed}/episodes"]
-            return {name: group[name][:done] for name in group}
-        return self._guard(f"seed {seed}'s episodes", read)
+            return {field.name: group[field.name][:done] for field in EPISODES}
+        curves = self._guard(f"seed {seed}'s episodes", read)
+        for name, values in curves.items():
+            require_finite(self.path, f"/seeds/{seed}/episodes/{name}", values,
+                           allow_nan=name == "loss")
+        return curves
 
     def trajectory(self, seed: int) -> Tree:
-        return self._guard(f"seed {seed}'s trajectory",
-                           lambda: read_tree(self.file[f"seeds/{seed}/trajectory"]))
+        return self._read_finite(f"seeds/{seed}/trajectory", f"seed {seed}'s trajectory")
 
     def checkpoint(self, seed: int) -> Tree:
         self.require_checkpoint(seed)
-        return self._guard(f"seed {seed}'s checkpoint",
-                           lambda: read_tree(self.file[f"seeds/{seed}/checkpoint"]))
+        return self._read_finite(f"seeds/{seed}/checkpoint", f"seed {seed}'s checkpoint")
 
     def require_checkpoint(self, seed: int) -> None:
         if not self.has_checkpoint(seed):
             raise RunFileError(f"{self.path}: seed {seed} has no checkpoint (the run stopped "
-                               "before its first one)")
+                               "before its first one); continue it with adaptsky train "
+                               f"--resume {self.path}")
+
+    def _read_finite(self, name: str, what: str) -> Tree:
+        if self.needs != "all":
+            raise ValueError(f"RunReader(needs={self.needs!r}) does not read {what}")
+        tree = self._guard(what, lambda: read_tree(self.file[name]))
+        self._check_finite(tree, f"/{name}")
+        return tree
+
+    def _check_finite(self, tree: Tree, where: str) -> None:
+        for key, value in tree.items():
+            if isinstance(value, dict):
+                self._check_finite(value, f"{where}/{key}")
+            elif isinstance(value, np.ndarray):
+                require_finite(self.path, f"{where}/{key}", value)

@@ -3,6 +3,7 @@ and numbers become attributes. Nothing is pickled."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import h5py
@@ -34,15 +35,19 @@ def _write_array(group: h5py.Group, key: str, value: np.ndarray, compress: bool)
                          chunks=True, **options)
 
 
-def write_tree(group: h5py.Group, tree: Tree, compress: bool = False) -> None:
-    """Write ``tree`` below ``group``, replacing what is there under the same names."""
+def write_tree(group: h5py.Group, tree: Tree, compress: bool = False,
+               units: Mapping[str, str] | None = None) -> None:
+    """Write ``tree`` below ``group``, replacing what is there under the same names; with
+    ``units`` every dataset gets the attribute ``units``: ``units[name]``, else "1"."""
     for key, value in tree.items():
         if isinstance(value, dict):
             if key in group.attrs:
                 del group.attrs[key]
-            write_tree(group.require_group(key), value, compress)
+            write_tree(group.require_group(key), value, compress, units)
         elif isinstance(value, np.ndarray):
             _write_array(group, key, value, compress)
+            if units is not None:
+                group[key].attrs["units"] = units.get(key, "1")
         elif isinstance(value, str | int | float | bool | np.integer | np.floating | np.bool_):
             if key in group:
                 del group[key]
