@@ -246,7 +246,7 @@ def _no_checkpoint(path: Path, target: Path) -> None:
 @pytest.mark.parametrize(("damage", "message"), [
     (_truncated, "damaged"), (_not_hdf5, "not an HDF5 file"),
     (_newer, "format version 99 is newer than this adaptsky"),
-    (_no_checkpoint, "seed 0 has no checkpoint")])
+    (_no_checkpoint, "/seeds/0/checkpoint: missing, but episodes_done is 1")])
 def test_bad_run_files_give_one_line(finished_run, tmp_path, capsys, damage, message):
     target = tmp_path / "bad.h5"
     damage(finished_run, target)

@@ -22,6 +22,7 @@ from adaptsky_cli.cli import (
 )
 from adaptsky_cli.cli.console import err
 from adaptsky_cli.errors import AdaptskyError
+from adaptsky_cli.store.atomic import error_path, storage_error
 
 app = typer.Typer(name="adaptsky", no_args_is_help=True, pretty_exceptions_enable=False,
                   help="NOMA-UAV network simulator and dueling-DQN framework (AdaptSky).")
@@ -47,16 +48,34 @@ def _root(version: bool = typer.Option(False, "--version", callback=_version, is
     """NOMA-UAV network simulator and dueling-DQN framework (AdaptSky)."""
 
 
+def _interrupted(done: SystemExit) -> bool:
+    """Whether ``done`` is how Typer ended a KeyboardInterrupt."""
+    error: BaseException | None = done
+    while error is not None:
+        if isinstance(error, KeyboardInterrupt):
+            return True
+        error = error.__cause__ or error.__context__
+    return False
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the command line with ``argv``; return the exit code (never raises for user errors)."""
     try:
         app(args=argv, prog_name="adaptsky")  # standalone: ends with SystemExit
     except SystemExit as done:
+        if _interrupted(done):
+            err.print("interrupted")  # Typer ends a Ctrl-C with a silent exit 130
         return done.code if isinstance(done.code, int) else (0 if done.code is None else 1)
     except AdaptskyError as error:
         if os.environ.get("ADAPTSKY_DEBUG") == "1":
             raise
         err.print(str(error))
+        return 1
+    except OSError as error:  # a file-system fault no writer turned into its own line
+        if os.environ.get("ADAPTSKY_DEBUG") == "1":
+            raise
+        err.print(str(storage_error(error_path(error) or "adaptsky", "cannot access it",
+                                    error)))
         return 1
     return 0
 

@@ -13,13 +13,19 @@ from adaptsky_cli.train import api
 
 
 def _seeds(value: str | None) -> list[int] | None:
+    """``--seeds 0,1,2`` as a list: integers >= 0, each once, nothing empty between commas."""
     if value is None:
         return None
     try:
-        return [int(part) for part in value.split(",") if part.strip()]
+        seeds = [int(part) for part in value.split(",")]
     except ValueError:
         raise AdaptskyError(f"--seeds: '{value}' is not a comma-separated list of integers, "
                             "e.g. 0,1,2") from None
+    repeated = sorted({seed for seed in seeds if seeds.count(seed) > 1})
+    if repeated:
+        raise AdaptskyError(f"--seeds: {', '.join(map(str, repeated))} given more than once; "
+                            "give each seed once, e.g. 0,1,2")
+    return seeds
 
 
 def train(
@@ -63,4 +69,9 @@ def train(
     if outcome.interrupted:
         err.print(f"interrupted; checkpoints saved. Continue with: adaptsky train --resume {path}")
         raise typer.Exit(130)
-    err.print(f"run file: {path}")
+    if outcome.complete:
+        done = max(outcome.episodes_done.values())
+        err.print(f"{path}: already complete ({done} episodes per seed), nothing trained; to "
+                  f"train it further give --episodes with more than {done}")
+    elif not quiet:
+        err.print(f"run file: {path}")

@@ -8,19 +8,22 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Callable
+from contextlib import ExitStack
 from dataclasses import dataclass
-from typing import Any, Literal
-
-import torch
+from typing import TYPE_CHECKING, Any, Literal
 
 from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.experiment.plan import RunSpec, scenario_text
 from adaptsky_cli.scenario import parse_scenario
 from adaptsky_cli.store import run_file
-from adaptsky_cli.store.atomic import remove_stale_copies
+from adaptsky_cli.store.atomic import make_parent
+from adaptsky_cli.store.lock import run_lock
 from adaptsky_cli.store.run_file import RunFileError, RunReader
 from adaptsky_cli.train.api import create_run_file
 from adaptsky_cli.train.runner import RunFileWriter, SeedTask, pin_threads, train_stack
+
+if TYPE_CHECKING:
+    import torch
 
 Status = Literal["missing", "partial", "done"]
 
@@ -85,8 +88,8 @@ class RunReport:
 
 
 def _prepare(spec: RunSpec) -> tuple[RunState, SeedTask | None]:
-    """Create or open ``spec``'s run file; the task that finishes it (None when done)."""
-    remove_stale_copies(spec.path)
+    """Create or open ``spec``'s run file; the task that finishes it (None when done). The
+    caller holds its lock."""
     state = run_state(spec)
     scenario = parse_scenario(spec.config, spec.name)
     checkpoint = None
@@ -112,7 +115,19 @@ def execute_runs(specs: list[RunSpec], stop: Callable[[], bool] = lambda: False,
     """Train ``specs`` to their episode targets in this process (one thread) as one stack,
     each from its file's last checkpoint if it has one (members of a stack must share
     :func:`adaptsky_cli.train.stack_run.stack_key`). ``stop()`` asks for a checkpoint and an
-    early end."""
+    early end. Each run file is locked while this runs: a second writer is refused."""
+    with ExitStack() as locks:
+        for spec in specs:
+            make_parent(spec.path)
+            locks.enter_context(run_lock(spec.path))
+        return _execute_locked(specs, stop, orphaned, device)
+
+
+def _execute_locked(specs: list[RunSpec], stop: Callable[[], bool],
+                    orphaned: Callable[[], bool], device: torch.device | None
+                    ) -> list[RunReport]:
+    import torch
+
     start = time.perf_counter()
     pin_threads()
     prepared = [_prepare(spec) for spec in specs]

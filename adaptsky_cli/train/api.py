@@ -2,22 +2,29 @@
 
 from __future__ import annotations
 
+import sys
+import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import torch
 from rich.console import Console
 
-from adaptsky_cli.agent.device_step import resolve_device
 from adaptsky_cli.channels.registry import discover
 from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.scenario import Scenario, parse_scenario
 from adaptsky_cli.scenario.loading import parse_toml, read_scenario_text
 from adaptsky_cli.scenario.overrides import apply_overrides
+from adaptsky_cli.scenario.resources import check_fits
 from adaptsky_cli.store import run_file
-from adaptsky_cli.store.atomic import fresh_path, remove_stale_copies
+from adaptsky_cli.store.atomic import StorageError, fresh_path, make_parent, utc_timestamp
+from adaptsky_cli.store.lock import run_lock
 from adaptsky_cli.store.run_file import RunReader
+from adaptsky_cli.store.tree import Tree
 from adaptsky_cli.train.progress import TrainingProgress
 from adaptsky_cli.train.runner import RunOutcome, SeedTask, run_tasks
+
+if TYPE_CHECKING:  # imported where training starts: commands start without torch
+    import torch
 
 
 class OutputExistsError(AdaptskyError):
@@ -57,13 +64,23 @@ def load_with_overrides(scenario_path: Path, set_values: list[str] | None = None
     return parse_scenario(data, source), text
 
 
-def create_run_file(path: Path, scenario: Scenario, text: str,
-                    set_values: list[str] | None = None) -> None:
-    """A new run file for every seed of ``scenario`` (refuses an existing ``path``)."""
+def prepare_output(path: Path) -> None:
+    """Make ``path``'s folder; refuse a folder or an existing file at ``path`` (call it again
+    under the run's lock: another writer may have made it meanwhile)."""
+    if path.is_dir():
+        raise OutputExistsError(f"{path}: is a folder; give a run file name, e.g. "
+                                f"--out {path / 'run.h5'}")
     if path.exists():
         raise OutputExistsError(f"{path}: exists; choose another --out, or continue it with "
                                 f"--resume {path}")
-    path.parent.mkdir(parents=True, exist_ok=True)
+    make_parent(path)
+
+
+def create_run_file(path: Path, scenario: Scenario, text: str,
+                    set_values: list[str] | None = None) -> None:
+    """A new run file for every seed of ``scenario`` (refuses an existing ``path``); the
+    caller holds its lock (:func:`adaptsky_cli.store.lock.run_lock`)."""
+    prepare_output(path)
     t = scenario.train
     run_file.create_run(path, text, scenario.model_dump(mode="json"), _plugins_used(scenario),
                         t.seeds, t.episodes, scenario.num_users, set_values or [])
@@ -79,45 +96,75 @@ def train(*, scenario_path: Path, out: Path | None = None, seeds: list[int] | No
     ``set_values`` are ``section.key=value`` overrides, applied before the options above and
     recorded in the run file. ``device``: cpu, cuda or auto (cuda when available).
     """
+    started_utc, start_s = utc_timestamp(), time.monotonic()
     torch_device = training_device(device)
     scenario, text = load_with_overrides(scenario_path, set_values)
     scenario = _with_train(scenario, seeds=seeds, episodes=episodes, steps=steps,
                            checkpoint_every=checkpoint_every)
+    check_fits(scenario, str(scenario_path), workers=workers)
     path = out if out is not None else default_output(scenario)
-    create_run_file(path, scenario, text, set_values)
-    t = scenario.train
-    tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every)
-             for seed in t.seeds]
-    return path, _run(path, tasks, workers, torch_device, quiet, console)
+    prepare_output(path)
+    with run_lock(path):
+        create_run_file(path, scenario, text, set_values)
+        t = scenario.train
+        tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every)
+                 for seed in t.seeds]
+        outcome = _run(path, tasks, workers, torch_device, quiet, console)
+        run_file.record_session(path, "train", sys.argv, started_utc,
+                                time.monotonic() - start_s, dict.fromkeys(t.seeds, 0))
+        return path, outcome
+
+
+def read_progress(run_path: Path) -> tuple[dict[str, object], dict[int, Tree | None]]:
+    """A run file's configuration and each seed's last checkpoint (None for a seed stopped
+    before its first: it starts from zero)."""
+    with RunReader(run_path) as run:
+        config = run.config
+        checkpoints: dict[int, Tree | None] = {}
+        for seed in run.seeds:  # (the reader refuses a seed with episodes but no checkpoint)
+            checkpoints[seed] = run.checkpoint(seed) if run.has_checkpoint(seed) else None
+    return config, checkpoints
 
 
 def resume(*, run_path: Path, episodes: int | None = None, workers: int | None = None,
            device: str = "cpu", quiet: bool = False, console: Console | None = None
            ) -> tuple[Path, RunOutcome]:
-    """Continue every seed of a run file from its last checkpoint (on any device: only the
-    same device continues bit for bit)."""
+    """Continue every seed of a run file from its last checkpoint, a seed without one from
+    zero (on any device: only the same device continues bit for bit)."""
+    started_utc, start_s = utc_timestamp(), time.monotonic()
     torch_device = training_device(device)
-    remove_stale_copies(run_path)
-    with RunReader(run_path) as run:
-        config = run.config
-        checkpoints = {seed: run.checkpoint(seed) for seed in run.seeds}
-    scenario = parse_scenario(config, f"{run_path}:/config")
-    done = max(int(checkpoint["episode"]) for checkpoint in checkpoints.values())
-    if episodes is not None and episodes < done:
-        raise AdaptskyError(f"--episodes {episodes} is fewer than the {done} episodes "
-                            f"{run_path} has done")
-    if episodes is not None:
-        scenario = _with_train(scenario, episodes=episodes)
-        run_file.set_planned_episodes(run_path, scenario.model_dump(mode="json"))
-    t = scenario.train
-    tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every,
-                      checkpoint) for seed, checkpoint in checkpoints.items()
-             if int(checkpoint["episode"]) < t.episodes]
-    return run_path, _run(run_path, tasks, workers, torch_device, quiet, console)
+    with RunReader(run_path, needs="curves"):
+        pass  # a missing or damaged file: its own line, before a lock file is made beside it
+    with run_lock(run_path):
+        config, checkpoints = read_progress(run_path)
+        scenario = parse_scenario(config, f"{run_path}:/config")
+        done = max(int(c["episode"]) if c is not None else 0 for c in checkpoints.values())
+        if episodes is not None and episodes < done:
+            raise AdaptskyError(f"--episodes {episodes} is fewer than the {done} episodes "
+                                f"{run_path} has done")
+        if episodes is not None:
+            scenario = _with_train(scenario, episodes=episodes)
+            run_file.set_planned_episodes(run_path, scenario.model_dump(mode="json"))
+        check_fits(scenario, str(run_path), workers=workers)
+        t = scenario.train
+        tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every,
+                          checkpoint) for seed, checkpoint in checkpoints.items()]
+        tasks = [task for task in tasks if task.episodes_done < t.episodes]
+        if not tasks:
+            return run_path, RunOutcome({seed: t.episodes for seed in checkpoints}, False,
+                                        complete=True)
+        before = {seed: int(c["episode"]) if c is not None else 0
+                  for seed, c in checkpoints.items()}
+        outcome = _run(run_path, tasks, workers, torch_device, quiet, console)
+        run_file.record_session(run_path, "resume", sys.argv, started_utc,
+                                time.monotonic() - start_s, before)
+        return run_path, outcome
 
 
 def training_device(name: str) -> torch.device:
     """The torch device for ``--device`` (cpu, cuda, cuda:N or auto), or one clear error."""
+    from adaptsky_cli.agent.device_step import resolve_device
+
     try:
         return resolve_device(name)
     except (ValueError, RuntimeError) as error:
@@ -127,7 +174,14 @@ def training_device(name: str) -> torch.device:
 def _run(path: Path, tasks: list[SeedTask], workers: int | None, device: torch.device,
          quiet: bool, console: Console | None) -> RunOutcome:
     console = console or Console(stderr=True)
-    with TrainingProgress(console, quiet) as view:
-        for task in tasks:
-            view.add_seed(task.seed, task.episodes_done, task.episodes)
-        return run_tasks(path, tasks, workers or len(tasks), view, device)
+    try:
+        with TrainingProgress(console, quiet) as view:
+            for task in tasks:
+                view.add_seed(task.seed, task.episodes_done, task.episodes)
+            return run_tasks(path, tasks, workers or len(tasks), view, device)
+    except StorageError as error:
+        if error.path != path or not path.exists():
+            raise
+        failure = error.with_advice(f"{error.advice}; {path} keeps its last checkpoints: "
+                                    f"continue it with adaptsky train --resume {path}")
+    raise failure

@@ -16,19 +16,21 @@ import signal
 import threading
 import traceback
 from collections.abc import Callable
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import torch
 
 from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.scenario.models import Scenario
 from adaptsky_cli.store import run_file
 from adaptsky_cli.store.tree import Tree
 from adaptsky_cli.train.progress import TrainingProgress
-from adaptsky_cli.train.stack_run import Member, StackRun
+
+if TYPE_CHECKING:  # torch is imported where training starts: commands start without it
+    import torch
 
 Emit = Callable[[tuple[Any, ...]], None]
 
@@ -61,12 +63,25 @@ class SeedTask:
 
 
 def pin_threads() -> None:
-    """One BLAS and torch thread per process: on this network size one is as fast as two."""
-    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ[var] = "1"
+    """One BLAS and torch thread per process: on this network size one is as fast as two.
+    (threadpoolctl: environment variables set after numpy is imported have no effect.)"""
     import torch
+    from threadpoolctl import threadpool_limits
 
+    threadpool_limits(limits=1)
     torch.set_num_threads(1)
+
+
+@contextmanager
+def sigint_blocked() -> Any:
+    """Block SIGINT in this thread while the block runs (processes started meanwhile inherit
+    the mask, so a Ctrl-C cannot interrupt their start-up); one that came meanwhile is then
+    delivered to this process's handler."""
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
@@ -79,6 +94,8 @@ def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
     others when they catch up. ``stop()`` asks for a checkpoint of every member and an early
     end; ``orphaned()`` (the parent died) for an end without one.
     """
+    from adaptsky_cli.train.stack_run import Member, StackRun
+
     states = {task.key: task.checkpoint for task in tasks}
     done = {task.key: task.episodes_done for task in tasks}
     rows: dict[object, list[dict[str, Any]]] = {task.key: [] for task in tasks}
@@ -130,6 +147,7 @@ def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
 
 def _worker(group: list[SeedTask], messages: Any, stop_event: Any) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when to stop
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # blocked while starting
     pin_threads()
     parent_pid = group[0].parent_pid
 
@@ -142,7 +160,8 @@ def _worker(group: list[SeedTask], messages: Any, stop_event: Any) -> None:
     try:
         train_stack(group, messages.put, stop_event.is_set, orphaned)
     except Exception as error:  # reported by the parent as one line
-        last = traceback.format_exception_only(type(error), error)[-1].strip()
+        last = (str(error) if isinstance(error, AdaptskyError)
+                else traceback.format_exception_only(type(error), error)[-1].strip())
         for task in group:
             messages.put(("error", task.key, last))
 
@@ -192,6 +211,7 @@ class RunFileWriter:
 class RunOutcome:
     episodes_done: dict[int, int]
     interrupted: bool
+    complete: bool = False  # every seed had already reached its target: nothing was trained
 
 
 def partition(tasks: list[SeedTask], workers: int) -> list[list[SeedTask]]:
@@ -208,6 +228,8 @@ def run_tasks(path: Path, tasks: list[SeedTask], workers: int, view: TrainingPro
     training its share as one stack; on another device one stack in this process holds them
     all.
     """
+    import torch
+
     done: dict[int, int] = {task.seed: task.episodes_done for task in tasks}
     errors: list[str] = []
     handle = RunFileWriter(path, done, errors, view.episode)
@@ -226,29 +248,48 @@ def run_tasks(path: Path, tasks: list[SeedTask], workers: int, view: TrainingPro
     messages, stop_event = context.Queue(), context.Event()
     processes = []
     with _StopOnInterrupt(stop_event, view):
-        for group in partition(tasks, workers):
-            process = context.Process(target=_worker, args=(group, messages, stop_event),
-                                      daemon=True)
-            process.start()
-            processes.append((process, {task.key for task in group}))
-        left = {task.key for task in tasks}
-        while left:
-            try:
-                message = messages.get(timeout=0.5)
-            except queue.Empty:
-                for process, keys in processes:
-                    if not process.is_alive() and keys & left:
-                        errors.append(f"seeds {sorted(keys & left)} failed: their process "
-                                      f"ended with exit code {process.exitcode}")
-                        left -= keys
-                continue
-            handle(message)
-            if message[0] in ("done", "error"):
-                left.discard(message[1])
-                if message[0] == "error":
-                    stop_event.set()
-        for process, _ in processes:
-            process.join()
+        try:
+            with sigint_blocked():  # children ignore SIGINT before they import anything
+                for group in partition(tasks, workers):
+                    process = context.Process(target=_worker,
+                                              args=(group, messages, stop_event), daemon=True)
+                    process.start()
+                    processes.append((process, {task.key for task in group}))
+            _collect(messages, processes, {task.key for task in tasks}, handle, errors,
+                     stop_event)
+            for process, _ in processes:
+                process.join()
+        finally:
+            _end(processes)
     if errors:
         raise TrainingError("; ".join(errors))
     return RunOutcome(done, stop_event.is_set())
+
+
+def _collect(messages: Any, processes: list[tuple[Any, set[object]]], left: set[object],
+             handle: RunFileWriter, errors: list[str], stop_event: Any) -> None:
+    """Hand the workers' messages to ``handle`` until every task is done or failed."""
+    while left:
+        try:
+            message = messages.get(timeout=0.5)
+        except queue.Empty:
+            for process, keys in processes:
+                if not process.is_alive() and keys & left:
+                    errors.append(f"seeds {sorted(keys & left)} failed: their process "
+                                  f"ended with exit code {process.exitcode}")
+                    left -= keys
+            continue
+        handle(message)
+        if message[0] in ("done", "error"):
+            left.discard(message[1])
+            if message[0] == "error":
+                stop_event.set()
+
+
+def _end(processes: list[tuple[Any, set[object]]]) -> None:
+    """Workers still running after an error here (a full disk, a second Ctrl-C) are
+    stopped: nobody would write what they send."""
+    for process, _ in processes:
+        if process.is_alive():
+            process.terminate()
+        process.join()
