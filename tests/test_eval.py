@@ -79,6 +79,7 @@ def test_same_arguments_give_identical_numbers(runs, capsys):
         assert _eval(run, tmp_path / f"{name}.h5", "--compare", "soa,random", "--json") == 0
         captured = capsys.readouterr()
         outputs.append(json.loads(captured.out))      # --json: nothing else on stdout
+        assert outputs[-1].pop("eval_file") == str(tmp_path / f"{name}.h5")
     assert outputs[0] == outputs[1]
 
 

@@ -3,16 +3,19 @@
 from __future__ import annotations
 
 import json
+import os
+import time
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
 from adaptsky_cli.cli.console import err, out
-from adaptsky_cli.cli.options import Json, ScenarioFile
+from adaptsky_cli.cli.options import Json, ScenarioFile, command_line
 from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.evaluate import api
 from adaptsky_cli.report.eval_table import methods_table, oracle_line
+from adaptsky_cli.report.progress import WorkProgress
 from adaptsky_cli.report.units import format_rate
 from adaptsky_cli.store.atomic import fresh_path
 from adaptsky_cli.store.eval_file import write_eval
@@ -23,10 +26,20 @@ LayoutSeed = Annotated[int, typer.Option(min=0, help="seed of the uniform layout
 Steps = Annotated[int, typer.Option(min=1, help="steps per layout")]
 
 
-def _show(results: dict[str, Any], as_json: bool) -> None:
-    if as_json:
-        print(json.dumps(results))
-        return
+def _writable_new_file(path: Path) -> None:
+    """Refuse, before any work, an eval file that exists or whose folder does not exist or
+    cannot be written."""
+    if path.exists():
+        raise AdaptskyError(f"{path}: exists; choose another --out")
+    if not path.parent.is_dir():
+        raise AdaptskyError(f"{path}: the folder {path.parent} does not exist; create it or "
+                            "choose another --out")
+    if not os.access(path.parent, os.W_OK | os.X_OK):
+        raise AdaptskyError(f"{path}: cannot write in {path.parent} (permission denied); "
+                            "choose another --out")
+
+
+def _show(results: dict[str, Any]) -> None:
     out.print(methods_table(results))
     line = oracle_line(results)
     if line:
@@ -34,6 +47,7 @@ def _show(results: dict[str, Any], as_json: bool) -> None:
 
 
 def evaluate(
+    ctx: typer.Context,
     checkpoint: Annotated[Path, typer.Option(help="run file (HDF5) with the policy",
                                              show_default=False)],
     seed: Annotated[int | None, typer.Option(help="which seed's policy (default: the "
@@ -50,18 +64,23 @@ def evaluate(
     as_json: Json = False,
 ) -> None:
     """Greedy rollouts of a trained policy, compared with baselines and other runs."""
+    start = time.monotonic()
     path = out_file if out_file is not None else fresh_path(checkpoint.parent,
                                                             f"{checkpoint.stem}-eval")
-    if path.exists():
-        raise AdaptskyError(f"{path}: exists; choose another --out")
+    if out_file is not None or path.parent.is_dir():  # else the run file is missing: said next
+        _writable_new_file(path)
     methods = [item.strip() for item in compare.split(",") if item.strip()]
-    results, traces = api.evaluate(checkpoint=checkpoint, seed=seed, scenario_path=scenario,
-                                   layouts=layouts, layout_seed=layout_seed, steps=steps,
-                                   compare_with=methods)
-    write_eval(path, results, traces)
-    _show(results, as_json)
-    if not as_json:
-        err.print(f"eval file: {path}")
+    with WorkProgress(err) as progress:
+        results, traces = api.evaluate(checkpoint=checkpoint, seed=seed, scenario_path=scenario,
+                                       layouts=layouts, layout_seed=layout_seed, steps=steps,
+                                       compare_with=methods, progress=progress)
+    write_eval(path, results, traces, provenance={
+        "command_line": json.dumps(command_line(ctx)), "wall_time_s": time.monotonic() - start})
+    if as_json:
+        print(json.dumps(results | {"eval_file": str(path)}))
+        return
+    _show(results)
+    err.print(f"eval file: {path}")
 
 
 def baseline(
@@ -76,16 +95,21 @@ def baseline(
     if method not in api.BASELINES:
         raise AdaptskyError(f"--method: unknown method '{method}'; choose from "
                             f"{', '.join(api.BASELINES)}")
-    results, (result,) = api.baseline(scenario_path=scenario, method=method, layouts=layouts,
-                                      layout_seed=layout_seed, steps=steps)
+    with WorkProgress(err) as progress:
+        results, (result,) = api.baseline(scenario_path=scenario, method=method,
+                                          layouts=layouts, layout_seed=layout_seed, steps=steps,
+                                          progress=progress)
     if method == "oracle":
         results["optimum"] = [
             {"uav_m": result.trace.uav_m[-1, i].tolist(),
              "alpha": result.trace.alpha[-1, i].tolist(),
              "rate_bps": result.trace.rate_bps[-1, i].tolist()}
             for i in range(results["layouts"])]
-    _show(results, as_json)
-    if method == "oracle" and not as_json:
+    if as_json:
+        print(json.dumps(results))
+        return
+    _show(results)
+    if method == "oracle":
         for i, best in enumerate(results["optimum"][:10]):
             rates = ", ".join(format_rate(r) for r in best["rate_bps"])
             out.print(f"layout {i}: UAV at {best['uav_m']}, alpha "

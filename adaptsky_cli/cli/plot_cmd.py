@@ -9,7 +9,6 @@ from typing import Annotated
 import typer
 
 from adaptsky_cli.cli.console import err
-from adaptsky_cli.report.plot_runs import default_figure_path, plot_runs
 
 
 class Band(StrEnum):
@@ -29,6 +28,8 @@ def plot(
     title: Annotated[str | None, typer.Option(help="figure title", show_default=False)] = None,
 ) -> None:
     """Draw the learning curves (R_e^tot, a trailing mean) of every seed of the run files."""
+    from adaptsky_cli.report.plot_runs import default_figure_path, plot_runs  # matplotlib
+
     path = plot_runs(run_paths=runs, out=out_file or default_figure_path(runs[0]),
                      band=band.value, title=title)
     err.print(f"figure: {path}")

@@ -8,8 +8,6 @@ import typer
 from adaptsky_cli.cli.console import err
 from adaptsky_cli.cli.options import Device
 from adaptsky_cli.errors import AdaptskyError
-from adaptsky_cli.experiment.plan import shipped_experiments
-from adaptsky_cli.experiment.reproduce import reproduce_many
 
 
 def reproduce(
@@ -43,6 +41,10 @@ def reproduce(
     what is done, evaluate, and write figures, CSVs and report.md."""
     if runs_only and report_only:
         raise AdaptskyError("--runs-only and --report-only exclude each other")
+    # training and evaluation import torch: only when the command runs, not for --help
+    from adaptsky_cli.experiment.plan import shipped_experiments
+    from adaptsky_cli.experiment.reproduce import reproduce_many
+
     if experiment == "all":
         names = list(shipped_experiments())
         outs: list[Path | None] = [out / name if out else None for name in names]

@@ -19,14 +19,29 @@ from adaptsky_cli.env.batch import NomaUavBatch
 from adaptsky_cli.env.layout import user_layouts
 from adaptsky_cli.env.observation import observation_size
 from adaptsky_cli.errors import AdaptskyError
+from adaptsky_cli.evaluate.labels import distinct_labels
 from adaptsky_cli.evaluate.metrics import compare, layout_metrics, summary_row
-from adaptsky_cli.evaluate.oracle import oracle
-from adaptsky_cli.evaluate.rollout import Policy, Trace, greedy_policy, hold, random_policy, rollout
+from adaptsky_cli.evaluate.oracle import oracle, require_deterministic_gains
+from adaptsky_cli.evaluate.rollout import (
+    Policy,
+    Tick,
+    Trace,
+    greedy_policy,
+    hold,
+    random_policy,
+    rollout,
+)
 from adaptsky_cli.evaluate.soa import soa_configuration
+from adaptsky_cli.report.progress import SilentProgress, WorkProgress
 from adaptsky_cli.scenario import Scenario, load_scenario, parse_scenario
+from adaptsky_cli.scenario.toml_writer import dumps
 from adaptsky_cli.store.run_file import RunReader
+from adaptsky_cli.store.tree import Tree
 
 BASELINES = ("soa", "oracle", "random")
+POLICY = "policy"
+# what a policy's inputs are scaled by: they must match between training and evaluation
+OBSERVATION_SCALING = ("agent.observation", "area.side_m", "uav.max_height_m")
 
 
 class EvaluationError(AdaptskyError):
@@ -66,29 +81,69 @@ def eval_layouts(scenario: Scenario, layouts: int | None) -> np.ndarray:
     return user_layouts(scenario, layouts or 1)
 
 
+def baseline_work(method: str, steps: int, users_m: np.ndarray) -> tuple[int, str]:
+    """How much work a baseline is, for progress: (count, unit)."""
+    return (len(users_m), "layout") if method == "oracle" else (steps, "step")
+
+
 def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarray,
-                 seed: int = 0) -> Method:
-    """SoA, the oracle or the random policy on ``users_m`` (L, N, 2)."""
+                 seed: int = 0, on_progress: Tick | None = None) -> Method:
+    """SoA, the oracle or the random policy on ``users_m`` (L, N, 2); ``on_progress`` hears
+    the units of :func:`baseline_work` done."""
     details: dict[str, Any] = {}
     if method == "soa":
         env = NomaUavBatch(scenario, num_envs=len(users_m), users_m=users_m)
         uav_m, alpha_first = soa_configuration(env)
-        trace = hold(scenario, uav_m, alpha_first, steps, users_m, seed)
+        trace = hold(scenario, uav_m, alpha_first, steps, users_m, seed, on_progress)
     elif method == "oracle":
         start = time.process_time()
-        best = oracle(scenario, users_m)
+        best = oracle(scenario, users_m, on_progress)
         details["seconds_per_layout"] = (time.process_time() - start) / len(users_m)
         details["objective_bps"] = best.objective_bps
         trace = hold(scenario, best.uav_m, best.alpha_first, 1, users_m, seed)
     elif method == "random":
         count = ActionSet(scenario.num_clusters, scenario.uav.actions).count
-        trace = rollout(scenario, random_policy(count, seed), steps, users_m, seed)
+        trace = rollout(scenario, random_policy(count, seed), steps, users_m, seed, on_progress)
     else:
         raise EvaluationError(f"unknown method '{method}'; choose from {', '.join(BASELINES)}")
     return Method.of(method, scenario, trace, details)
 
 
-def _read_run(run_path: Path, seed: int | None) -> tuple[Scenario, dict[str, Any], int]:
+@dataclass(frozen=True)
+class Compared:
+    """One ``--compare`` item: a baseline, or another run file (its first seed's policy)."""
+
+    label: str
+    baseline: str | None = None
+    run: Path | None = None
+
+
+def compared_methods(items: list[str]) -> list[Compared]:
+    """The ``--compare`` items with unique labels: baselines by name, run files by their
+    shortest distinguishing path. Unknown names and items given twice are refused in one
+    line (the run files themselves are opened, and checked, before any work too)."""
+    seen: dict[str, str] = {}
+    for item in items:
+        if item in BASELINES:
+            key = item
+        else:
+            path = Path(item)
+            if not path.exists() and path.suffix == "" and len(path.parts) == 1:
+                raise EvaluationError(f"--compare: unknown method '{item}'; choose from "
+                                      f"{', '.join(BASELINES)} or a run file (.h5)")
+            key = str(path.resolve())
+        if key in seen:
+            same = "" if seen[key] == item else f" (as '{seen[key]}')"
+            raise EvaluationError(f"--compare: '{item}' is given twice{same}; name each method "
+                                  "once")
+        seen[key] = item
+    runs = [Path(item) for item in items if item not in BASELINES]
+    labels = iter(distinct_labels(runs, taken={POLICY, *BASELINES}))
+    return [Compared(item, baseline=item) if item in BASELINES else
+            Compared(next(labels), run=Path(item)) for item in items]
+
+
+def _read_run(run_path: Path, seed: int | None) -> tuple[Scenario, Tree, int]:
     """The training scenario, the checkpoint of ``seed`` (default: the first) and the seed."""
     with RunReader(run_path) as run:
         seeds = run.seeds
@@ -100,11 +155,27 @@ def _read_run(run_path: Path, seed: int | None) -> tuple[Scenario, dict[str, Any
         return trained, run.checkpoint(chosen), chosen
 
 
-def load_policy(run_path: Path, seed: int | None, scenario: Scenario) -> Policy:
-    """The greedy policy of a run's seed, checked to fit the evaluation ``scenario``."""
-    trained, checkpoint, _ = _read_run(run_path, seed)
+def checkpoint_record(run_path: Path, seed: int, checkpoint: Tree) -> dict[str, Any]:
+    """Which checkpoint an evaluation used: the run file's absolute path, seed, episode."""
+    return {"path": str(run_path.resolve()), "seed": seed,
+            "episode": int(checkpoint.get("episode", -1)),
+            "global_step": int(checkpoint.get("global_step", -1))}
+
+
+def load_policy(run_path: Path, seed: int | None, scenario: Scenario
+                ) -> tuple[Policy, dict[str, Any]]:
+    """The greedy policy of a run's seed, checked to fit the evaluation ``scenario``, and
+    which checkpoint it is."""
+    trained, checkpoint, chosen = _read_run(run_path, seed)
     _check_compatible(run_path, trained, scenario)
-    return greedy_policy(trained, checkpoint)
+    return greedy_policy(trained, checkpoint), checkpoint_record(run_path, chosen, checkpoint)
+
+
+def _setting(scenario: Scenario, key: str) -> Any:
+    value: Any = scenario
+    for part in key.split("."):
+        value = getattr(value, part)
+    return value
 
 
 def _check_compatible(run_path: Path, trained: Scenario, scenario: Scenario) -> None:
@@ -116,55 +187,79 @@ def _check_compatible(run_path: Path, trained: Scenario, scenario: Scenario) -> 
     if trained.uav.actions != scenario.uav.actions:
         raise EvaluationError(f"{run_path}: the policy's actions are '{trained.uav.actions}' "
                               f"but the evaluation scenario's are '{scenario.uav.actions}'")
-    same = (trained.agent.observation, trained.area.side_m, trained.uav.max_height_m) == (
-        scenario.agent.observation, scenario.area.side_m, scenario.uav.max_height_m)
-    if not same:
-        raise EvaluationError(f"{run_path}: the evaluation scenario scales observations "
-                              "differently (agent.observation, area.side_m or "
-                              "uav.max_height_m differ from the training scenario's)")
+    for key in OBSERVATION_SCALING:
+        was, now = _setting(trained, key), _setting(scenario, key)
+        if was != now:
+            raise EvaluationError(
+                f"{run_path}: the evaluation scenario scales observations differently: {key} "
+                f"is {now!r}, the policy was trained with {was!r}; evaluate on a scenario "
+                f"with the same {', '.join(OBSERVATION_SCALING)}")
 
 
 def _policy_method(name: str, scenario: Scenario, policy: Policy, steps: int,
-                   users_m: np.ndarray) -> Method:
-    return Method.of(name, scenario, rollout(scenario, policy, steps, users_m))
+                   users_m: np.ndarray, progress: WorkProgress) -> Method:
+    with progress.stage(name, steps, "step") as tick:
+        return Method.of(name, scenario, rollout(scenario, policy, steps, users_m,
+                                                 on_step=tick))
+
+
+def _baseline_method(scenario: Scenario, name: str, steps: int, users_m: np.ndarray,
+                     progress: WorkProgress) -> Method:
+    with progress.stage(name, *baseline_work(name, steps, users_m)) as tick:
+        return run_baseline(scenario, name, steps, users_m, on_progress=tick)
 
 
 def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path | None = None,
              layouts: int | None = None, layout_seed: int = 0, steps: int = 1000,
-             compare_with: list[str] | None = None) -> tuple[dict[str, Any], list[Method]]:
+             compare_with: list[str] | None = None, progress: WorkProgress | None = None
+             ) -> tuple[dict[str, Any], list[Method]]:
     """Greedy rollouts of a checkpoint next to baselines and other runs; results as JSON-able
-    values and the methods (policy first) with their traces."""
+    values and the methods (policy first) with their traces. Every input is checked before
+    the first rollout; ``progress`` shows the rollouts and the oracle's search."""
+    progress = progress or SilentProgress()
+    compared = compared_methods(compare_with or [])
     trained, state, chosen = _read_run(checkpoint, seed)
     base = load_scenario(scenario_path) if scenario_path else trained
     scenario = eval_scenario(base, layouts, layout_seed)
     _check_compatible(checkpoint, trained, scenario)
+    if any(item.baseline == "oracle" for item in compared):
+        require_deterministic_gains(scenario)
+    others = {item.label: load_policy(item.run, None, scenario)
+              for item in compared if item.run is not None}
     users_m = eval_layouts(scenario, layouts)
     policy = greedy_policy(trained, state)
-    methods = [_policy_method("policy", scenario, policy, steps, users_m)]
-    for item in compare_with or []:
-        if item in BASELINES:
-            methods.append(run_baseline(scenario, item, steps, users_m))
+    methods = [_policy_method(POLICY, scenario, policy, steps, users_m, progress)]
+    for item in compared:
+        if item.baseline is not None:
+            methods.append(_baseline_method(scenario, item.baseline, steps, users_m, progress))
         else:
-            other = Path(item)
-            other_policy = load_policy(other, None, scenario)
-            methods.append(_policy_method(other.name, scenario, other_policy, steps, users_m))
+            methods.append(_policy_method(item.label, scenario, others[item.label][0], steps,
+                                          users_m, progress))
     results = results_json(methods, scenario, steps, layouts, layout_seed, users_m)
-    results |= {"checkpoint": str(checkpoint), "seed": chosen,
-                "dueling": trained.agent.dueling}
+    used = checkpoint_record(checkpoint, chosen, state)
+    results |= {"checkpoint": used["path"], "seed": chosen, "checkpoint_episode":
+                used["episode"], "dueling": trained.agent.dueling,
+                "scenario_file": str(scenario_path.resolve()) if scenario_path else None,
+                "scenario_toml": dumps(scenario.model_dump(mode="json")),
+                "compared_runs": {label: record for label, (_, record) in others.items()}}
     return results, methods
 
 
 def baseline(*, scenario_path: Path, method: str, layouts: int | None = None,
-             layout_seed: int = 0, steps: int = 1000) -> tuple[dict[str, Any], list[Method]]:
+             layout_seed: int = 0, steps: int = 1000, progress: WorkProgress | None = None
+             ) -> tuple[dict[str, Any], list[Method]]:
     """One baseline on the scenario's layout or on uniform layouts."""
     scenario = eval_scenario(load_scenario(scenario_path), layouts, layout_seed)
+    if method == "oracle":
+        require_deterministic_gains(scenario)
     users_m = eval_layouts(scenario, layouts)
-    result = run_baseline(scenario, method, steps, users_m)
+    result = _baseline_method(scenario, method, steps, users_m, progress or SilentProgress())
     return results_json([result], scenario, steps, layouts, layout_seed, users_m), [result]
 
 
 def results_json(methods: list[Method], scenario: Scenario, steps: int, layouts: int | None,
-             layout_seed: int, users_m: np.ndarray) -> dict[str, Any]:
+                 layout_seed: int, users_m: np.ndarray) -> dict[str, Any]:
+    """Summaries, per-layout metrics and comparisons of ``methods`` as JSON-able values."""
     results: dict[str, Any] = {
         "scenario": scenario.name, "channel_model": scenario.channel.model,
         "los": scenario.channel.los, "min_se": scenario.reward.min_se, "steps": steps,
@@ -177,7 +272,7 @@ def results_json(methods: list[Method], scenario: Scenario, steps: int, layouts:
             entry["seconds_per_layout"] = method.details["seconds_per_layout"]
         results["methods"][method.name] = entry
     first, others = methods[0], methods[1:]
-    if first.name == "policy":
+    if first.name == POLICY:
         results["comparison"] = {m.name: compare(first.metrics, m.metrics) for m in others}
         oracle_method = next((m for m in others if m.name == "oracle"), None)
         if oracle_method is not None:

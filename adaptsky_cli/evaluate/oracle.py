@@ -22,6 +22,7 @@ result against brute force over positions and every alpha combination on a reduc
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -96,12 +97,18 @@ def _best_alpha_first(gain_first: FloatArray, gain_second: FloatArray, alphas: F
     return best_alpha, best_rate
 
 
-def oracle(scenario: Scenario, users_m: FloatArray) -> OracleResult:
-    """The oracle for every layout in ``users_m`` (L, N, 2), paired as the environment pairs
-    them."""
+def require_deterministic_gains(scenario: Scenario) -> None:
+    """Refuse a scenario whose LoS is drawn at random: the oracle needs fixed gains."""
     if scenario.channel.los == "sampled":
-        raise AdaptskyError("the oracle needs deterministic gains: los = 'always' or "
-                            "'expected', not 'sampled'")
+        raise AdaptskyError(f"scenario '{scenario.name}': channel.los is 'sampled'; the oracle "
+                            "needs deterministic gains: los = 'always' or 'expected'")
+
+
+def oracle(scenario: Scenario, users_m: FloatArray,
+           on_layout: Callable[[int], None] | None = None) -> OracleResult:
+    """The oracle for every layout in ``users_m`` (L, N, 2), paired as the environment pairs
+    them; ``on_layout`` hears the number of layouts searched after each."""
+    require_deterministic_gains(scenario)
     num_layouts = len(users_m)
     env = NomaUavBatch(scenario, num_envs=num_layouts, users_m=users_m)
     channel = env.channel
@@ -127,5 +134,7 @@ def oracle(scenario: Scenario, users_m: FloatArray) -> OracleResult:
                 objective[layout] = total[best]
                 best_uav[layout] = points[best]
                 best_alpha[layout] = alpha[best]
+        if on_layout is not None:
+            on_layout(layout + 1)
     state = env.evaluate_at(best_uav, best_alpha)
     return OracleResult(objective, best_uav, best_alpha, state.rate_bps)

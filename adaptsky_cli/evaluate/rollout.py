@@ -9,7 +9,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from adaptsky_cli.agent.stacked import StackedDqn
 from adaptsky_cli.env.actions import ActionSet
 from adaptsky_cli.env.batch import NetworkState, NomaUavBatch
 from adaptsky_cli.env.observation import observation_size
@@ -17,6 +16,7 @@ from adaptsky_cli.scenario.models import Scenario
 from adaptsky_cli.store.tree import Tree
 
 Policy = Callable[[NDArray[np.float32]], NDArray[np.int64]]
+Tick = Callable[[int], None]
 FloatArray = NDArray[np.float64]
 
 
@@ -43,24 +43,32 @@ def _env(scenario: Scenario, users_m: FloatArray, seed: int) -> NomaUavBatch:
 
 
 def rollout(scenario: Scenario, policy: Policy, steps: int, users_m: FloatArray,
-            seed: int = 0) -> Trace:
-    """Run ``policy`` for ``steps`` steps from the episode start, with no time limit."""
+            seed: int = 0, on_step: Tick | None = None) -> Trace:
+    """Run ``policy`` for ``steps`` steps from the episode start, with no time limit;
+    ``on_step`` hears the number of steps done after each."""
     env = _env(scenario, users_m, seed)
     obs, _ = env.reset()
     states = []
-    for _ in range(steps):  # the batch core reports truncation but never enforces it
+    for step in range(steps):  # the batch core reports truncation but never enforces it
         obs, _, _, state = env.step(policy(obs))
         states.append(state)
+        if on_step is not None:
+            on_step(step + 1)
     return Trace.of(states)
 
 
 def hold(scenario: Scenario, uav_m: FloatArray, alpha_first: FloatArray, steps: int,
-         users_m: FloatArray, seed: int = 0) -> Trace:
+         users_m: FloatArray, seed: int = 0, on_step: Tick | None = None) -> Trace:
     """Keep every UAV at ``uav_m`` (L, 3) with shares ``alpha_first`` (L, K) for ``steps``
     steps (LoS drawn every step for ``los = "sampled"``)."""
     env = _env(scenario, users_m, seed)
     env.reset()
-    return Trace.of([env.evaluate_at(uav_m, alpha_first) for _ in range(steps)])
+    states = []
+    for step in range(steps):
+        states.append(env.evaluate_at(uav_m, alpha_first))
+        if on_step is not None:
+            on_step(step + 1)
+    return Trace.of(states)
 
 
 def random_policy(num_actions: int, seed: int = 0) -> Policy:
@@ -70,6 +78,8 @@ def random_policy(num_actions: int, seed: int = 0) -> Policy:
 
 def greedy_policy(scenario: Scenario, checkpoint: Tree) -> Policy:
     """argmax_a Q(s, a) of a checkpoint's policy network."""
+    from adaptsky_cli.agent.stacked import StackedDqn  # torch: imported only to evaluate
+
     num_actions = ActionSet(scenario.num_clusters, scenario.uav.actions).count
     agent = StackedDqn(scenario.agent, observation_size(scenario.num_users), num_actions,
                        seeds=[0])

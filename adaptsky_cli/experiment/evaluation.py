@@ -19,6 +19,7 @@ from rich.console import Console
 from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.evaluate.api import (
     Method,
+    baseline_work,
     eval_layouts,
     eval_scenario,
     results_json,
@@ -26,7 +27,8 @@ from adaptsky_cli.evaluate.api import (
 )
 from adaptsky_cli.evaluate.rollout import greedy_policy, rollout
 from adaptsky_cli.experiment.plan import Plan, RunSpec
-from adaptsky_cli.experiment.runs import run_state
+from adaptsky_cli.report.progress import WorkProgress
+from adaptsky_cli.report.units import plural
 from adaptsky_cli.scenario import Scenario, parse_scenario
 from adaptsky_cli.store.eval_file import read_eval_metrics, write_eval
 from adaptsky_cli.store.run_file import RunReader
@@ -70,12 +72,18 @@ def _label(value: Any) -> str:
 
 
 def evaluate_plan(plan: Plan, console: Console, quiet: bool) -> Evaluations:
-    """Evaluate every finished run of the evaluated groups and every baseline."""
+    """Evaluate every finished run of the evaluated groups and every baseline, with progress
+    (a bar on a terminal, timestamped lines elsewhere, nothing with ``quiet``)."""
+    with WorkProgress(console, quiet=quiet) as progress:
+        return _evaluate_plan(plan, progress)
+
+
+def _evaluate_plan(plan: Plan, progress: WorkProgress) -> Evaluations:
+    from adaptsky_cli.experiment.runs import run_state  # imports torch: only when evaluating
+
     spec = plan.experiment.evaluation
     evaluations = Evaluations()
     folder = plan.out / "evals"
-    say = (lambda text: None) if quiet else (
-        lambda text: console.print(text, markup=False, highlight=False))
     points: dict[Any, RunSpec] = {}
     for group in (spec.policy, *spec.compare_groups):
         for run in plan.group_runs(group):
@@ -93,12 +101,12 @@ def evaluate_plan(plan: Plan, console: Console, quiet: bool) -> Evaluations:
             path = folder / f"{run.name}.h5"
             metrics = _cached(path, record)
             if metrics is None:
-                say(f"evaluating {run.name}: {spec.steps} greedy steps on "
-                    f"{len(users_m)} layout(s)")
                 with RunReader(run.path) as reader:
                     policy = greedy_policy(trained, reader.checkpoint(run.seed))
-                method = Method.of("policy", scenario,
-                                   rollout(scenario, policy, spec.steps, users_m))
+                stage = f"evaluating {run.name} on {plural(len(users_m), 'layout')}"
+                with progress.stage(stage, spec.steps, "step") as tick:
+                    method = Method.of("policy", scenario, rollout(
+                        scenario, policy, spec.steps, users_m, on_step=tick))
                 metrics = _store(path, scenario, method, record, spec.steps, spec.layouts,
                                  spec.layout_seed, users_m)
             evaluations.runs[run.name] = metrics
@@ -115,9 +123,13 @@ def evaluate_plan(plan: Plan, console: Console, quiet: bool) -> Evaluations:
             path = folder / f"{name}{_label(value)}.h5"
             metrics = _cached(path, record)
             if metrics is None:
-                say(f"evaluating {name}{_label(value)} on {len(users_m)} layout(s)")
+                total, unit = baseline_work(name, spec.steps, users_m)
+                stage = f"evaluating {name}{_label(value)}" + (
+                    "" if unit == "layout" else f" on {plural(len(users_m), 'layout')}")
                 try:
-                    method = run_baseline(scenario, name, spec.steps, users_m)
+                    with progress.stage(stage, total, unit) as tick:
+                        method = run_baseline(scenario, name, spec.steps, users_m,
+                                              on_progress=tick)
                 except AdaptskyError as error:
                     evaluations.missing[f"{name}{_label(value)}"] = str(error)
                     continue
@@ -125,4 +137,3 @@ def evaluate_plan(plan: Plan, console: Console, quiet: bool) -> Evaluations:
                                  spec.layout_seed, users_m)
             evaluations.baselines[(name, value)] = metrics
     return evaluations
-

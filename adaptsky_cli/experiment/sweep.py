@@ -10,16 +10,20 @@ import signal
 import time
 from concurrent.futures import Future
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
 from adaptsky_cli.errors import AdaptskyError
-from adaptsky_cli.experiment.executors import Executor
-from adaptsky_cli.experiment.plan import RunSpec
-from adaptsky_cli.experiment.runs import RunReport, RunState
+from adaptsky_cli.report.progress import stamp
+from adaptsky_cli.report.units import format_duration
 from adaptsky_cli.store.run_file import RunFileError, RunReader
+
+if TYPE_CHECKING:  # the executors and runs import torch; the sweep itself needs none of it
+    from adaptsky_cli.experiment.executors import Executor
+    from adaptsky_cli.experiment.plan import RunSpec
+    from adaptsky_cli.experiment.runs import RunReport, RunState
 
 POLL_S = 2.0
 LOG_EVERY_S = 60.0
@@ -31,16 +35,10 @@ class SweepError(AdaptskyError):
 
 def _episodes_in_file(spec: RunSpec) -> int | None:
     try:
-        with RunReader(spec.path) as run:
+        with RunReader(spec.path, needs="curves") as run:
             return run.seed_attrs(spec.seed)["episodes_done"]
     except (RunFileError, KeyError):
         return None  # not written yet, or being replaced right now
-
-
-def format_duration(seconds: float) -> str:
-    minutes, secs = divmod(round(seconds), 60)
-    hours, minutes = divmod(minutes, 60)
-    return f"{hours} h {minutes:02d} min" if hours else f"{minutes} min {secs:02d} s"
 
 
 @dataclass
@@ -71,7 +69,8 @@ class _Display:
 
     def log(self, text: str) -> None:
         if not self.quiet:
-            self.progress.console.print(text, markup=False, highlight=False)
+            self.progress.console.print(text if self.live else stamp(text), markup=False,
+                                        highlight=False, soft_wrap=not self.live)
 
     def update(self, status: str, episodes: int, eta: str) -> None:
         self.progress.update(self.task, description=status, completed=episodes, eta=eta)

@@ -32,7 +32,12 @@ def methods_table(results: dict[str, Any]) -> Table:
         caption += ("; wins: layouts where the policy's mean sum rate is higher; gain%: the "
                     "policy's improvement over the method, mean, median and max over layouts")
     table = Table(*columns, title=title, caption=caption.format(unit=unit), box=box.SIMPLE_HEAD,
-                  pad_edge=False)
+                  pad_edge=False, collapse_padding=True)
+    # numbers are never cut; a long label (a run file's path) folds onto more lines instead
+    # of being cut to an ellipsis, where two runs' labels would read the same
+    table.columns[0].overflow = "fold"
+    for column in table.columns[1:]:
+        column.no_wrap = True
     for name, s in summaries.items():
         row = [name] + [f"{s[key] / scale:.2f}" for key in (
             "mean_sum_rate_bps", "median_sum_rate_bps", "steady_sum_rate_bps")] + [

@@ -22,7 +22,6 @@ from adaptsky_cli import __version__
 from adaptsky_cli.evaluate.metrics import compare
 from adaptsky_cli.experiment.evaluation import Evaluations
 from adaptsky_cli.experiment.plan import Plan, RunSpec, shipped_experiments
-from adaptsky_cli.experiment.runs import run_state
 from adaptsky_cli.report import figures
 from adaptsky_cli.report.curves import LAST_EPISODES, band, curve_window
 from adaptsky_cli.report.plot_runs import BAND_NOTES, curve_series, write_curves_csv
@@ -43,11 +42,13 @@ class Analysis:
 
 
 def _done_runs(runs: list[RunSpec]) -> list[RunSpec]:
+    from adaptsky_cli.experiment.runs import run_state  # imports torch: only when reporting
+
     return [run for run in runs if run_state(run).status == "done"]
 
 
 def _curves(run: RunSpec) -> dict[str, np.ndarray]:
-    with RunReader(run.path) as reader:
+    with RunReader(run.path, needs="curves") as reader:
         return reader.episodes(run.seed)
 
 
@@ -298,7 +299,11 @@ def _ours(quantity: str, values: list[float]) -> tuple[str, str]:
     if len(finite) == 1:
         return _format(quantity, finite[0]), ""
     mean, std = float(np.mean(finite)), float(np.std(finite))
-    spread = _format(quantity, std).lstrip("+")
+    if quantity == "sum_rate_bps":  # in the mean's unit: never '± 0.0 bit/s'
+        scale, unit = rate_unit([mean])
+        spread = f"{std / scale:.2f} {unit}"
+    else:
+        spread = _format(quantity, std).lstrip("+")
     per_run = ", ".join(_format(quantity, v) for v in finite)
     return f"{_format(quantity, mean)} ± {spread} (n = {len(finite)})", per_run
 
@@ -353,7 +358,8 @@ def write_report(plan: Plan, evaluations: Evaluations) -> tuple[Path, list[Path]
         lines += ["Notes:", "", *(f"- {note}" for note in notes), ""]
     lines += ["Runs are in `runs/` (one HDF5 run file each), evaluations in `evals/`. "
               "R_e^tot and J_e are the means of the last 100 episodes' per-episode means "
-              "(docs/model.md, section 5).", ""]
+              "(docs/model.md, section 5); ours: mean ± population standard deviation "
+              "(ddof = 0) over the runs.", ""]
     report = out / "report.md"
     write_text_atomic(report, "\n".join(lines))
     return report, [*analysis.files, report]

@@ -1,5 +1,6 @@
 """Summary of a run file: per seed R_e^tot and J_e (sec. V-C: means over the last 100
-episodes), and their mean and standard deviation over seeds."""
+episodes, or over every episode of a shorter run), and their mean and population standard
+deviation (ddof = 0) over seeds."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from typing import Any
 import numpy as np
 from rich.table import Table
 
-from adaptsky_cli.report.units import format_rate
+from adaptsky_cli.report.units import format_rate, format_rate_spread, plural
 from adaptsky_cli.store.run_file import RunReader
 
 LAST_EPISODES = 100
@@ -21,7 +22,6 @@ def summarize(path: Path) -> dict[str, Any]:
         attrs, config, plugins, overrides = run.attrs, run.config, run.plugins, run.overrides
         seeds = []
         for seed in run.seeds:
-            run.require_checkpoint(seed)
             curves = run.episodes(seed)
             sizes = run.seed_attrs(seed)
             rates = curves["sum_rate_bps"][-LAST_EPISODES:]
@@ -40,23 +40,36 @@ def summarize(path: Path) -> dict[str, Any]:
     for key in ("sum_rate_bps", "fairness"):
         values = [s[key] for s in seeds if s[key] is not None]
         summary[key] = ({"mean": float(np.mean(values)), "std": float(np.std(values)),
-                         "seeds": len(values)} if values else None)
+                         "std_ddof": 0, "seeds": len(values)} if values else None)
     return summary
+
+
+def _window(seeds: list[dict[str, Any]]) -> str:
+    """Which episodes the per-seed means are over: 'last 100', 'last 7', 'last 7-100'."""
+    counts = sorted({s["episodes_averaged"] for s in seeds if s["episodes_averaged"]})
+    if not counts:
+        return f"last {LAST_EPISODES}"
+    return f"last {counts[0]}" if len(counts) == 1 else f"last {counts[0]}-{counts[-1]}"
 
 
 def summary_table(summary: dict[str, Any]) -> Table:
     """A Rich table of :func:`summarize`'s result."""
-    table = Table("seed", "episodes", "R_e^tot (last 100)", "J_e (last 100)",
+    rate, fairness = summary["sum_rate_bps"], summary["fairness"]
+    window = _window(summary["seeds"])
+    caption = None
+    if rate is not None and fairness is not None:
+        caption = (f"per seed: means over its {window} episodes; all: mean ± population "
+                   f"standard deviation over {plural(rate['seeds'], 'seed')}")
+    table = Table("seed", "episodes", f"R_e^tot ({window})", f"J_e ({window})",
                   title=f"{summary['scenario']} ({summary['channel_model']}, "
-                        f"{summary['steps_per_episode']} steps/episode)")
+                        f"{summary['steps_per_episode']} steps/episode)", caption=caption)
     for s in summary["seeds"]:
         table.add_row(str(s["seed"]), f"{s['episodes_done']}/{s['episodes_planned']}",
                       format_rate(s["sum_rate_bps"]) if s["sum_rate_bps"] is not None else "-",
                       f"{s['fairness']:.3f}" if s["fairness"] is not None else "-")
-    rate, fairness = summary["sum_rate_bps"], summary["fairness"]
     if rate is not None and fairness is not None:
         table.add_section()
-        table.add_row("all", f"{rate['seeds']} seeds",
-                      f"{format_rate(rate['mean'])} ± {format_rate(rate['std'])}",
+        table.add_row("all", plural(rate["seeds"], "seed"),
+                      format_rate_spread(rate["mean"], rate["std"]),
                       f"{fairness['mean']:.3f} ± {fairness['std']:.3f}")
     return table
