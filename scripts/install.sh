@@ -1,31 +1,92 @@
 #!/usr/bin/env bash
-# Create .venv and install adaptsky with its test tools and the example channel plugin.
+# Create a virtual environment and install adaptsky with its test tools and the example
+# channel plugin. Usage: scripts/install.sh [--cpu | --cuda] [--dry-run]   (docs/install.md)
 #
-# Where pip's find-links hold a CPU build of torch (as on the project's CI machines), that
-# build is installed first, so the unpinned `torch` requirement is already met and no CUDA
-# packages are downloaded. Elsewhere torch comes from your index as usual: nothing is pinned.
+#   --cpu      the CPU build of torch (about 200 MB, no CUDA packages): a +cpu wheel from pip's
+#              find-links if one is there (as on the project's CI machines), else PyTorch's CPU
+#              index https://download.pytorch.org/whl/cpu
+#   --cuda     torch from your package index as usual (PyPI's Linux torch bundles CUDA: several GB)
+#   --dry-run  print the commands instead of running them
+#
+# Without --cpu or --cuda: a +cpu wheel in pip's find-links if there is one, else --cuda where
+# an NVIDIA driver is visible (nvidia-smi on PATH), else --cpu. torch is never pinned: the
+# newest build that fits is installed. PYTHON (default python3) and VENV (default .venv)
+# choose the interpreter and the environment's folder.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 python=${PYTHON:-python3}
 venv=${VENV:-.venv}
+CPU_INDEX=https://download.pytorch.org/whl/cpu
 
-"$python" -m venv "$venv"
+usage() { sed -n '2,14s/^# \{0,1\}//p' "$0"; }
+mode="" dry_run=""
+for arg in "$@"; do
+  case "$arg" in
+    --cpu | --cuda)
+      if [ -n "$mode" ] && [ "$mode" != "${arg#--}" ]; then
+        echo "install.sh: --cpu and --cuda exclude each other; give one of them" >&2; exit 2
+      fi
+      mode=${arg#--} ;;
+    --dry-run) dry_run=1 ;;
+    -h | --help) usage; exit 0 ;;
+    *) echo "install.sh: unknown option '$arg'; allowed: --cpu, --cuda, --dry-run, --help" >&2
+       exit 2 ;;
+  esac
+done
+
+# "3.11.9 cp311": the version, and the wheel tag of a torch build for it
+if ! version=$("$python" -c 'import platform, sys; v = sys.version_info
+print(platform.python_version(), f"cp{v[0]}{v[1]}"); sys.exit(v < (3, 11))' 2>/dev/null); then
+  echo "install.sh: PYTHON=$python${version:+ is Python ${version% *}}: adaptsky needs Python" \
+       "3.11 or newer; set PYTHON to one" >&2
+  exit 1
+fi
+tag=${version#* }
+
+run() {  # run a command, or only print it with --dry-run
+  if [ -n "$dry_run" ]; then printf '%s\n' "$*"; else "$@"; fi
+}
+
+run "$python" -m venv "$venv"
+# with --dry-run the environment does not exist: ask the interpreter it would be made from
+probe=$venv/bin/python
+[ -n "$dry_run" ] && probe=$python
 pip=("$venv/bin/python" -m pip --disable-pip-version-check -q)
 
-find_links="${PIP_FIND_LINKS:-} $("$venv/bin/python" -m pip config get global.find-links 2>/dev/null || true)"
+# the newest CPU wheel of torch for this interpreter in pip's find-links, if any
+find_links="${PIP_FIND_LINKS:-} $("$probe" -m pip config get global.find-links 2>/dev/null || true)"
 cpu_wheel=""
 for dir in $find_links; do
   dir=${dir#file://}
   [ -d "$dir" ] || continue
-  # newest CPU wheel for this interpreter, if any
-  tag=$("$venv/bin/python" -c 'import sys; print(f"cp{sys.version_info[0]}{sys.version_info[1]}")')
   cand=$(ls "$dir"/torch-*+cpu-"$tag"-*.whl 2>/dev/null | sort -V | tail -n 1 || true)
   [ -n "$cand" ] && cpu_wheel=$cand
 done
-if [ -n "$cpu_wheel" ]; then
-  echo "install: using the CPU build of torch at $cpu_wheel"
-  "${pip[@]}" install "$cpu_wheel"
+
+if [ -z "$mode" ]; then
+  if [ -n "$cpu_wheel" ]; then
+    mode=cpu reason="a CPU build of torch is in pip's find-links"
+  elif command -v nvidia-smi >/dev/null 2>&1; then
+    mode=cuda reason="nvidia-smi found an NVIDIA driver"
+  else
+    mode=cpu reason="no NVIDIA driver visible (no nvidia-smi)"
+  fi
+  echo "install: torch for ${mode^^}: $reason (choose with --cpu or --cuda)" >&2
 fi
 
-"${pip[@]}" install -e ".[dev]" -e plugins/example_channel
-echo "install: done; the command is $venv/bin/adaptsky"
+if [ "$mode" = cpu ] && [ -n "$cpu_wheel" ]; then
+  echo "install: using the CPU build of torch at $cpu_wheel" >&2
+  run "${pip[@]}" install "$cpu_wheel"
+elif [ "$mode" = cpu ]; then
+  echo "install: torch's CPU build from $CPU_INDEX" >&2
+  run "${pip[@]}" install torch --index-url "$CPU_INDEX"
+else
+  echo "install: torch from your package index (with CUDA)" >&2
+  run "${pip[@]}" install torch
+fi
+# torch is installed already, so its requirement is met and pip installs no other build
+run "${pip[@]}" install -e ".[dev]" -e plugins/example_channel
+if [ -z "$dry_run" ]; then
+  echo "install: done; activate with 'source $venv/bin/activate', then run 'adaptsky --help'" \
+       "(or run $venv/bin/adaptsky directly)"
+fi

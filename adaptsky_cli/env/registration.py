@@ -1,4 +1,6 @@
-"""Registers ``adaptsky/NomaUav-v0`` with Gymnasium (done on ``import adaptsky_cli``)."""
+"""Registers ``adaptsky/NomaUav-v0`` with Gymnasium (done on ``import adaptsky`` or
+``import adaptsky_cli.env.gym_env``); without a ``scenario`` argument it uses the shipped
+default."""
 
 ENV_ID = "adaptsky/NomaUav-v0"
 

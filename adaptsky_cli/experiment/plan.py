@@ -7,7 +7,6 @@ and ``--set`` become overrides of each run's scenario, recorded in its file.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -17,19 +16,16 @@ from pydantic import ValidationError
 from adaptsky_cli.errors import ScenarioError
 from adaptsky_cli.experiment.models import Experiment, Group
 from adaptsky_cli.scenario.loading import _error_lines, parse_toml, read_scenario_text
+from adaptsky_cli.scenario.resources import check_fits
+from adaptsky_cli.scenario.toml_writer import toml_value
+from adaptsky_cli.shipped_files import shipped_folder
 from adaptsky_cli.train.api import load_with_overrides
-
-PACKAGE_ROOT = Path(__file__).resolve().parents[1]
-# shipped experiments: inside an installed wheel, else the source checkout's folder
-SHIPPED_DIRS = (PACKAGE_ROOT / "shipped" / "experiments", PACKAGE_ROOT.parent / "experiments")
 
 
 def shipped_experiments() -> dict[str, Path]:
     """Shipped experiment ids and their files."""
-    for folder in SHIPPED_DIRS:
-        if folder.is_dir():
-            return {path.stem: path for path in sorted(folder.glob("*.toml"))}
-    return {}
+    folder = shipped_folder("experiments")
+    return {} if folder is None else {path.stem: path for path in sorted(folder.glob("*.toml"))}
 
 
 def experiment_path(name: str) -> Path:
@@ -106,10 +102,6 @@ class Plan:
                          for r in self.runs]}
 
 
-def _toml_value(value: Any) -> str:
-    return json.dumps(value)  # a JSON number, bool or string is also a TOML value
-
-
 def _value_label(value: Any) -> str:
     return f"{value:g}" if isinstance(value, float) else str(value)
 
@@ -120,7 +112,7 @@ def _group_runs(group: Group, experiment_file: Path, out: Path, runs: int,
     points: list[tuple[Any, list[str], str]] = [(None, [], "")]
     if group.sweep is not None:
         short = group.sweep.key.rsplit(".", 1)[-1]
-        points = [(value, [f"{group.sweep.key}={_toml_value(value)}"],
+        points = [(value, [f"{group.sweep.key}={toml_value(value)}"],
                    f"-{short}-{_value_label(value)}") for value in group.sweep.values]
     specs = []
     for value, sweep_set, label in points:
@@ -128,6 +120,7 @@ def _group_runs(group: Group, experiment_file: Path, out: Path, runs: int,
             items = (*group.set, *sweep_set, *common, f"train.seeds=[{seed}]")
             scenario, _ = load_with_overrides(scenario_path, list(items))
             name = f"{group.name}{label}-seed{seed}"
+            check_fits(scenario, f"{experiment_file}: run {name}", workers=1)
             specs.append(RunSpec(name, group.name, seed, value, out / "runs" / f"{name}.h5",
                                  scenario_path, items, scenario.model_dump(mode="json")))
     return specs

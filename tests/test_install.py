@@ -1,0 +1,134 @@
+"""scripts/install.sh's choice of torch build (checked with --dry-run) and the packaging:
+``import adaptsky`` and what the wheel ships."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import pytest
+
+import adaptsky
+import adaptsky_cli
+from tests.conftest import ROOT
+
+SCRIPT = ROOT / "scripts" / "install.sh"
+CPU_INDEX = "https://download.pytorch.org/whl/cpu"
+# a dry run must create nothing: the environment it names stays absent (checked after each)
+VENV = Path("/nonexistent/adaptsky-dry-run-venv")
+PIP = f"{VENV}/bin/python -m pip --disable-pip-version-check -q install"
+PROJECT = f"{PIP} -e .[dev] -e plugins/example_channel"
+
+
+def _path_without_nvidia_smi(extra: Path | None = None) -> str:
+    folders = [folder for folder in os.environ["PATH"].split(os.pathsep)
+               if not (Path(folder) / "nvidia-smi").exists()]
+    return os.pathsep.join(([str(extra)] if extra else []) + folders)
+
+
+def _install(*flags: str, find_links: Path | None = None, nvidia: Path | None = None,
+             python: str = sys.executable) -> subprocess.CompletedProcess[str]:
+    """install.sh --dry-run with only ``find_links`` as pip's find-links (no config files)."""
+    env = dict(os.environ, PIP_CONFIG_FILE=os.devnull, PIP_FIND_LINKS=str(find_links or ""),
+               PATH=_path_without_nvidia_smi(nvidia), PYTHON=python, VENV=str(VENV))
+    result = subprocess.run(["bash", str(SCRIPT), "--dry-run", *flags], env=env, text=True,
+                            capture_output=True, timeout=60)
+    assert not VENV.exists()
+    return result
+
+
+def _commands(result: subprocess.CompletedProcess[str]) -> list[str]:
+    assert result.returncode == 0, result.stderr
+    return result.stdout.splitlines()
+
+
+@pytest.fixture
+def cpu_wheels(tmp_path: Path) -> Path:
+    """A find-links folder with two CPU builds of torch (and one for another Python)."""
+    tag = f"cp{sys.version_info[0]}{sys.version_info[1]}"
+    for name in (f"torch-2.9.1+cpu-{tag}-{tag}-manylinux_2_28_x86_64.whl",
+                 f"torch-2.10.0+cpu-{tag}-{tag}-manylinux_2_28_x86_64.whl",
+                 "torch-2.99.0+cpu-cp27-cp27-manylinux_2_28_x86_64.whl"):
+        (tmp_path / name).touch()
+    return tmp_path
+
+
+def test_default_prefers_the_newest_cpu_wheel_in_find_links(cpu_wheels):
+    # the CI path: the find-links build goes in first, so pip downloads no CUDA torch
+    tag = f"cp{sys.version_info[0]}{sys.version_info[1]}"
+    wheel = cpu_wheels / f"torch-2.10.0+cpu-{tag}-{tag}-manylinux_2_28_x86_64.whl"
+    assert _commands(_install(find_links=cpu_wheels)) == [
+        f"{sys.executable} -m venv {VENV}", f"{PIP} {wheel}", PROJECT]
+
+
+def test_default_without_a_driver_installs_torch_from_pytorchs_cpu_index():
+    result = _install()
+    assert _commands(result)[1:] == [f"{PIP} torch --index-url {CPU_INDEX}", PROJECT]
+    assert "torch for CPU: no NVIDIA driver visible" in result.stderr
+
+
+def test_default_with_a_driver_installs_torch_from_the_index(tmp_path):
+    (tmp_path / "nvidia-smi").write_text("#!/bin/sh\n")
+    (tmp_path / "nvidia-smi").chmod(0o755)
+    result = _install(nvidia=tmp_path)
+    assert _commands(result)[1:] == [f"{PIP} torch", PROJECT]
+    assert "torch for CUDA: nvidia-smi found an NVIDIA driver" in result.stderr
+
+
+def test_cpu_flag_uses_the_cpu_index_where_find_links_has_no_wheel():
+    assert _commands(_install("--cpu"))[1:] == [f"{PIP} torch --index-url {CPU_INDEX}",
+                                                PROJECT]
+
+
+def test_cuda_flag_ignores_a_cpu_wheel_in_find_links(cpu_wheels):
+    assert _commands(_install("--cuda", find_links=cpu_wheels))[1:] == [f"{PIP} torch",
+                                                                        PROJECT]
+
+
+@pytest.mark.parametrize(("flags", "message"), [
+    (("--cpu", "--cuda"), "install.sh: --cpu and --cuda exclude each other; give one of them"),
+    (("--gpu",), "install.sh: unknown option '--gpu'; allowed: --cpu, --cuda, --dry-run, "
+                 "--help"),
+])
+def test_bad_options_are_one_line_and_exit_2(flags, message):
+    result = _install(*flags)
+    assert (result.returncode, result.stderr, result.stdout) == (2, message + "\n", "")
+
+
+def test_a_python_older_than_3_11_is_refused_in_one_line():
+    result = _install(python="false")
+    assert result.returncode == 1 and result.stdout == ""
+    assert result.stderr == ("install.sh: PYTHON=false: adaptsky needs Python 3.11 or newer; "
+                             "set PYTHON to one\n")
+
+
+def test_import_adaptsky_reexports_the_public_api():
+    # `import adaptsky` failed: the distribution is adaptsky, the code is in adaptsky_cli
+    from adaptsky_cli.env.gym_env import NomaUavEnv
+    from adaptsky_cli.train.api import train
+
+    assert adaptsky.NomaUavEnv is NomaUavEnv and adaptsky.train is train
+    assert adaptsky.__version__ == adaptsky_cli.__version__
+    for name in adaptsky.__all__:
+        assert getattr(adaptsky, name) is not None, name
+    with pytest.raises(AttributeError, match="no attribute 'make'; it exports ENV_ID"):
+        adaptsky.make  # noqa: B018
+
+
+def test_import_adaptsky_registers_the_env_without_importing_torch():
+    code = ("import sys, gymnasium, adaptsky; assert 'torch' not in sys.modules; "
+            "assert adaptsky.ENV_ID in gymnasium.registry; print('ok')")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            cwd=ROOT, timeout=60)
+    assert result.stdout == "ok\n", result.stderr
+
+
+def test_the_wheel_ships_both_packages_and_the_default_scenario():
+    wheel = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["hatch"]["build"][
+        "targets"]["wheel"]
+    assert {"adaptsky_cli", "adaptsky"} <= set(wheel["packages"])
+    assert wheel["force-include"]["scenarios"] == "adaptsky_cli/shipped/scenarios"
+    assert (ROOT / "scenarios" / "nyc_mmwave.toml").is_file()
