@@ -152,9 +152,10 @@ def failing_writes(monkeypatch: pytest.MonkeyPatch, code: int, after: int) -> No
     (errno.EACCES, "check the permissions")])
 def test_disk_fault_mid_run_is_one_line_and_resumes_identically(
         scenario, reference, tmp_path, capsys, monkeypatch, code, advice):
-    # writes: the new file, then seeds 0 and 1 at episode 1; seed 0 at episode 2 fails
+    # writes: the new file, then seeds 0 and 1 at episode 1 (one write for the stack); the
+    # write at episode 2 fails
     out = tmp_path / "fault.h5"
-    failing_writes(monkeypatch, code, after=3)
+    failing_writes(monkeypatch, code, after=2)
     assert main(train_args(scenario, out)) == 1
     line = one_line(capsys.readouterr())
     assert line == (f"{out}: cannot write it ({os.strerror(code)}); {line.split('; ')[1]}; "
@@ -167,6 +168,23 @@ def test_disk_fault_mid_run_is_one_line_and_resumes_identically(
     monkeypatch.undo()
     assert main(resume(out)) == 0
     assert_same_run(out, reference)
+
+
+def test_stack_checkpoints_cost_one_write_per_round_and_a_late_fault_only_warns(
+        scenario, reference, tmp_path, capsys, monkeypatch):
+    """Both seeds of the stack checkpoint in one rewrite of the file (creation + 2 rounds = 3
+    writes; it was 1 + 2 x 2), and a disk that fills after the last checkpoint costs only the
+    session record: exit 0, a warning, the run complete and equal to the reference."""
+    out = tmp_path / "late.h5"
+    failing_writes(monkeypatch, errno.ENOSPC, after=3)
+    assert main(train_args(scenario, out)) == 0
+    err = capsys.readouterr().err
+    assert "warning: the session history was not recorded" in err and "Traceback" not in err
+    monkeypatch.undo()
+    assert leftovers(out) == []
+    assert_same_run(out, reference)
+    with RunReader(out) as run:
+        assert run.sessions == []
 
 
 def test_disk_fault_on_the_first_write_leaves_no_file(scenario, tmp_path, capsys,

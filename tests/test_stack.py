@@ -91,7 +91,10 @@ class Collect:
         self.messages.append(message)
 
     def checkpoints(self, key):
-        return [m for m in self.messages if m[0] == "checkpoint" and m[1] == key]
+        """("checkpoint", key, rows, trajectories, last trajectory, checkpoint) of every
+        checkpoint of key."""
+        return [("checkpoint", *item) for m in self.messages if m[0] == "checkpoints"
+                for item in m[2] if item[0] == key]
 
 
 def test_resumes_from_different_episodes_catch_up_and_merge():

@@ -35,7 +35,9 @@ def _writable_new_file(path: Path) -> None:
         raise AdaptskyError(f"{path}: the folder {path.parent} does not exist; create it or "
                             "choose another --out")
     if not os.access(path.parent, os.W_OK | os.X_OK):
-        raise AdaptskyError(f"{path}: cannot write in {path.parent} (permission denied); "
+        read_only = bool(os.statvfs(path.parent).f_flag & os.ST_RDONLY)
+        reason = "read-only file system" if read_only else "permission denied"
+        raise AdaptskyError(f"{path}: cannot write in {path.parent} ({reason}); "
                             "choose another --out")
 
 

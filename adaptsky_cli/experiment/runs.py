@@ -139,6 +139,10 @@ def _execute_locked(specs: list[RunSpec], stop: Callable[[], bool],
 
     def route(message: tuple[Any, ...]) -> None:  # a run's messages to its own file
         kind, path, *rest = message
+        if kind == "checkpoints":  # keyed by file: one seed per file
+            for key, *item in rest[0]:
+                writers[key](("checkpoints", None, [(seeds[key], *item)]))
+            return
         writers[path]((kind, seeds[path], *rest))
 
     if tasks:

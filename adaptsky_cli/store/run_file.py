@@ -91,26 +91,43 @@ def set_planned_episodes(path: Path, config: dict[str, Any]) -> None:
             group.attrs["episodes_planned"] = config["train"]["episodes"]
 
 
+# one seed's checkpoint: seed, learning-curve rows, trajectories, last trajectory, checkpoint
+SeedCheckpoint = tuple[int, dict[str, np.ndarray], dict[int, Tree], tuple[int, Tree], Tree]
+
+
 def append_checkpoint(path: Path, seed: int, rows: dict[str, np.ndarray],
                       trajectories: dict[int, Tree], last_trajectory: tuple[int, Tree],
                       checkpoint: Tree) -> None:
     """Append learning-curve ``rows`` (k, ...) of one seed, its trajectories, and replace its
     checkpoint; ``checkpoint["episode"]`` becomes the seed's ``episodes_done``."""
+    append_checkpoints(path, [(seed, rows, trajectories, last_trajectory, checkpoint)])
+
+
+def append_checkpoints(path: Path, items: list[SeedCheckpoint]) -> None:
+    """:func:`append_checkpoint` for several seeds in one rewrite of the file (the seeds of a
+    stack checkpoint together: one copy of the file per round, not one per seed)."""
     with rewrite(path) as file:
-        group = file[f"seeds/{seed}"]
-        done = int(group.attrs["episodes_done"])
-        for name, values in rows.items():
-            dataset = group[f"episodes/{name}"]
-            dataset.resize(done + len(values), axis=0)
-            dataset[done:] = values
-        for episode, trajectory in trajectories.items():
-            write_tree(group.require_group(f"trajectories/{episode}"),
-                       {**trajectory, "episode": episode}, compress=True, units=UNITS)
-        episode, trajectory = last_trajectory
-        write_tree(group.require_group("trajectory"), {**trajectory, "episode": episode},
-                   compress=True, units=UNITS)
-        write_tree(group.require_group("checkpoint"), checkpoint, units=UNITS)
-        group.attrs["episodes_done"] = int(checkpoint["episode"])
+        for seed, rows, trajectories, last_trajectory, checkpoint in items:
+            _write_checkpoint(file[f"seeds/{seed}"], rows, trajectories, last_trajectory,
+                              checkpoint)
+
+
+def _write_checkpoint(group: h5py.Group, rows: dict[str, np.ndarray],
+                      trajectories: dict[int, Tree], last_trajectory: tuple[int, Tree],
+                      checkpoint: Tree) -> None:
+    done = int(group.attrs["episodes_done"])
+    for name, values in rows.items():
+        dataset = group[f"episodes/{name}"]
+        dataset.resize(done + len(values), axis=0)
+        dataset[done:] = values
+    for episode, trajectory in trajectories.items():
+        write_tree(group.require_group(f"trajectories/{episode}"),
+                   {**trajectory, "episode": episode}, compress=True, units=UNITS)
+    episode, trajectory = last_trajectory
+    write_tree(group.require_group("trajectory"), {**trajectory, "episode": episode},
+               compress=True, units=UNITS)
+    write_tree(group.require_group("checkpoint"), checkpoint, units=UNITS)
+    group.attrs["episodes_done"] = int(checkpoint["episode"])
 
 
 def record_session(path: Path, kind: str, argv: list[str], started_utc: str, wall_s: float,

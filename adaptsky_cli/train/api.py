@@ -110,8 +110,8 @@ def train(*, scenario_path: Path, out: Path | None = None, seeds: list[int] | No
         tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every)
                  for seed in t.seeds]
         outcome = _run(path, tasks, workers, torch_device, quiet, console)
-        run_file.record_session(path, "train", sys.argv, started_utc,
-                                time.monotonic() - start_s, dict.fromkeys(t.seeds, 0))
+        _record_session(path, "train", started_utc, start_s, dict.fromkeys(t.seeds, 0),
+                        console)
         return path, outcome
 
 
@@ -156,9 +156,21 @@ def resume(*, run_path: Path, episodes: int | None = None, workers: int | None =
         before = {seed: int(c["episode"]) if c is not None else 0
                   for seed, c in checkpoints.items()}
         outcome = _run(run_path, tasks, workers, torch_device, quiet, console)
-        run_file.record_session(run_path, "resume", sys.argv, started_utc,
-                                time.monotonic() - start_s, before)
+        _record_session(run_path, "resume", started_utc, start_s, before, console)
         return run_path, outcome
+
+
+def _record_session(path: Path, kind: str, started_utc: str, start_s: float,
+                    episodes_before: dict[int, int], console: Console | None) -> None:
+    """Append this session to the run's history; the training it describes is stored
+    already, so a failure to write it (a full disk) is a warning, not a failed run."""
+    try:
+        run_file.record_session(path, kind, sys.argv, started_utc, time.monotonic() - start_s,
+                                episodes_before)
+    except StorageError as error:
+        (console or Console(stderr=True)).print(
+            f"warning: the session history was not recorded: {error}", markup=False,
+            highlight=False)
 
 
 def training_device(name: str) -> torch.device:

@@ -88,7 +88,9 @@ def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
                 orphaned: Callable[[], bool] = lambda: False,
                 device: str | torch.device = "cpu") -> None:
     """Run every task to its ``episodes`` as stacks of members at the same episode, emitting
-    progress and checkpoint messages (keyed by ``task.key``).
+    ``("progress", key, episode, metrics)`` per member and episode, one ``("checkpoints", None,
+    [(key, rows, trajectories, last_trajectory, checkpoint), ...])`` per episode where members
+    checkpoint (written in one rewrite), and ``("done", key)`` (``key`` is ``task.key``).
 
     Tasks resumed from different episodes: the ones furthest behind train first and join the
     others when they catch up. ``stop()`` asks for a checkpoint of every member and an early
@@ -117,6 +119,7 @@ def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
             if orphaned():
                 return  # nobody is left to write the run file: it keeps its last checkpoint
             stopping = stop()
+            checkpoints = []
             for index, (task, result) in enumerate(zip(group, results, strict=True)):
                 rows[task.key].append(result.metrics)
                 if task.trajectory_every and result.episode % task.trajectory_every == 0:
@@ -127,9 +130,12 @@ def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
                         or result.episode == task.episodes or stopping):
                     stacked = {name: np.array([row[name] for row in rows[task.key]])
                                for name in rows[task.key][0]}
-                    emit(("checkpoint", task.key, stacked, trajectories[task.key],
-                          (result.episode, result.trajectory), run.checkpoint(index)))
+                    checkpoints.append((task.key, stacked, trajectories[task.key],
+                                        (result.episode, result.trajectory),
+                                        run.checkpoint(index)))
                     rows[task.key], trajectories[task.key] = [], {}
+            if checkpoints:  # one message: the writer stores them in one rewrite
+                emit(("checkpoints", None, checkpoints))
             if stopping:
                 break
             if (run.episodes_done == merge_at
@@ -199,10 +205,10 @@ class RunFileWriter:
         kind, seed = message[0], message[1]
         if kind == "progress" and self.on_episode is not None:
             self.on_episode(seed, message[2], message[3])
-        elif kind == "checkpoint":
-            _, _, rows, trajectories, last, checkpoint = message
-            run_file.append_checkpoint(self.path, seed, rows, trajectories, last, checkpoint)
-            self.done[seed] = int(checkpoint["episode"])
+        elif kind == "checkpoints":  # [(seed, rows, trajectories, last, checkpoint), ...]
+            run_file.append_checkpoints(self.path, message[2])
+            for seed, *_, checkpoint in message[2]:
+                self.done[seed] = int(checkpoint["episode"])
         elif kind == "error":
             self.errors.append(f"seed {seed} failed: {message[2]}")
 
