@@ -262,8 +262,9 @@ def test_seed_without_checkpoint_yet_is_valid(run, tmp_path):
         assert len(reader.episodes(1)["sum_rate_bps"]) == 0
 
 
-def test_file_without_provenance_units_or_sessions_still_opens(run, tmp_path):
-    """Files written before provenance, units and sessions existed stay readable."""
+def test_file_without_provenance_units_or_sessions_still_opens(run, tmp_path, capsys):
+    """Files written before provenance, units, sessions and the checkpoints' device existed
+    stay readable, and resume (the old trainer's runs were refused as damaged)."""
     path = tmp_path / "old.h5"
     shutil.copyfile(run, path)
     with h5py.File(path, "a") as f:
@@ -272,11 +273,17 @@ def test_file_without_provenance_units_or_sessions_still_opens(run, tmp_path):
         del f["overrides"]
         if "sessions" in f:  # recorded by train since this test was written
             del f["sessions"]
+        for seed in f["seeds"].values():
+            del seed["checkpoint"].attrs["device"]
         f.visititems(lambda _, item: item.attrs.pop("units", None)
                      if isinstance(item, h5py.Dataset) else None)
     with RunReader(path) as reader:
         assert reader.sessions == [] and reader.overrides == []
         assert reader.checkpoint(1)["episode"] == 2
+    assert main(["train", "--resume", str(path), "--episodes", "3", "--workers", "1",
+                 "--quiet"]) == 0, capsys.readouterr().err
+    with RunReader(path) as reader:
+        assert [reader.seed_attrs(seed)["episodes_done"] for seed in reader.seeds] == [3, 3]
 
 
 def test_curve_readers_need_no_checkpoint(run, tmp_path):

@@ -95,7 +95,8 @@ PROVENANCE_ATTRS = {"python_version": "str", "numpy_version": "str", "torch_vers
 ATTR_KINDS = {"int": "an integer", "str": "text", "json": "JSON text",
               "rng": "a numpy generator state as JSON text"}
 SEED_ATTRS = {"seed": "int", "episodes_done": "int", "episodes_planned": "int"}
-CHECKPOINT_ATTRS = {"episode": "int", "global_step": "int", "seed": "int", "device": "str"}
+CHECKPOINT_ATTRS = {"episode": "int", "global_step": "int", "seed": "int"}
+CHECKPOINT_OPTIONAL_ATTRS = {"device": "str"}  # since the stacked trainer; older files lack it
 RNG_ATTRS = {"numpy_agent_json": "rng", "numpy_env_json": "rng"}
 # sections whose absence would silently give defaults (a missing [train] means 1000 x 300)
 CONFIG_SECTIONS = ("area", "users", "uav", "radio", "channel", "reward", "agent", "train")
@@ -415,6 +416,7 @@ class Validator:
 
     def checkpoint(self, group: Node, seed: int, done: int, sizes: Sizes) -> None:
         attrs = self.attrs(group, CHECKPOINT_ATTRS)
+        self.attrs(group, CHECKPOINT_OPTIONAL_ATTRS, optional=True)
         steps = sizes.scenario.train.steps
         for name, value in (("episode", done), ("seed", seed), ("global_step", done * steps)):
             if attrs[name] != value:
