@@ -325,3 +325,21 @@ def test_pin_threads_limits_blas_after_numpy_is_imported():
 
     pin_threads()
     assert {pool["num_threads"] for pool in threadpool_info()} == {1}
+
+
+@pytest.mark.parametrize(("error", "expected"), [
+    (TypeError("boom"), "adaptsky: internal error (TypeError: boom); this is a bug: run again "
+                        "with ADAPTSKY_DEBUG=1 for the traceback and report it"),
+    (MemoryError(), "adaptsky: out of memory; use a smaller scenario")])
+def test_an_unforeseen_error_is_one_line_and_debug_shows_it(error, expected, reference,
+                                                            capsys, monkeypatch):
+    # a bug (or an allocation no estimate foresaw) ended in a traceback of dozens of lines
+    def broken(self, *args, **kwargs):
+        raise error
+
+    monkeypatch.setattr(RunReader, "__init__", broken)
+    assert main(["inspect", str(reference)]) == 1
+    assert one_line(capsys.readouterr()).startswith(expected)
+    monkeypatch.setenv("ADAPTSKY_DEBUG", "1")
+    with pytest.raises(type(error)):
+        main(["inspect", str(reference)])

@@ -69,6 +69,13 @@ def _nan_weight(f: h5py.File) -> None:
     f[f"{POLICY}/advantage.bias"][3] = np.nan
 
 
+def _rng_state_out_of_range(f: h5py.File) -> None:
+    rng = f["seeds/0/checkpoint/rng"]
+    state = json.loads(rng.attrs["numpy_agent_json"])
+    state["state"]["state"] = 2**200
+    rng.attrs["numpy_agent_json"] = json.dumps(state)
+
+
 def _soft_link(f: h5py.File) -> None:
     del f[f"{POLICY}/torso.0.bias"]
     f[f"{POLICY}/torso.0.bias"] = h5py.SoftLink("/seeds/1/checkpoint/agent/policy/torso.0.bias")
@@ -123,6 +130,12 @@ DAMAGES: dict[str, tuple[Callable[[h5py.File], None], str]] = {
         "/seeds/1/checkpoint/@episode: is 1 (expected 2)"),
     "no_checkpoint_after_episodes": (_delete("seeds/0/checkpoint"),
                                      "/seeds/0/checkpoint: missing, but episodes_done is 2"),
+    # found by fuzzing: numpy raised OverflowError on an RNG state out of uint64's range, and
+    # a learning-curve table that cannot grow passed until --resume tried to append to it
+    "rng_state_out_of_range": (_rng_state_out_of_range,
+                               "/seeds/0/checkpoint/rng/@numpy_agent_json: is not valid"),
+    "table_that_cannot_grow": (_replace("seeds/0/episodes/loss", data=np.zeros(2)),
+                               "/seeds/0/episodes/loss: cannot grow"),
 }
 
 

@@ -77,5 +77,18 @@ def main(argv: list[str] | None = None) -> int:
         err.print(str(storage_error(error_path(error) or "adaptsky", "cannot access it",
                                     error)))
         return 1
+    except MemoryError:
+        if os.environ.get("ADAPTSKY_DEBUG") == "1":
+            raise
+        err.print("adaptsky: out of memory; use a smaller scenario (adaptsky scenario validate "
+                  "estimates what it needs) or a machine with more memory")
+        return 1
+    except Exception as error:  # a bug: still one line, and the way to the traceback
+        if os.environ.get("ADAPTSKY_DEBUG") == "1":
+            raise
+        reason = (str(error).splitlines() or [""])[0]
+        err.print(f"adaptsky: internal error ({type(error).__name__}: {reason}); this is a bug: "
+                  "run again with ADAPTSKY_DEBUG=1 for the traceback and report it")
+        return 1
     return 0
 

@@ -256,7 +256,7 @@ class Validator:
             parsed = json.loads(value)
             if kind == "rng":
                 np.random.PCG64().state = parsed
-        except (ValueError, TypeError, KeyError) as error:
+        except (ValueError, TypeError, KeyError, OverflowError) as error:
             reason = f"no {error}" if isinstance(error, KeyError) else str(error).splitlines()[0]
             self.fail(where, f"is not valid ({reason})", ATTR_KINDS[kind])
         return parsed
@@ -386,6 +386,9 @@ class Validator:
                 self.fail(rows.name, f"has {length} rows",
                           f"{done} to {planned}: episodes_done to episodes_planned")
             self.dataset(episodes, field, {**sizes.symbols, "E": length})
+            if rows.id.get_space().get_simple_extent_dims(True)[0] != h5py.h5s.UNLIMITED:
+                self.fail(rows.name, "cannot grow", "a table extendible along its first axis, "
+                          "as train writes it (chunked, maxshape None)")
         if needs == "curves":
             return
         checkpoint = self.child(group, "checkpoint", GROUP, optional=True)
