@@ -35,6 +35,20 @@ def train_args(scenario: Path, out: Path, workers: int = 1) -> list[str]:
     return ["train", str(scenario), *RUN, "--workers", str(workers), "--out", str(out)]
 
 
+def test_sigterm_at_start_up_is_one_line_and_130(tmp_path):
+    # SIGTERM's default action killed the process without a word (exit -15)
+    process = subprocess.Popen([str(ADAPTSKY), "scenario", "validate", "--help"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               start_new_session=True)
+    time.sleep(0.15)
+    os.kill(process.pid, signal.SIGTERM)
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode in (0, 130), stderr  # 0 only if it finished first
+    assert "Traceback" not in stderr
+    if process.returncode == 130:
+        assert stderr.strip() == "interrupted"
+
+
 def resume(path: Path) -> list[str]:
     return ["train", "--resume", str(path), "--workers", "1", "--quiet"]
 
@@ -77,10 +91,12 @@ def reference(scenario, tmp_path_factory) -> Path:
     return out
 
 
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 def test_ctrl_c_to_the_process_group_while_workers_start_exits_130(scenario, reference,
-                                                                   tmp_path):
+                                                                   tmp_path, signum):
     # the terminal's Ctrl-C reaches every process; workers still importing used to print
-    # KeyboardInterrupt tracebacks, die with -2, and the run ended "seed N failed", exit 1
+    # KeyboardInterrupt tracebacks, die with -2, and the run ended "seed N failed", exit 1.
+    # A batch scheduler's SIGTERM to the job killed every process without a checkpoint.
     out = tmp_path / "startup.h5"
     process = subprocess.Popen([str(ADAPTSKY), *train_args(scenario, out, workers=2)],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
@@ -90,7 +106,7 @@ def test_ctrl_c_to_the_process_group_while_workers_start_exits_130(scenario, ref
         assert process.poll() is None and time.monotonic() < deadline, process.communicate()
         time.sleep(0.02)
     time.sleep(0.3)
-    os.killpg(process.pid, signal.SIGINT)
+    os.killpg(process.pid, signum)
     _, stderr = process.communicate(timeout=60)
     assert process.returncode == 130, stderr
     assert "Traceback" not in stderr and "failed" not in stderr, stderr

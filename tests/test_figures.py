@@ -236,3 +236,18 @@ def test_plot_command(tmp_path, capsys):
     assert main(["plot", str(empty)]) == 1
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and "nothing to plot" in lines[0]
+
+
+def test_plot_never_writes_a_figure_over_a_file_that_is_not_one(tmp_path, capsys):
+    # `plot RUN --out scenarios/nyc_mmwave.toml` wrote a PNG into the scenario file (and a CSV
+    # beside it): found by fuzzing
+    run = make_run(tmp_path / "e3.h5", "alpha", {0: ramp(20, 1.0)})
+    scenario = tmp_path / "nyc_mmwave.toml"
+    scenario.write_text('name = "x"\n')
+    for out in (scenario, run, tmp_path / "figure"):
+        assert main(["plot", str(run), "--out", str(out)]) == 1
+        lines = capsys.readouterr().err.strip().splitlines()
+        assert lines == [f"--out {out}: a figure file must end in .png"]
+    assert scenario.read_text() == 'name = "x"\n' and not (tmp_path / "nyc_mmwave.csv").exists()
+    assert main(["plot", str(run), "--out", str(tmp_path / "curves.png")]) == 0
+    assert (tmp_path / "curves.png").read_bytes()[:8] == PNG_MAGIC

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import copy
 import math
+import os
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -218,9 +219,15 @@ def test_unreadable_files_are_one_line_with_the_file_name(tmp_path, capsys):
     binary.write_bytes(b'name = "\xff\xfe"\n')
     folder = tmp_path / "folder.toml"
     folder.mkdir()
+    fifo = tmp_path / "fifo.toml"  # reading it blocked for ever; /dev/zero never ended
+    os.mkfifo(fifo)
+    huge = tmp_path / "huge.toml"
+    huge.write_text("# " + "x" * (1 << 20) + "\nname = 'n'\n")
     run = tmp_path / "r.h5"
     for file, reason in ((nested, "nested too deeply"), (binary, "can't decode byte 0xff"),
-                         (folder, "Is a directory")):
+                         (folder, "is a folder"), (fifo, "is not a regular file"),
+                         (Path("/dev/zero"), "is not a regular file"),
+                         (huge, "is too large (at most 1048576)")):
         for argv in (["scenario", "validate", str(file)], ["scenario", "show", str(file)],
                      ["train", str(file), "--out", str(run)]):
             assert main(argv) == 1

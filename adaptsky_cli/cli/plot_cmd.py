@@ -21,8 +21,8 @@ class Band(StrEnum):
 def plot(
     runs: Annotated[list[Path], typer.Argument(help="run files (HDF5)", show_default=False)],
     out_file: Annotated[Path | None, typer.Option(
-        "--out", help="PNG to write, with the plotted numbers in a .csv beside it (default: "
-        "<first run file>-curves.png beside it)", show_default=False)] = None,
+        "--out", help="PNG to write (its name ends in .png), with the plotted numbers in a .csv "
+        "beside it (default: <first run file>-curves.png beside it)", show_default=False)] = None,
     band: Annotated[Band, typer.Option(help="shaded band: mean ± 1 std over seeds, or a 95% "
                                        "bootstrap interval of the mean")] = Band.std,
     title: Annotated[str | None, typer.Option(help="figure title", show_default=False)] = None,

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import multiprocessing
 import os
-import signal
 import uuid
 from concurrent.futures import Future, ProcessPoolExecutor
 from pathlib import Path
@@ -23,6 +22,7 @@ from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.experiment.plan import RunSpec
 from adaptsky_cli.experiment.runs import RunReport, execute_run, execute_runs
 from adaptsky_cli.scenario import parse_scenario
+from adaptsky_cli.train.runner import ignore_stop_signals
 from adaptsky_cli.train.stack_run import stack_key
 
 
@@ -43,8 +43,7 @@ _parent_pid = 0
 
 def _init_local_worker(stop_event: Any, parent_pid: int) -> None:
     global _stop_event, _parent_pid
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when to stop
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # blocked while starting
+    ignore_stop_signals()
     _stop_event, _parent_pid = stop_event, parent_pid
 
 

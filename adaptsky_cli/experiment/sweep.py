@@ -19,6 +19,7 @@ from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.report.progress import stamp
 from adaptsky_cli.report.units import format_duration
 from adaptsky_cli.store.run_file import RunFileError, RunReader
+from adaptsky_cli.train.runner import STOP_SIGNALS
 
 if TYPE_CHECKING:  # the executors and runs import torch; the sweep itself needs none of it
     from adaptsky_cli.experiment.executors import Executor
@@ -108,14 +109,14 @@ def run_sweep(todo: list[tuple[RunSpec, RunState]], executor: Executor, console:
     # Local workers start with SIGINT blocked (they inherit the mask) and ignore it before
     # unblocking it, so a Ctrl-C while they start cannot kill them; it waits for this
     # process's handler, which asks every run to checkpoint and stop.
-    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
     try:
         specs = [spec for spec, _ in todo]
         for spec, future in zip(specs, executor.submit_all(specs), strict=True):
             futures[spec.path] = (spec, future)
     finally:
-        previous = signal.signal(signal.SIGINT, on_interrupt)
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+        previous = {signum: signal.signal(signum, on_interrupt) for signum in STOP_SIGNALS}
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
     try:
         with display:
             display.log(f"{total_runs} runs: {skipped} done before, {len(todo)} to run on "
@@ -156,7 +157,8 @@ def run_sweep(todo: list[tuple[RunSpec, RunState]], executor: Executor, console:
                 if futures:
                     time.sleep(POLL_S)
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
         executor.close()
     outcome.interrupted, outcome.seconds = interrupted, time.monotonic() - start
     if failures and not interrupted:

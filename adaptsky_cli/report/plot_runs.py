@@ -22,6 +22,9 @@ BAND_NOTES = {"std": "mean ± 1 std over runs", "bootstrap": "95% bootstrap CI o
 CSV_COLUMNS = ("mean", "low", "high", "runs")
 
 
+FIGURE_SUFFIXES = (".png",)  # figures.py writes PNG
+
+
 def default_figure_path(run_path: Path) -> Path:
     """``<run stem>-curves.png`` beside the run file."""
     return run_path.with_name(f"{run_path.stem}-curves.png")
@@ -80,6 +83,9 @@ def plot_runs(*, run_paths: list[Path], out: Path, band: str = "std",
     if band not in BAND_KINDS:
         raise AdaptskyError(f"--band: unknown band '{band}'; choose from "
                             f"{', '.join(BAND_KINDS)}")
+    if out.suffix.lower() not in FIGURE_SUFFIXES:  # never a figure written over a .toml or .h5
+        raise AdaptskyError(f"--out {out}: a figure file must end in "
+                            f"{', '.join(FIGURE_SUFFIXES)}")
     groups = read_sum_rates(run_paths)
     if not groups:
         raise AdaptskyError(f"{', '.join(map(str, run_paths))}: no seed has finished an "

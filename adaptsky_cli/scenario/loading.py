@@ -5,6 +5,8 @@ Every problem becomes one ``file: field.path: message`` line in a :class:`Scenar
 
 from __future__ import annotations
 
+import os
+import stat
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -61,10 +63,29 @@ def load_scenario_with_text(path: str | Path) -> tuple[Scenario, str]:
     return parse_scenario(parse_toml(text, str(path)), str(path)), text
 
 
+MAX_FILE_BYTES = 1 << 20  # scenario and experiment files are a few kB
+
+
 def read_scenario_text(path: str | Path, what: str = "scenario file") -> str:
-    """The text of a scenario (or experiment) file; one line if it cannot be read."""
+    """The text of a scenario (or experiment) file; one line if it cannot be read. Only a
+    regular file of at most 1 MiB is read (a FIFO would block, /dev/zero never end)."""
     try:
-        return Path(path).read_text(encoding="utf-8")
+        handle = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+        try:
+            info = os.fstat(handle)
+            if not stat.S_ISREG(info.st_mode):
+                kind = ("is a folder" if stat.S_ISDIR(info.st_mode) else
+                        "is not a regular file (a pipe, device or socket)")
+                raise ScenarioError([f"{_shown(path)}: cannot read {what}: {kind}"])
+            if info.st_size > MAX_FILE_BYTES:
+                raise ScenarioError([f"{_shown(path)}: cannot read {what}: {info.st_size} bytes "
+                                     f"is too large (at most {MAX_FILE_BYTES})"])
+            data = os.read(handle, MAX_FILE_BYTES + 1)
+        finally:
+            os.close(handle)
+        return data.decode("utf-8")
+    except ScenarioError:
+        raise
     except Exception as error:  # OSError, UnicodeDecodeError, ValueError (a NUL in the path)...
         raise ScenarioError([f"{_shown(path)}: cannot read {what}: {_reason(error)}"]) from None
 

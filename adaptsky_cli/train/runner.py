@@ -72,12 +72,16 @@ def pin_threads() -> None:
     torch.set_num_threads(1)
 
 
+# Ctrl-C, and the stop that `kill`, `timeout` and batch schedulers send: both checkpoint and end
+STOP_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+
+
 @contextmanager
-def sigint_blocked() -> Any:
-    """Block SIGINT in this thread while the block runs (processes started meanwhile inherit
-    the mask, so a Ctrl-C cannot interrupt their start-up); one that came meanwhile is then
-    delivered to this process's handler."""
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+def stop_signals_blocked() -> Any:
+    """Block the stop signals in this thread while the block runs (processes started meanwhile
+    inherit the mask, so a Ctrl-C cannot interrupt their start-up); one that came meanwhile is
+    then delivered to this process's handler."""
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
     try:
         yield
     finally:
@@ -151,9 +155,16 @@ def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
         emit(("done", task.key))
 
 
+def ignore_stop_signals() -> None:
+    """In a worker process: the parent decides when to stop (through an event); the signals
+    were blocked while it started."""
+    for signum in STOP_SIGNALS:
+        signal.signal(signum, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
+
+
 def _worker(group: list[SeedTask], messages: Any, stop_event: Any) -> None:
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when to stop
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # blocked while starting
+    ignore_stop_signals()
     pin_threads()
     parent_pid = group[0].parent_pid
 
@@ -173,13 +184,14 @@ def _worker(group: list[SeedTask], messages: Any, stop_event: Any) -> None:
 
 
 class _StopOnInterrupt:
-    """First Ctrl-C: finish the current episodes, checkpoint, stop. Second: stop at once."""
+    """First Ctrl-C (or SIGTERM): finish the current episodes, checkpoint, stop. Second: stop
+    at once."""
 
     def __init__(self, event: Any, view: TrainingProgress) -> None:
         self.event, self.view = event, view
 
     def __enter__(self) -> _StopOnInterrupt:
-        self.previous = signal.signal(signal.SIGINT, self._handle)
+        self.previous = {signum: signal.signal(signum, self._handle) for signum in STOP_SIGNALS}
         return self
 
     def _handle(self, signum: int, frame: Any) -> None:
@@ -190,7 +202,8 @@ class _StopOnInterrupt:
                           "(Ctrl-C again to quit now)")
 
     def __exit__(self, *exc: object) -> None:
-        signal.signal(signal.SIGINT, self.previous)
+        for signum, previous in self.previous.items():
+            signal.signal(signum, previous)
 
 
 class RunFileWriter:
@@ -255,7 +268,7 @@ def run_tasks(path: Path, tasks: list[SeedTask], workers: int, view: TrainingPro
     processes = []
     with _StopOnInterrupt(stop_event, view):
         try:
-            with sigint_blocked():  # children ignore SIGINT before they import anything
+            with stop_signals_blocked():  # children ignore SIGINT before they import anything
                 for group in partition(tasks, workers):
                     process = context.Process(target=_worker,
                                               args=(group, messages, stop_event), daemon=True)
