@@ -81,6 +81,26 @@ def eval_layouts(scenario: Scenario, layouts: int | None) -> np.ndarray:
     return user_layouts(scenario, layouts or 1)
 
 
+# float64 numbers a rollout keeps per step, layout and user (the states it records: gains,
+# rates, shares, LoS, positions...), and per step and layout; measured shapes, rounded up
+STATE_FLOATS_PER_USER, STATE_FLOATS_PER_LAYOUT = 12, 16
+
+
+def check_rollout_memory(scenario: Scenario, steps: int, layouts: int, methods: int,
+                         source: str) -> None:
+    """Refuse, before any work, rollouts whose recorded states this machine cannot hold."""
+    from adaptsky_cli.scenario.resources import available_bytes, format_bytes
+
+    per_step = layouts * (STATE_FLOATS_PER_USER * scenario.num_users + STATE_FLOATS_PER_LAYOUT)
+    needed = 8 * per_step * steps * methods
+    available = available_bytes()
+    if available is not None and needed > available:
+        raise AdaptskyError(f"{source}: {methods} rollout(s) of {steps} steps on {layouts} "
+                            f"layouts need about {format_bytes(needed)} of memory, this machine "
+                            f"has {format_bytes(available)} available; lower --steps or "
+                            "--layouts")
+
+
 def baseline_work(method: str, steps: int, users_m: np.ndarray) -> tuple[int, str]:
     """How much work a baseline is, for progress: (count, unit)."""
     return (len(users_m), "layout") if method == "oracle" else (steps, "step")
@@ -226,6 +246,7 @@ def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path |
         require_deterministic_gains(scenario)
     others = {item.label: load_policy(item.run, None, scenario)
               for item in compared if item.run is not None}
+    check_rollout_memory(scenario, steps, layouts or 1, 1 + len(compared), str(checkpoint))
     users_m = eval_layouts(scenario, layouts)
     policy = greedy_policy(trained, state)
     methods = [_policy_method(POLICY, scenario, policy, steps, users_m, progress)]
@@ -252,6 +273,7 @@ def baseline(*, scenario_path: Path, method: str, layouts: int | None = None,
     scenario = eval_scenario(load_scenario(scenario_path), layouts, layout_seed)
     if method == "oracle":
         require_deterministic_gains(scenario)
+    check_rollout_memory(scenario, steps, layouts or 1, 1, str(scenario_path))
     users_m = eval_layouts(scenario, layouts)
     result = _baseline_method(scenario, method, steps, users_m, progress or SilentProgress())
     return results_json([result], scenario, steps, layouts, layout_seed, users_m), [result]

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from rich.console import Console
 
+from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.experiment.executors import make_executor, stacks
 from adaptsky_cli.experiment.plan import Plan, load_experiment, plan_experiment
 from adaptsky_cli.experiment.runs import run_state
@@ -73,6 +74,9 @@ def reproduce_many(*, experiments: list[str], outs: list[Path | None],
     todo = []
     for plan in plans:
         states = [(run, run_state(run)) for run in plan.runs]  # refuses conflicting files first
+        if plan.out.exists() and not plan.out.is_dir():
+            raise AdaptskyError(f"{plan.out}: is a file; --out names the folder the "
+                                "experiment's runs, evaluations and report go to")
         plan.out.mkdir(parents=True, exist_ok=True)
         write_text_atomic(plan.out / "plan.json", json.dumps(plan.record(), indent=1))
         todo += [(run, state) for run, state in states if state.status != "done"]

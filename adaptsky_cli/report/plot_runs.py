@@ -95,6 +95,7 @@ def plot_runs(*, run_paths: list[Path], out: Path, band: str = "std",
     series = [curve_series(name, curves, window, kind) for name, curves in groups.items()]
     scale, unit = rate_unit([float(np.abs(s.mean).max()) for s in series])
     out.parent.mkdir(parents=True, exist_ok=True)
+    title = title.replace("$", r"\$") if title else None  # literal text, not TeX math
     learning_curves(out, series, [], title=title or f"Learning curves: {', '.join(groups)}",
                     ylabel=f"R_e^tot ({unit})", scale=scale,
                     note=f"trailing mean over {window} episodes; band: {BAND_NOTES[band]}")

@@ -27,6 +27,7 @@ from adaptsky_cli.store.layout import (
     EPISODES,
     FORMAT_VERSION,
     KIND,
+    SEED_ATTRS,
     TRAJECTORY,
     UNITS,
     Needs,
@@ -252,8 +253,11 @@ class RunReader:
         return sorted(self.scenario.train.seeds)
 
     def seed_attrs(self, seed: int) -> dict[str, int]:
+        """The seed's documented attributes (seed, episodes_done, episodes_planned); others
+        a later version may add are left alone."""
         return self._guard(f"seed {seed}", lambda: {
-            key: int(value) for key, value in self.file[f"seeds/{seed}"].attrs.items()})
+            key: int(value) for key, value in self.file[f"seeds/{seed}"].attrs.items()
+            if key in SEED_ATTRS})
 
     def has_checkpoint(self, seed: int) -> bool:
         return self._guard(f"seed {seed}", lambda: f"seeds/{seed}/checkpoint" in self.file)

@@ -123,6 +123,7 @@ def read_progress(run_path: Path) -> tuple[dict[str, object], dict[int, Tree | N
         checkpoints: dict[int, Tree | None] = {}
         for seed in run.seeds:  # (the reader refuses a seed with episodes but no checkpoint)
             checkpoints[seed] = run.checkpoint(seed) if run.has_checkpoint(seed) else None
+            run.episodes(seed)  # the curves it appends to must read back (no damaged index)
     return config, checkpoints
 
 
@@ -144,8 +145,9 @@ def resume(*, run_path: Path, episodes: int | None = None, workers: int | None =
                                 f"{run_path} has done")
         if episodes is not None:
             scenario = _with_train(scenario, episodes=episodes)
+        check_fits(scenario, str(run_path), workers=workers)  # before anything is written
+        if episodes is not None:
             run_file.set_planned_episodes(run_path, scenario.model_dump(mode="json"))
-        check_fits(scenario, str(run_path), workers=workers)
         t = scenario.train
         tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every,
                           checkpoint) for seed, checkpoint in checkpoints.items()]
