@@ -171,8 +171,7 @@ def _read_run(run_path: Path, seed: int | None) -> tuple[Scenario, Tree, int]:
         if chosen not in seeds:
             raise EvaluationError(f"{run_path}: has no seed {chosen}; it has "
                                   f"{', '.join(map(str, seeds))}")
-        trained = parse_scenario(run.config, f"{run_path}:/config")
-        return trained, run.checkpoint(chosen), chosen
+        return run.scenario, run.checkpoint(chosen), chosen  # (validated on opening)
 
 
 def checkpoint_record(run_path: Path, seed: int, checkpoint: Tree) -> dict[str, Any]:

@@ -56,13 +56,13 @@ def run_state(spec: RunSpec) -> RunState:
         return RunState("missing", 0)
     try:
         with RunReader(spec.path) as run:
-            stored = run.config
+            stored = run.scenario  # the stored config, validated on opening
             if spec.seed not in run.seeds or not run.has_checkpoint(spec.seed):
                 return RunState("missing", 0)
             done = run.seed_attrs(spec.seed)["episodes_done"]
     except RunFileError as error:
         raise RunConflictError(f"{error}; remove it to train this run again") from None
-    stored_json = parse_scenario(stored, f"{spec.path}:/config").model_dump(mode="json")
+    stored_json = stored.model_dump(mode="json")
     mine = {**spec.config, "train": {**spec.config["train"], "episodes": 0}}
     theirs = {**stored_json, "train": {**stored_json["train"], "episodes": 0}}
     if mine != theirs:

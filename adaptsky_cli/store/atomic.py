@@ -88,7 +88,7 @@ def make_parent(path: Path) -> None:
         raise storage_error(path.parent, "cannot create the folder", error) from None
 
 
-def _copy_name(path: Path, pid: int) -> Path:
+def _copy_name(path: Path, pid: int | str) -> Path:
     return path.with_name(f".{path.name}.tmp-{pid}")
 
 
@@ -117,14 +117,14 @@ def _alive(pid: int) -> bool:
     except ProcessLookupError:
         return False
     except PermissionError:
-        return True
+        pass  # it exists, owned by another user
     return True
 
 
 def remove_stale_copies(path: Path) -> None:
     """Delete copies of ``path`` left by writers that were killed (their process is gone);
     readers never open them."""
-    prefix = f".{path.name}.tmp-"
+    prefix = _copy_name(path, "").name
     for stale in path.parent.glob(f"{glob_escape(prefix)}*"):
         pid = stale.name[len(prefix):]
         if not pid.isdigit() or not _alive(int(pid)):

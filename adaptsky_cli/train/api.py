@@ -115,16 +115,16 @@ def train(*, scenario_path: Path, out: Path | None = None, seeds: list[int] | No
         return path, outcome
 
 
-def read_progress(run_path: Path) -> tuple[dict[str, object], dict[int, Tree | None]]:
-    """A run file's configuration and each seed's last checkpoint (None for a seed stopped
-    before its first: it starts from zero)."""
+def read_progress(run_path: Path) -> tuple[Scenario, dict[int, Tree | None]]:
+    """A run file's scenario (validated on opening) and each seed's last checkpoint (None for
+    a seed stopped before its first: it starts from zero)."""
     with RunReader(run_path) as run:
-        config = run.config
+        scenario = run.scenario
         checkpoints: dict[int, Tree | None] = {}
         for seed in run.seeds:  # (the reader refuses a seed with episodes but no checkpoint)
             checkpoints[seed] = run.checkpoint(seed) if run.has_checkpoint(seed) else None
             run.episodes(seed)  # the curves it appends to must read back (no damaged index)
-    return config, checkpoints
+    return scenario, checkpoints
 
 
 def resume(*, run_path: Path, episodes: int | None = None, workers: int | None = None,
@@ -137,8 +137,7 @@ def resume(*, run_path: Path, episodes: int | None = None, workers: int | None =
     with RunReader(run_path, needs="curves"):
         pass  # a missing or damaged file: its own line, before a lock file is made beside it
     with run_lock(run_path):
-        config, checkpoints = read_progress(run_path)
-        scenario = parse_scenario(config, f"{run_path}:/config")
+        scenario, checkpoints = read_progress(run_path)
         done = max(int(c["episode"]) if c is not None else 0 for c in checkpoints.values())
         if episodes is not None and episodes < done:
             raise AdaptskyError(f"--episodes {episodes} is fewer than the {done} episodes "

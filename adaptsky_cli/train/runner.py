@@ -268,7 +268,7 @@ def run_tasks(path: Path, tasks: list[SeedTask], workers: int, view: TrainingPro
     processes = []
     with _StopOnInterrupt(stop_event, view):
         try:
-            with stop_signals_blocked():  # children ignore SIGINT before they import anything
+            with stop_signals_blocked():  # children ignore them before they import anything
                 for group in partition(tasks, workers):
                     process = context.Process(target=_worker,
                                               args=(group, messages, stop_event), daemon=True)
