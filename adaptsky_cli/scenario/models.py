@@ -88,6 +88,7 @@ class Users(Section):
         if len(value) < 2 or len(value) % 2:
             raise ValueError(f"{len(value)} users given; NOMA pairs need an even count >= 2")
         return value
+
     @field_validator("count")
     @classmethod
     def _even_count(cls, value: int | None) -> int | None:
