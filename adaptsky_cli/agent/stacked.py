@@ -110,6 +110,10 @@ class StackedDqn:
         self.exp_avg_sq = torch.zeros_like(self.params)
         self._grad_padding = torch.zeros(self.size, width - used, device=self.device)
         self.step = torch.zeros((), device=self.device)  # Adam's step: members are in lockstep
+        # a decaying learning rate lives in a tensor (a CUDA graph reads it at every replay)
+        self._lr: float | torch.Tensor = (config.lr if config.lr_end is None else
+                                          torch.tensor(config.lr, device=self.device))
+        self._discount = config.gamma ** config.n_step  # an n-step row bootstraps after n
         self.loss_sum = torch.zeros(self.size, dtype=torch.float64, device=self.device)
         self.updates = 0  # updates since the last take_mean_loss(), the same for every member
         assert self.params.shape == (self.size, width)
@@ -129,7 +133,7 @@ class StackedDqn:
         net = QNetwork(self.observation_size, self.num_actions, self.config.hidden_sizes,
                        self.config.dueling)
         row = np.zeros(width, dtype=np.float32)
-        row[:self.layers[-1].end] = self._row_from_state(
+        row[:self.layers[-1].end] = self.row_from_state(
             {k: v.numpy() for k, v in net.state_dict().items()})
         return row
 
@@ -196,7 +200,7 @@ class StackedDqn:
                 next_value = next_q.gather(-1, best).squeeze(-1)
             else:
                 next_value = next_q.amax(dim=-1)
-            target = rewards + config.gamma * not_terminal * next_value
+            target = rewards + self._discount * not_terminal * next_value
             inputs: list[torch.Tensor] = []
             q = self._forward(self._policy, observations, inputs)
             chosen = actions.unsqueeze(-1)
@@ -213,6 +217,8 @@ class StackedDqn:
             self.loss_sum += loss
             self._backward(inputs, self._d_head(chosen, d_chosen))
             self._adam()
+            if config.target_tau > 0:  # soft target update (extension)
+                self.target.lerp_(self.params, config.target_tau)
 
     def _d_head(self, chosen: torch.Tensor, d_chosen: torch.Tensor) -> torch.Tensor:
         """dLoss / d(head output) (S, B, width) from dLoss / dQ(s, a) of the chosen actions."""
@@ -242,9 +248,19 @@ class StackedDqn:
             grads.mul_((config.grad_clip_norm / (norm + CLIP_EPS)).clamp_(max=1.0))
         self.step += 1
         torch._fused_adam_([self.params], [grads], [self.exp_avg], [self.exp_avg_sq], [],
-                           [self.step], lr=config.lr, beta1=ADAM_BETAS[0],
+                           [self.step], lr=self._lr, beta1=ADAM_BETAS[0],
                            beta2=ADAM_BETAS[1], weight_decay=0.0, eps=ADAM_EPS,
                            amsgrad=False, maximize=False)
+
+    def set_learning_rate(self, global_step: int) -> None:
+        """lr at ``global_step``: linear from ``lr`` to ``lr_end`` over ``lr_decay_steps``,
+        then ``lr_end`` (nothing to do without ``lr_end``)."""
+        config = self.config
+        if config.lr_end is None:
+            return
+        done = min(1.0, global_step / config.lr_decay_steps)
+        assert isinstance(self._lr, torch.Tensor)
+        self._lr.fill_(config.lr + (config.lr_end - config.lr) * done)
 
     def sync_target(self, members: np.ndarray | None = None) -> None:
         """Hard copy theta' <- theta (alg. 1), for every member or those flagged in a bool (S,)."""
@@ -265,7 +281,7 @@ class StackedDqn:
 
     # ---- per-member state as plain arrays ------------------------------------------------
 
-    def _row_from_state(self, state: dict[str, Any]) -> np.ndarray:
+    def row_from_state(self, state: dict[str, Any]) -> np.ndarray:
         """A flat row from QNetwork-named arrays ((out, in) weights)."""
         row = np.empty(self.layers[-1].end, dtype=np.float32)
         for layer, (weight, bias) in zip(self.layers, self._named_pairs(state), strict=True):
@@ -281,8 +297,8 @@ class StackedDqn:
             pairs[-2:] = [(np.concatenate([value_w, adv_w]), np.concatenate([value_b, adv_b]))]
         return pairs
 
-    def _state_from_row(self, row: np.ndarray) -> dict[str, np.ndarray]:
-        """QNetwork-named arrays from a flat row (inverse of :meth:`_row_from_state`)."""
+    def state_from_row(self, row: np.ndarray) -> dict[str, np.ndarray]:
+        """QNetwork-named arrays from a flat row (inverse of :meth:`row_from_state`)."""
         arrays = []
         for layer in self.layers:
             weight = row[layer.weight_at:layer.bias_at].reshape(layer.size_in, layer.size_out)
@@ -298,10 +314,10 @@ class StackedDqn:
         rows = [buffer[member, :self.layers[-1].end].cpu().numpy() for buffer in
                 (self.params, self.target, self.exp_avg, self.exp_avg_sq)]
         step = np.float32(self.step.item())
-        moments = [self._state_from_row(row) for row in rows[2:]]
+        moments = [self.state_from_row(row) for row in rows[2:]]
         return {
-            "policy": self._state_from_row(rows[0]),
-            "target": self._state_from_row(rows[1]),
+            "policy": self.state_from_row(rows[0]),
+            "target": self.state_from_row(rows[1]),
             "optimizer": {
                 "param_groups_json": json.dumps([{"lr": self.config.lr, "betas": ADAM_BETAS,
                                                   "eps": ADAM_EPS}]),
@@ -321,7 +337,7 @@ class StackedDqn:
             buffers += [(self.exp_avg, moments[0]), (self.exp_avg_sq, moments[1])]
         used = self.layers[-1].end
         for buffer, named in buffers:
-            buffer[member, :used] = torch.from_numpy(self._row_from_state(named))
+            buffer[member, :used] = torch.from_numpy(self.row_from_state(named))
         self.step.fill_(float(np.asarray(optimizer["0"]["step"])) if optimizer else 0.0)
         if moments is None:
             self.exp_avg[member] = 0.0

@@ -8,6 +8,7 @@ import time
 from pathlib import Path
 from typing import Annotated, Any
 
+import numpy as np
 import typer
 
 from adaptsky_cli.cli.console import err, out
@@ -63,6 +64,9 @@ def evaluate(
                                          "other run files")] = "soa,random",
     out_file: Annotated[Path | None, typer.Option("--out", help="eval file to write "
                                                   "(default: next to the run file)")] = None,
+    policy: Annotated[str, typer.Option(help="best: the policy of the best greedy evaluation "
+                                        "during training (the last where a run has none); "
+                                        "last: the last checkpoint")] = "best",
     as_json: Json = False,
 ) -> None:
     """Greedy rollouts of a trained policy, compared with baselines and other runs."""
@@ -75,14 +79,29 @@ def evaluate(
     with WorkProgress(err) as progress:
         results, traces = api.evaluate(checkpoint=checkpoint, seed=seed, scenario_path=scenario,
                                        layouts=layouts, layout_seed=layout_seed, steps=steps,
-                                       compare_with=methods, progress=progress)
+                                       compare_with=methods, progress=progress,
+                                       policy=policy)
     write_eval(path, results, traces, provenance={
         "command_line": json.dumps(command_line(ctx)), "wall_time_s": time.monotonic() - start})
     if as_json:
         print(json.dumps(results | {"eval_file": str(path)}))
         return
+    _show_training(results)
     _show(results)
     err.print(f"eval file: {path}")
+
+
+def _show_training(results: dict[str, Any]) -> None:
+    """Which policy was evaluated, and the greedy evaluations during training."""
+    from adaptsky_cli.report.evaluations import curve_table, policy_line
+
+    used = results["policy"]
+    out.print(policy_line(used, used["score_kind"]), markup=False)
+    curve = {name: np.array([np.nan if v is None else v for v in values], dtype=float)
+             for name, values in results["training_evaluations"].items()}
+    if len(curve["episode"]):
+        best = used["episode"] if used["policy"] == "best" else None
+        out.print(curve_table(results["seed"], curve, best, limit=6))
 
 
 def baseline(

@@ -8,7 +8,7 @@ import typer
 
 from adaptsky_cli.cli.console import out
 from adaptsky_cli.cli.options import Json
-from adaptsky_cli.report.summary import summarize, summary_table
+from adaptsky_cli.report.summary import curve_tables, summarize, summary_table
 
 
 def inspect(
@@ -25,3 +25,5 @@ def inspect(
     if summary["overrides"]:
         out.print("--set " + " --set ".join(summary["overrides"]), markup=False)
     out.print(summary_table(summary))
+    for table in curve_tables(summary):
+        out.print(table)

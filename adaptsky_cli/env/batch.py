@@ -130,25 +130,46 @@ class NomaUavBatch:
         if users_m.shape != (num_envs, self.num_users, 2):
             raise ValueError(f"users_m must have shape {(num_envs, self.num_users, 2)}, "
                              f"got {users_m.shape}")
-        self.layouts_m = np.array(users_m, dtype=np.float64)
         uav = scenario.uav
         self._start_m = np.array(uav.start_m, dtype=np.float64)
         self._step_m = np.array(uav.step_m, dtype=np.float64)
         half_m = scenario.area.side_m / 2
         self._low_m = np.array([-half_m, -half_m, uav.min_height_m])
         self._high_m = np.array([half_m, half_m, uav.max_height_m])
-        start_uav = np.broadcast_to(self._start_m, (num_envs, 3))
-        start_gain = deterministic_gain(self.channel, scenario.channel.los,
-                                        LinkGeometry.between(start_uav, self.layouts_m))
-        self.first_user, self.second_user = pair_users(start_gain, scenario.users.pairing)
-        # flat positions of (first users, second users) in a (B, N) array, for fast gathers
-        rows = np.arange(num_envs)[:, None] * self.num_users
-        self._cluster_flat = (rows + np.concatenate([self.first_user, self.second_user],
-                                                    axis=1)).ravel()
+        self._pair(users_m)
         self._prepare_step()
         self._seed(seed)
         self._to_start()
         self.state: NetworkState | None = None
+
+    def _pair(self, users_m: FloatArray) -> None:
+        """Take the layouts ``users_m`` (B, N, 2) and pair their users into clusters by the
+        gains from the start position (``users.pairing``)."""
+        self.layouts_m = np.array(users_m, dtype=np.float64)
+        start_uav = np.broadcast_to(self._start_m, (self.num_envs, 3))
+        start_gain = deterministic_gain(self.channel, self.scenario.channel.los,
+                                        LinkGeometry.between(start_uav, self.layouts_m))
+        self.first_user, self.second_user = pair_users(start_gain, self.scenario.users.pairing)
+        # flat positions of (first users, second users) in a (B, N) array, for fast gathers
+        rows = np.arange(self.num_envs)[:, None] * self.num_users
+        self._cluster_flat = (rows + np.concatenate([self.first_user, self.second_user],
+                                                    axis=1)).ravel()
+        # users in observation order: as listed, or cluster by cluster (agent.user_order)
+        self.observation_order: NDArray[np.intp] | None = None
+        self._order_flat: NDArray[np.intp] | None = None
+        if self.scenario.agent.user_order == "clusters":
+            self.observation_order = np.stack([self.first_user, self.second_user],
+                                              axis=2).reshape(self.num_envs, self.num_users)
+            self._order_flat = (rows + self.observation_order).ravel()
+
+    def set_layouts(self, users_m: FloatArray) -> None:
+        """New home positions of the users (B, N, 2), paired anew; they take effect at the next
+        :meth:`reset` (``users.placement = "fresh"``: a layout per training episode)."""
+        if users_m.shape != (self.num_envs, self.num_users, 2):
+            raise ValueError(f"users_m must have shape {(self.num_envs, self.num_users, 2)}, "
+                             f"got {users_m.shape}")
+        self._pair(users_m)
+        self._user_index()
 
     def _prepare_step(self) -> None:
         """Everything a step needs that does not change from step to step."""
@@ -335,7 +356,7 @@ class NomaUavBatch:
                          sums[3] if reward.needs_gain_sum else None)
         # the observer writes the gains over the partners' shares and scales every row in
         # place (alpha is divided by 1, which leaves it as it is)
-        self._obs = self._observer(features, gain, config[:, 2])
+        self._obs = self._observer(features, gain, config[:, 2], self._order_flat)
         return NetworkState._new(config[:, :3].copy(), alpha, gain, los, p_los, rates, total,
                                  fairness, rewards)
 
@@ -350,7 +371,7 @@ class NomaUavBatch:
     def observation(self) -> NDArray[np.float32]:
         assert self.state is not None, "call reset() first"
         return observe(self.scenario, self.uav_m, self.users_m, self.state.alpha,
-                       self.state.gain)
+                       self.state.gain, self.observation_order)
 
     def reset(self, seed: int | np.random.SeedSequence | list[np.random.SeedSequence] | None = None
               ) -> tuple[NDArray[np.float32], NetworkState]:

@@ -11,7 +11,8 @@ Rewards
     Eq. 13 with the scenario's ``[reward]`` weights.
 Starting State
     UAV at ``uav.start_m``, every cluster's first user at ``uav.start_alpha``; users at their
-    layout positions.
+    layout positions (``users.placement = "fresh"``: a new uniform layout at every reset,
+    drawn from the environment's ``np_random``, unless ``users_m`` fixes it).
 Episode End
     Truncation after ``train.steps`` steps; the network has no terminal state.
 Arguments
@@ -46,6 +47,12 @@ RENDER_MODES = ["ansi"]
 # nominal frames per second of a rendered episode (the model has no time per step)
 RENDER_FPS = 4
 INFO_KEYS = ("uav_m", "alpha", "gain", "los", "p_los", "rate_bps", "sum_rate_bps", "fairness")
+
+
+def fresh_layouts(scenario: Scenario, rng: np.random.Generator, count: int) -> np.ndarray:
+    """``count`` new layouts (count, N, 2), every user uniform over the area."""
+    half_m = scenario.area.side_m / 2
+    return rng.uniform(-half_m, half_m, size=(count, scenario.num_users, 2))
 
 
 def _resolve(scenario: Scenario | str | Path | None) -> Scenario:
@@ -99,11 +106,14 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64]):
         else:
             layouts = np.asarray(users_m, dtype=np.float64)[None]
         self.batch = NomaUavBatch(self.scenario, num_envs=1, users_m=layouts)
+        self._fresh = users_m is None and self.scenario.users.placement == "fresh"
         self.observation_space, self.action_space = _spaces(self.scenario, self.batch)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
               ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
+        if self._fresh:
+            self.batch.set_layouts(fresh_layouts(self.scenario, self.np_random, 1))
         obs, state = self.batch.reset(seed=seed)
         return obs[0], state.for_env(0)
 
@@ -141,6 +151,7 @@ class NomaUavVectorEnv(VectorEnv):
         self.scenario = _resolve(scenario)
         self.num_envs = num_envs
         self.batch = NomaUavBatch(self.scenario, num_envs=num_envs, users_m=users_m)
+        self._fresh = users_m is None and self.scenario.users.placement == "fresh"
         self.single_observation_space, self.single_action_space = _spaces(self.scenario,
                                                                           self.batch)
         self.observation_space = batch_space(self.single_observation_space, num_envs)
@@ -167,6 +178,8 @@ class NomaUavVectorEnv(VectorEnv):
             self._np_random, self._np_random_seed = gym.utils.seeding.np_random(seed[0])
         elif seed is not None:
             self._np_random, self._np_random_seed = gym.utils.seeding.np_random(seed)
+        if self._fresh:
+            self.batch.set_layouts(fresh_layouts(self.scenario, self.np_random, self.num_envs))
         obs, state = self.batch.reset(seed=seed)
         self._needs_reset = False
         return obs, self._info(state)

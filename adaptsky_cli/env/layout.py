@@ -12,9 +12,10 @@ def user_layouts(scenario: Scenario, num_layouts: int, layout_seed: int | None =
                  ) -> NDArray[np.float64]:
     """User positions of shape (num_layouts, N, 2), m.
 
-    ``listed`` repeats the scenario's positions; ``uniform`` draws every user uniformly over
-    the area from ``layout_seed`` (default: the scenario's), layout after layout, so the first
-    k of n layouts are the k layouts drawn for n = k.
+    ``listed`` repeats the scenario's positions; ``uniform`` (and ``fresh``, whose fixed
+    layouts are those of ``uniform``) draws every user uniformly over the area from
+    ``layout_seed`` (default: the scenario's), layout after layout, so the first k of n
+    layouts are the k layouts drawn for n = k.
     """
     users = scenario.users
     if users.placement == "listed":
@@ -40,3 +41,13 @@ def pair_users(gains: NDArray[np.float64], pairing: str) -> tuple[NDArray[np.int
     order = np.argsort(-gains, axis=1, kind="stable")
     half = num_users // 2
     return order[:, :half].copy(), order[:, ::-1][:, :half].copy()
+
+
+def episode_layouts(scenario: Scenario, seeds: list[int], episode: int) -> NDArray[np.float64]:
+    """The layouts (S, N, 2) of training episode ``episode`` (0-based) for ``users.placement
+    = "fresh"``: every user uniform over the area, from a generator of its own per seed and
+    episode, ([seed, 2, episode]): a run's layouts do not depend on how it was stopped,
+    resumed or stacked."""
+    half_m = scenario.area.side_m / 2
+    return np.stack([np.random.default_rng([seed, 2, episode]).uniform(
+        -half_m, half_m, size=(scenario.num_users, 2)) for seed in seeds])

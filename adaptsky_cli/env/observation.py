@@ -11,6 +11,11 @@ default they are scaled (``observation = "scaled"``):
 ``observation = "raw"`` gives the paper's values: m, 1, linear gain, m.
 Relative positions make the features mean the same on every layout, so a policy trained on
 one layout can be evaluated on another.
+
+Users come in the order the layout lists them (``agent.user_order = "listed"``, the paper's),
+or cluster by cluster (``"clusters"``: cluster 1's first and second user, then cluster 2's...,
+the order of the actions' power components), so that a user's place in the observation tells
+its cluster and role on every layout (docs/agent.md).
 """
 
 from __future__ import annotations
@@ -30,15 +35,19 @@ def observation_size(num_users: int) -> int:
 
 
 def observe(scenario: Scenario, uav_m: NDArray[np.float64], users_m: NDArray[np.float64],
-            alpha: NDArray[np.float64], gain: NDArray[np.float64]) -> NDArray[np.float32]:
+            alpha: NDArray[np.float64], gain: NDArray[np.float64],
+            order: NDArray[np.intp] | None = None) -> NDArray[np.float32]:
     """Observations (B, 4 N + 1), float32.
 
-    From UAV (B, 3), users (B, N, 2), alpha and gain (B, N).
+    From UAV (B, 3), users (B, N, 2), alpha and gain (B, N); ``order`` (B, N) lists the users
+    in observation order (``user_order = "clusters"``; None: as listed).
     """
     features = np.empty((FEATURES_PER_USER, *gain.shape))
     features[:2] = np.moveaxis(uav_m[:, None, :2] - users_m, -1, 0)
     features[2] = alpha
-    return Observer(scenario, gain.shape)(features, gain, uav_m[:, 2])
+    flat = None if order is None else (np.arange(len(order))[:, None] * order.shape[1]
+                                       + order).ravel()
+    return Observer(scenario, gain.shape)(features, gain, uav_m[:, 2], flat)
 
 
 class Observer:
@@ -57,10 +66,12 @@ class Observer:
             FEATURES_PER_USER, *shape)
 
     def __call__(self, features: NDArray[np.float64], gain: NDArray[np.float64],
-                 height_m: NDArray[np.float64]) -> NDArray[np.float32]:
+                 height_m: NDArray[np.float64], order_flat: NDArray[np.intp] | None = None
+                 ) -> NDArray[np.float32]:
         """Observations (B, 4 N + 1) from ``features`` (4, B, N) whose first three rows hold
         x_UAV - x_i, y_UAV - y_i and alpha_i (the fourth is overwritten with g_i, then every
-        row scaled in place), the gains g_i (B, N) and the UAV heights (B,).
+        row scaled in place), the gains g_i (B, N) and the UAV heights (B,); ``order_flat``
+        (B N,) puts the users in observation order (flat positions b N + i; None: as listed).
 
         The features are computed in float64, then rounded to float32 in one copy.
         """
@@ -73,6 +84,9 @@ class Observer:
         else:
             features[3] = gain
         _, num_envs, num_users = features.shape
+        if order_flat is not None:
+            features = features.reshape(FEATURES_PER_USER, -1).take(order_flat, axis=1).reshape(
+                FEATURES_PER_USER, num_envs, num_users)
         obs = np.empty((num_envs, observation_size(num_users)), dtype=np.float32)
         obs[:, :-1].reshape(num_envs, num_users, FEATURES_PER_USER)[...] = features.transpose(
             1, 2, 0)

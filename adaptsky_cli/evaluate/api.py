@@ -32,6 +32,7 @@ from adaptsky_cli.evaluate.rollout import (
     rollout,
 )
 from adaptsky_cli.evaluate.soa import soa_configuration
+from adaptsky_cli.report.evaluations import curve_json, score_kind
 from adaptsky_cli.report.progress import SilentProgress, WorkProgress
 from adaptsky_cli.scenario import Scenario, load_scenario, parse_scenario
 from adaptsky_cli.scenario.toml_writer import dumps
@@ -41,7 +42,8 @@ from adaptsky_cli.store.tree import Tree
 BASELINES = ("soa", "oracle", "random")
 POLICY = "policy"
 # what a policy's inputs are scaled by: they must match between training and evaluation
-OBSERVATION_SCALING = ("agent.observation", "area.side_m", "uav.max_height_m")
+OBSERVATION_SCALING = ("agent.observation", "agent.user_order", "area.side_m",
+                       "uav.max_height_m")
 
 
 class EvaluationError(AdaptskyError):
@@ -163,31 +165,58 @@ def compared_methods(items: list[str]) -> list[Compared]:
             Compared(next(labels), run=Path(item)) for item in items]
 
 
-def _read_run(run_path: Path, seed: int | None) -> tuple[Scenario, Tree, int]:
-    """The training scenario, the checkpoint of ``seed`` (default: the first) and the seed."""
+POLICIES = ("best", "last")
+
+
+def _read_run(run_path: Path, seed: int | None, policy: str = "best"
+              ) -> tuple[Scenario, Tree, int, dict[str, Any]]:
+    """The training scenario, the checkpoint of ``seed`` (default: the first) with the
+    ``policy`` asked for, the seed, and which policy that is (:func:`policy_record`)."""
+    if policy not in POLICIES:
+        raise EvaluationError(f"--policy: unknown policy '{policy}'; choose best or last")
     with RunReader(run_path) as run:
         seeds = run.seeds
         chosen = seeds[0] if seed is None else seed
         if chosen not in seeds:
             raise EvaluationError(f"{run_path}: has no seed {chosen}; it has "
                                   f"{', '.join(map(str, seeds))}")
-        return run.scenario, run.checkpoint(chosen), chosen  # (validated on opening)
+        checkpoint = run.checkpoint(chosen)  # (validated on opening)
+        best = run.best(chosen) if policy == "best" else None
+        return (run.scenario, with_policy(checkpoint, best), chosen,
+                policy_record(run_path, chosen, checkpoint, policy, best))
 
 
-def checkpoint_record(run_path: Path, seed: int, checkpoint: Tree) -> dict[str, Any]:
-    """Which checkpoint an evaluation used: the run file's absolute path, seed, episode."""
-    return {"path": str(run_path.resolve()), "seed": seed,
-            "episode": int(checkpoint.get("episode", -1)),
-            "global_step": int(checkpoint.get("global_step", -1))}
+def with_policy(checkpoint: Tree, best: Tree | None) -> Tree:
+    """The checkpoint with the best policy's weights in place of the last ones (as is
+    without a best policy)."""
+    if best is None:
+        return checkpoint
+    return {**checkpoint, "agent": {**checkpoint["agent"], "policy": best["policy"]}}
 
 
-def load_policy(run_path: Path, seed: int | None, scenario: Scenario
+def policy_record(run_path: Path, seed: int, checkpoint: Tree, asked: str,
+                  best: Tree | None) -> dict[str, Any]:
+    """Which policy an evaluation used: the run file's absolute path, the seed, the policy
+    asked for and the one used (``best`` falls back to ``last`` in a run with no greedy
+    evaluation yet), the episode whose weights they are, and the last checkpoint's episode."""
+    last = int(checkpoint.get("episode", -1))
+    record = {"path": str(run_path.resolve()), "seed": seed, "policy_asked": asked,
+              "policy": "best" if best is not None else "last",
+              "episode": int(best["episode"]) if best is not None else last,
+              "last_episode": last,
+              "global_step": int(checkpoint.get("global_step", -1))}
+    if best is not None:
+        record["best_score"] = float(best["score"])
+    return record
+
+
+def load_policy(run_path: Path, seed: int | None, scenario: Scenario, policy: str = "best"
                 ) -> tuple[Policy, dict[str, Any]]:
-    """The greedy policy of a run's seed, checked to fit the evaluation ``scenario``, and
-    which checkpoint it is."""
-    trained, checkpoint, chosen = _read_run(run_path, seed)
+    """The greedy policy (``best`` or ``last``) of a run's seed, checked to fit the
+    evaluation ``scenario``, and which policy it is."""
+    trained, checkpoint, _, record = _read_run(run_path, seed, policy)
     _check_compatible(run_path, trained, scenario)
-    return greedy_policy(trained, checkpoint), checkpoint_record(run_path, chosen, checkpoint)
+    return greedy_policy(trained, checkpoint), record
 
 
 def _setting(scenario: Scenario, key: str) -> Any:
@@ -230,20 +259,22 @@ def _baseline_method(scenario: Scenario, name: str, steps: int, users_m: np.ndar
 
 def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path | None = None,
              layouts: int | None = None, layout_seed: int = 0, steps: int = 1000,
-             compare_with: list[str] | None = None, progress: WorkProgress | None = None
-             ) -> tuple[dict[str, Any], list[Method]]:
-    """Greedy rollouts of a checkpoint next to baselines and other runs; results as JSON-able
-    values and the methods (policy first) with their traces. Every input is checked before
-    the first rollout; ``progress`` shows the rollouts and the oracle's search."""
+             compare_with: list[str] | None = None, progress: WorkProgress | None = None,
+             policy: str = "best") -> tuple[dict[str, Any], list[Method]]:
+    """Greedy rollouts of a checkpoint's ``policy`` (``best``: the best greedy evaluation
+    during training, ``last``: the last checkpoint) next to baselines and other runs (their
+    policy alike); results as JSON-able values and the methods (policy first) with their
+    traces. Every input is checked before the first rollout; ``progress`` shows the rollouts
+    and the oracle's search."""
     progress = progress or SilentProgress()
     compared = compared_methods(compare_with or [])
-    trained, state, chosen = _read_run(checkpoint, seed)
+    trained, state, chosen, used = _read_run(checkpoint, seed, policy)
     base = load_scenario(scenario_path) if scenario_path else trained
     scenario = eval_scenario(base, layouts, layout_seed)
     _check_compatible(checkpoint, trained, scenario)
     if any(item.baseline == "oracle" for item in compared):
         require_deterministic_gains(scenario)
-    others = {item.label: load_policy(item.run, None, scenario)
+    others = {item.label: load_policy(item.run, None, scenario, policy)
               for item in compared if item.run is not None}
     check_rollout_memory(scenario, steps, layouts or 1, 1 + len(compared), str(checkpoint))
     users_m = eval_layouts(scenario, layouts)
@@ -256,9 +287,12 @@ def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path |
             methods.append(_policy_method(item.label, scenario, others[item.label][0], steps,
                                           users_m, progress))
     results = results_json(methods, scenario, steps, layouts, layout_seed, users_m)
-    used = checkpoint_record(checkpoint, chosen, state)
+    with RunReader(checkpoint, needs="curves") as run:
+        curve = curve_json(run.evaluations(chosen))
+    used["score_kind"] = score_kind(trained)
     results |= {"checkpoint": used["path"], "seed": chosen, "checkpoint_episode":
-                used["episode"], "dueling": trained.agent.dueling,
+                used["episode"], "policy": used, "training_evaluations": curve,
+                "dueling": trained.agent.dueling,
                 "scenario_file": str(scenario_path.resolve()) if scenario_path else None,
                 "scenario_toml": dumps(scenario.model_dump(mode="json")),
                 "compared_runs": {label: record for label, (_, record) in others.items()}}

@@ -14,12 +14,13 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.experiment.plan import RunSpec, scenario_text
-from adaptsky_cli.scenario import parse_scenario
+from adaptsky_cli.scenario import Scenario, parse_scenario
 from adaptsky_cli.store import run_file
 from adaptsky_cli.store.atomic import make_parent
 from adaptsky_cli.store.lock import run_lock
 from adaptsky_cli.store.run_file import RunFileError, RunReader
-from adaptsky_cli.train.api import create_run_file
+from adaptsky_cli.train.api import create_run_file, stored_evaluation
+from adaptsky_cli.train.evaluation import EVALUATION_KEYS
 from adaptsky_cli.train.runner import RunFileWriter, SeedTask, pin_threads, train_stack
 
 if TYPE_CHECKING:
@@ -63,8 +64,10 @@ def run_state(spec: RunSpec) -> RunState:
     except RunFileError as error:
         raise RunConflictError(f"{error}; remove it to train this run again") from None
     stored_json = stored.model_dump(mode="json")
-    mine = {**spec.config, "train": {**spec.config["train"], "episodes": 0}}
-    theirs = {**stored_json, "train": {**stored_json["train"], "episodes": 0}}
+    # neither the episode target nor the evaluation settings change what was trained
+    ignored = dict.fromkeys(("episodes", *EVALUATION_KEYS), 0)
+    mine = {**spec.config, "train": {**spec.config["train"], **ignored}}
+    theirs = {**stored_json, "train": {**stored_json["train"], **ignored}}
     if mine != theirs:
         raise RunConflictError(
             f"{spec.path}: made with another configuration ({_first_difference(theirs, mine)});"
@@ -92,21 +95,33 @@ def _prepare(spec: RunSpec) -> tuple[RunState, SeedTask | None]:
     caller holds its lock."""
     state = run_state(spec)
     scenario = parse_scenario(spec.config, spec.name)
-    checkpoint = None
+    checkpoint, evaluation = None, None
     if state.status == "missing":
         spec.path.unlink(missing_ok=True)  # a stub from before the first checkpoint
-        create_run_file(spec.path, scenario, scenario_text(spec), list(spec.set_values))
+        evaluation = create_run_file(spec.path, scenario, scenario_text(spec),
+                                     list(spec.set_values))
     elif state.status == "partial":
         with RunReader(spec.path) as run:
             checkpoint = run.checkpoint(spec.seed)
             planned = run.seed_attrs(spec.seed)["episodes_planned"]
+            # the file's own evaluation settings (a file older than evaluations has none)
+            scenario = _with_evaluation_of(scenario, run.scenario)
         if planned != spec.episodes:
             run_file.set_planned_episodes(spec.path, spec.config)
+        evaluation = stored_evaluation(spec.path, scenario)
     if state.status == "done":
         return state, None
     t = scenario.train
     return state, SeedTask(scenario, spec.seed, t.episodes, t.checkpoint_every,
-                           t.trajectory_every, checkpoint, label=spec.path)
+                           t.trajectory_every, checkpoint, label=spec.path,
+                           evaluation=evaluation)
+
+
+def _with_evaluation_of(scenario: Scenario, stored: Scenario) -> Scenario:
+    """``scenario`` with the evaluation settings of ``stored`` (they change no training)."""
+    train = scenario.train.model_copy(update={key: getattr(stored.train, key)
+                                              for key in EVALUATION_KEYS})
+    return scenario.model_copy(update={"train": train})
 
 
 def execute_runs(specs: list[RunSpec], stop: Callable[[], bool] = lambda: False,

@@ -69,8 +69,10 @@ class Users(Section):
     positions_m: list[Annotated[list[CoordinateM], Field(min_length=2, max_length=2)]] | None = (
         Field(None, description="explicit user positions [[x, y], ...], m; even count"))
     count: int | None = Field(None, ge=2, description="number of users N_UE = 2K (even)")
-    placement: Literal["listed", "uniform"] | None = Field(
-        None, description="'listed' (positions_m) or 'uniform' over the area (count, layout_seed)"
+    placement: Literal["listed", "uniform", "fresh"] | None = Field(
+        None, description="'listed' (positions_m), 'uniform' over the area (count, "
+        "layout_seed), or 'fresh': uniform, drawn anew every training episode from the "
+        "seed (evaluation without --layouts uses the layout_seed layout)"
     )
     layout_seed: int = Field(0, ge=0, le=MAX_SEED, description="seed of the uniform layouts")
     pairing: Literal["listed", "near-far"] | None = Field(
@@ -99,8 +101,9 @@ class Users(Section):
     @model_validator(mode="after")
     def _resolve(self) -> Users:
         if self.positions_m is not None:
-            if self.placement == "uniform":
-                raise ValueError("positions_m and placement = 'uniform' exclude each other")
+            if self.placement in ("uniform", "fresh"):
+                raise ValueError(f"positions_m and placement = '{self.placement}' exclude each "
+                                 "other")
             if self.count is not None and self.count != len(self.positions_m):
                 raise ValueError(f"count = {self.count} but positions_m lists "
                                  f"{len(self.positions_m)} users")
@@ -111,7 +114,7 @@ class Users(Section):
                 raise ValueError("give positions_m, or count with placement = 'uniform'")
             if self.placement == "listed":
                 raise ValueError("placement = 'listed' needs positions_m")
-            self.placement = "uniform"
+            self.placement = self.placement or "uniform"
         if self.pairing is None:
             self.pairing = "listed" if self.placement == "listed" else "near-far"
         return self
@@ -203,8 +206,14 @@ class Reward(Section):
 
 
 class Agent(Section):
-    """The dueling DQN of sec. IV and V-A; extensions are off by default."""
+    """The dueling DQN of sec. IV and V-A; extensions are off by default.
 
+    ``preset`` names a set of values (``agent.presets``) for the keys a file does not give;
+    ``"paper"`` is the paper's agent, every key at its default (docs/agent.md).
+    """
+
+    preset: str = Field("paper", description="named recipe for the keys not given "
+                        "(docs/agent.md): 'paper' or 'tuned'")
     hidden_sizes: list[LayerSize] = Field([128, 128], min_length=1, max_length=100,
                                           description="hidden ReLU layers")
     dueling: bool = Field(True, description="dueling head; false gives the paper's plain 'DRL'")
@@ -224,6 +233,32 @@ class Agent(Section):
     observation: Literal["scaled", "raw"] = Field(
         "scaled", description="observation scaling, see docs/environment.md"
     )
+    user_order: Literal["listed", "clusters"] = Field(
+        "listed", description="users in the observation: as the layout lists them, or cluster "
+        "by cluster (first and second user of cluster 1, then cluster 2...)")
+    reward_scale: float = Field(1.0, gt=0, le=1e6, description="rewards are multiplied by "
+                                "this before they are stored for learning (extension)")
+    n_step: int = Field(1, ge=1, le=100, description="n-step returns (extension); 1 is "
+                        "eq. 12's one-step target")
+    target_tau: float = Field(0.0, ge=0, le=1, description="soft target update theta' <- "
+                              "theta' + tau (theta - theta') after every update (extension); "
+                              "0 keeps the hard copies of target_update_episodes")
+    lr_end: float | None = Field(None, ge=1e-12, le=1.0, description="learning rate reached "
+                                 "after lr_decay_steps steps, linearly (extension); unset: "
+                                 "constant lr")
+    lr_decay_steps: float = Field(300_000.0, gt=0, le=1e15, description="steps over which lr "
+                                  "falls to lr_end")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _apply_preset(cls, data: Any) -> Any:
+        """A preset's values under the keys given explicitly."""
+        if not isinstance(data, dict):
+            return data
+        from adaptsky_cli.agent.presets import preset_values
+
+        name = data.get("preset", "paper")
+        return {**preset_values(name), **data} if isinstance(name, str) else data
 
     @model_validator(mode="after")
     def _memory_holds_a_batch(self) -> Agent:
@@ -242,6 +277,15 @@ class Train(Section):
                                   description="episodes between checkpoints")
     trajectory_every: int = Field(0, ge=0, le=MAX_COUNT, description="also store every k-th "
                                   "episode's trajectory; 0 keeps only the last")
+    eval_every: int = Field(10, ge=0, le=MAX_COUNT, description="episodes between greedy "
+                            "evaluations (docs/training.md); 0: none")
+    eval_steps: int = Field(1000, ge=1, le=100_000, description="steps of a greedy "
+                            "evaluation; its score is the mean over the last 100")
+    eval_layouts: int | None = Field(None, ge=0, le=1000, description="held-out uniform "
+                                     "layouts in every evaluation (default: 0, or 16 for "
+                                     "users.placement = 'fresh')")
+    eval_layout_seed: int = Field(1, ge=0, le=MAX_SEED, description="seed of the held-out "
+                                  "layouts (keep it apart from the layouts you test on)")
 
     @field_validator("seeds")
     @classmethod
@@ -277,6 +321,13 @@ class Scenario(Section):
                 f"users: {users} users give {base}^{3 + users // 2} actions; the dense action "
                 f"space holds at most 2^24, so at most {limit} users with uav.actions = "
                 f"'{self.uav.actions}' ({max_users(other)} with '{other}')")
+        return self
+
+    @model_validator(mode="after")
+    def _evaluation_layouts(self) -> Scenario:
+        """Held-out layouts default to 16 where the training layout changes every episode."""
+        if self.train.eval_layouts is None:
+            self.train.eval_layouts = 16 if self.users.placement == "fresh" else 0
         return self
 
     @model_validator(mode="after")

@@ -30,8 +30,8 @@ from adaptsky_cli.errors import AdaptskyError, PluginError
 from adaptsky_cli.scenario import Scenario, parse_scenario
 
 KIND = "adaptsky-run"
-FORMAT_VERSION = 1  # what this adaptsky writes
-SUPPORTED_VERSIONS = (1,)  # what it reads
+FORMAT_VERSION = 2  # what this adaptsky writes (2: greedy evaluations and the best policy)
+SUPPORTED_VERSIONS = (1, 2)  # what it reads
 MAX_PLUGINS = 64
 
 Needs = Literal["curves", "all"]
@@ -66,6 +66,21 @@ EPISODES = (
     Field("mean_rate_bps", "float", ("E", "N"), "bit/s"),
     Field("mean_alpha", "float", ("E", "N")),
 )
+# /seeds/<S>/evaluations/ (format 2): one row per greedy evaluation ("V" rows), NaN where a
+# column does not apply (adaptsky_cli.train.evaluation)
+EVALUATIONS = (
+    Field("episode", "int", ("V",)),
+    Field("sum_rate_bps", "float", ("V",), "bit/s"),
+    Field("fairness", "float", ("V",)),
+    Field("pct_oracle", "float", ("V",), "%"),
+    Field("heldout_sum_rate_bps", "float", ("V",), "bit/s"),
+    Field("heldout_fairness", "float", ("V",)),
+    Field("heldout_pct_oracle", "float", ("V",), "%"),
+    Field("heldout_pct_oracle_median", "float", ("V",), "%"),
+    Field("score", "float", ("V",)),
+)
+# /evaluation/ (format 2, when the run evaluates): the layouts and their oracle sum rates
+EVALUATION_SET = {"training": "the training layout", "heldout": "the held-out layouts"}
 # /seeds/<S>/trajectory/ and /seeds/<S>/trajectories/<e>/: time-major, attr episode
 TRAJECTORY = (
     Field("uav_m", "float", ("T", 3), "m"),
@@ -92,7 +107,7 @@ ROOT_ATTRS = {"kind": "str", "format_version": "int", "adaptsky_version": "str",
               "created_utc": "str", "scenario_name": "str"}
 PROVENANCE_ATTRS = {"python_version": "str", "numpy_version": "str", "torch_version": "str",
                     "h5py_version": "str", "platform": "str", "command_line": "json"}
-ATTR_KINDS = {"int": "an integer", "str": "text", "json": "JSON text",
+ATTR_KINDS = {"int": "an integer", "float": "a number", "str": "text", "json": "JSON text",
               "rng": "a numpy generator state as JSON text"}
 SEED_ATTRS = {"seed": "int", "episodes_done": "int", "episodes_planned": "int"}
 CHECKPOINT_ATTRS = {"episode": "int", "global_step": "int", "seed": "int"}
@@ -104,7 +119,10 @@ CONFIG_KEYS = {"train": ("episodes", "steps", "seeds", "checkpoint_every"),
                "agent": ("hidden_sizes", "dueling", "memory_size", "batch_size"),
                "users": ("count",), "uav": ("actions",), "channel": ("model",)}
 
-UNITS = {field.name: field.units for field in (*EPISODES, *TRAJECTORY, *REPLAY, *ADAM_STATE)}
+UNITS = {field.name: field.units for field in (*EPISODES, *TRAJECTORY, *REPLAY, *ADAM_STATE,
+                                               *EVALUATIONS)}
+UNITS |= {"training_layouts_m": "m", "heldout_layouts_m": "m", "training_oracle_bps": "bit/s",
+          "heldout_oracle_bps": "bit/s"}
 
 
 def network_shapes(obs: int, actions: int, hidden_sizes: Iterable[int],
@@ -142,7 +160,9 @@ class Sizes:
 
     def replay_rows(self, episode: int) -> tuple[int, int]:
         """Rows held and write position after ``episode`` episodes of T steps."""
-        added, capacity = episode * self.scenario.train.steps, self.scenario.agent.memory_size
+        s = self.scenario  # an n-step run stores T - (n - 1) rows per episode
+        added = episode * max(0, s.train.steps - s.agent.n_step + 1)
+        capacity = s.agent.memory_size
         return min(added, capacity), added % capacity
 
 
@@ -185,6 +205,7 @@ class Validator:
 
     def __init__(self, file: h5py.File, path: Path) -> None:
         self.root, self.path = Node(file.id, ""), path
+        self.version = FORMAT_VERSION  # set from the file by header()
 
     def fail(self, where: str, what: str, expected: str = "") -> NoReturn:
         raise RunFileError(f"{self.path}: damaged run file: {where or '/'}: {what}"
@@ -248,6 +269,11 @@ class Validator:
             if isinstance(value, bool) or not isinstance(value, int):
                 self.fail(where, f"is {value!r}", ATTR_KINDS[kind])
             return int(value)
+        if kind == "float":
+            if isinstance(value, bool) or not isinstance(value, int | float) or not (
+                    np.isfinite(value)):
+                self.fail(where, f"is {value!r}", "a finite number")
+            return float(value)
         if not isinstance(value, str):
             self.fail(where, f"is {value!r}", ATTR_KINDS[kind])
         if kind == "str":
@@ -330,10 +356,13 @@ class Validator:
             for name in self.members(plugins, MAX_PLUGINS, f"at most {MAX_PLUGINS} plugins"):
                 self.attrs(self.child(plugins, name, GROUP),
                            {"package": "str", "version": "str", "target": "str"})
+        self.version = version
         return Sizes(self.config())
 
     def config(self) -> Scenario:
         config = self.json_text("config", dict)
+        if self.version == 1 and isinstance(config.get("train"), dict):
+            config["train"].setdefault("eval_every", 0)  # format 1 predates the evaluations
         for section in CONFIG_SECTIONS:
             if not isinstance(config.get(section), dict):
                 self.fail("/config", f"section '{section}' is missing",
@@ -356,6 +385,57 @@ class Validator:
             self.fail("/config", str(error).splitlines()[0].removeprefix(": "),
                       "a valid scenario")
         return scenario
+
+    def evaluation_set(self, sizes: Sizes) -> None:
+        """/evaluation: the layouts and oracle of the greedy evaluations (format 2, optional)."""
+        group = self.child(self.root, "evaluation", GROUP, optional=True)
+        if group is None:
+            return
+        names = [name for name in EVALUATION_SET
+                 if self.child(group, f"{name}_oracle_bps", DATASET, optional=True) is not None]
+        self.exact_members(group, [f"{name}_{key}" for name in names
+                                   for key in ("layouts_m", "oracle_bps")])
+        n = sizes.symbols["N"]
+        for name in names:
+            oracle = self.child(group, f"{name}_oracle_bps", DATASET)
+            count = oracle.shape[0] if len(oracle.shape) == 1 else -1
+            if not 1 <= count <= 1000:
+                self.fail(oracle.name, f"shape {oracle.shape}", "one number per layout")
+            self.dataset(group, Field(f"{name}_oracle_bps", "float", ()), {}, (count,))
+            self.dataset(group, Field(f"{name}_layouts_m", "float", ()), {}, (count, n, 2))
+
+    def evaluations(self, group: Node, sizes: Sizes, planned: int) -> None:
+        """/seeds/<S>/evaluations: equal-length, extendible columns."""
+        table = self.child(group, "evaluations", GROUP, optional=self.version == 1)
+        if table is None:
+            return
+        self.exact_members(table, [field.name for field in EVALUATIONS])
+        every = sizes.scenario.train.eval_every
+        bound = planned // every if every else 0
+        first = self.child(table, EVALUATIONS[0].name, DATASET)
+        length = first.shape[0] if len(first.shape) == 1 else -1
+        if not 0 <= length <= bound:
+            self.fail(first.name, f"shape {first.shape}",
+                      f"at most {bound} rows: one per {every} episodes")
+        for field in EVALUATIONS:
+            rows = self.dataset(table, field, {"V": length})
+            if rows.id.get_space().get_simple_extent_dims(True)[0] != h5py.h5s.UNLIMITED:
+                self.fail(rows.name, "cannot grow", "a table extendible along its first axis")
+
+    def best(self, checkpoint: Node, sizes: Sizes, done: int) -> None:
+        """/seeds/<S>/checkpoint/best: the best policy so far (optional)."""
+        best = self.child(checkpoint, "best", GROUP, optional=True)
+        if best is None:
+            return
+        episode = self.attr(best, "episode", "int")
+        if not 1 <= episode <= done:
+            self.fail(f"{best.name}/@episode", f"is {episode}", f"1 to {done}")
+        self.attr(best, "score", "float")
+        self.exact_members(best, ("policy",))
+        weights = self.child(best, "policy", GROUP)
+        self.exact_members(weights, sizes.network)
+        for param, shape in sizes.network.items():
+            self.dataset(weights, Field(param, "float", ()), {}, shape)
 
     def seeds(self, sizes: Sizes, needs: Needs) -> None:
         expected = [str(seed) for seed in sizes.scenario.train.seeds]
@@ -389,6 +469,7 @@ class Validator:
             if rows.id.get_space().get_simple_extent_dims(True)[0] != h5py.h5s.UNLIMITED:
                 self.fail(rows.name, "cannot grow", "a table extendible along its first axis, "
                           "as train writes it (chunked, maxshape None)")
+        self.evaluations(group, sizes, planned)
         if needs == "curves":
             return
         checkpoint = self.child(group, "checkpoint", GROUP, optional=True)
@@ -424,7 +505,8 @@ class Validator:
         for name, value in (("episode", done), ("seed", seed), ("global_step", done * steps)):
             if attrs[name] != value:
                 self.fail(f"{group.name}/@{name}", f"is {attrs[name]}", f"{value}")
-        self.exact_members(group, ("agent", "replay", "rng"))
+        self.exact_members(group, ("agent", "replay", "rng"), extra_ok=("best",))
+        self.best(group, sizes, done)
         agent = self.child(group, "agent", GROUP)
         self.exact_members(agent, ("policy", "target", "optimizer"), extra_ok=("torch_rng",))
         network = sizes.network
@@ -462,6 +544,7 @@ def validate_run(file: h5py.File, path: Path, needs: Needs = "all") -> Scenario:
     the checkpoints and trajectories (for readers of the learning curves only)."""
     validator = Validator(file, path)
     sizes = validator.header()
+    validator.evaluation_set(sizes)
     validator.seeds(sizes, needs)
     return sizes.scenario
 

@@ -15,7 +15,7 @@ import stat
 import sys
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import h5py
 import numpy as np
@@ -25,6 +25,7 @@ from adaptsky_cli.scenario import Scenario
 from adaptsky_cli.store.atomic import rewrite, string_dataset, utc_timestamp
 from adaptsky_cli.store.layout import (
     EPISODES,
+    EVALUATIONS,
     FORMAT_VERSION,
     KIND,
     SEED_ATTRS,
@@ -36,6 +37,9 @@ from adaptsky_cli.store.layout import (
     validate_run,
 )
 from adaptsky_cli.store.tree import Tree, read_tree, write_tree
+
+if TYPE_CHECKING:
+    from adaptsky_cli.train.evaluation import EvaluationSet
 
 __all__ = ["FORMAT_VERSION", "KIND", "RunFileError", "RunReader", "append_checkpoint",
            "create_run", "environment", "record_session", "set_planned_episodes"]
@@ -59,10 +63,11 @@ def environment() -> dict[str, str]:
 def create_run(path: Path, scenario_text: str, config: dict[str, Any],
                plugins: dict[str, dict[str, str]], seeds: list[int], episodes: int,
                num_users: int, overrides: list[str] | None = None,
-               argv: list[str] | None = None) -> None:
+               argv: list[str] | None = None, evaluation: EvaluationSet | None = None) -> None:
     """Write a new run file with empty learning curves for every seed; ``overrides`` are the
     ``--set`` items applied to the scenario text (already part of ``config``), ``argv`` the
-    command line that made it (default ``sys.argv``)."""
+    command line that made it (default ``sys.argv``), ``evaluation`` the layouts and oracle of
+    the greedy evaluations during training."""
     with rewrite(path) as file:
         file.attrs.update(format_version=FORMAT_VERSION, kind=KIND,
                           adaptsky_version=__version__,
@@ -75,12 +80,22 @@ def create_run(path: Path, scenario_text: str, config: dict[str, Any],
         string_dataset(file, "overrides", json.dumps(overrides or []))
         for name, info in plugins.items():
             file.create_group(f"plugins/{name}").attrs.update(info)
+        if evaluation is not None:
+            stored = {f"{name}_{key}": value for name, group in
+                      (("training", evaluation.training), ("heldout", evaluation.held_out))
+                      if group is not None
+                      for key, value in (("layouts_m", group.layouts_m),
+                                         ("oracle_bps", group.oracle_bps))}
+            write_tree(file.create_group("evaluation"), stored, units=UNITS)
         for seed in seeds:
             group = file.create_group(f"seeds/{seed}")
             group.attrs.update(seed=seed, episodes_done=0, episodes_planned=episodes)
             empty: Tree = {name: np.zeros(0) for name in EPISODE_METRICS}
             empty |= {name: np.zeros((0, num_users)) for name in PER_USER_METRICS}
             write_tree(group.create_group("episodes"), empty, compress=True, units=UNITS)
+            write_tree(group.create_group("evaluations"), {
+                field.name: np.zeros(0, dtype=np.int64 if field.dtype == "int" else np.float64)
+                for field in EVALUATIONS}, compress=True, units=UNITS)
 
 
 def set_planned_episodes(path: Path, config: dict[str, Any]) -> None:
@@ -92,35 +107,48 @@ def set_planned_episodes(path: Path, config: dict[str, Any]) -> None:
             group.attrs["episodes_planned"] = config["train"]["episodes"]
 
 
-# one seed's checkpoint: seed, learning-curve rows, trajectories, last trajectory, checkpoint
-SeedCheckpoint = tuple[int, dict[str, np.ndarray], dict[int, Tree], tuple[int, Tree], Tree]
+# one seed's checkpoint: seed, learning-curve rows, trajectories, last trajectory, checkpoint,
+# the rows of the greedy evaluations since the last checkpoint ({} for none)
+SeedCheckpoint = tuple[int, dict[str, np.ndarray], dict[int, Tree], tuple[int, Tree], Tree,
+                       dict[str, np.ndarray]]
 
 
 def append_checkpoint(path: Path, seed: int, rows: dict[str, np.ndarray],
                       trajectories: dict[int, Tree], last_trajectory: tuple[int, Tree],
-                      checkpoint: Tree) -> None:
-    """Append learning-curve ``rows`` (k, ...) of one seed, its trajectories, and replace its
-    checkpoint; ``checkpoint["episode"]`` becomes the seed's ``episodes_done``."""
-    append_checkpoints(path, [(seed, rows, trajectories, last_trajectory, checkpoint)])
+                      checkpoint: Tree, evaluations: dict[str, np.ndarray] | None = None
+                      ) -> None:
+    """Append learning-curve ``rows`` (k, ...) of one seed, its trajectories and evaluation
+    rows, and replace its checkpoint; ``checkpoint["episode"]`` becomes the seed's
+    ``episodes_done``."""
+    append_checkpoints(path, [(seed, rows, trajectories, last_trajectory, checkpoint,
+                               evaluations or {})])
 
 
 def append_checkpoints(path: Path, items: list[SeedCheckpoint]) -> None:
     """:func:`append_checkpoint` for several seeds in one rewrite of the file (the seeds of a
     stack checkpoint together: one copy of the file per round, not one per seed)."""
     with rewrite(path) as file:
-        for seed, rows, trajectories, last_trajectory, checkpoint in items:
+        for seed, rows, trajectories, last_trajectory, checkpoint, evaluations in items:
             _write_checkpoint(file[f"seeds/{seed}"], rows, trajectories, last_trajectory,
-                              checkpoint)
+                              checkpoint, evaluations)
+
+
+def _append_rows(table: h5py.Group, start: int, rows: dict[str, np.ndarray]) -> None:
+    for name, values in rows.items():
+        dataset = table[name]
+        dataset.resize(start + len(values), axis=0)
+        dataset[start:] = values
 
 
 def _write_checkpoint(group: h5py.Group, rows: dict[str, np.ndarray],
                       trajectories: dict[int, Tree], last_trajectory: tuple[int, Tree],
-                      checkpoint: Tree) -> None:
+                      checkpoint: Tree, evaluations: dict[str, np.ndarray]) -> None:
     done = int(group.attrs["episodes_done"])
-    for name, values in rows.items():
-        dataset = group[f"episodes/{name}"]
-        dataset.resize(done + len(values), axis=0)
-        dataset[done:] = values
+    _append_rows(group["episodes"], done, rows)
+    if evaluations:
+        table = group["evaluations"]
+        _append_rows(table, len(table["episode"]), {field.name: evaluations[field.name]
+                                                    for field in EVALUATIONS})
     for episode, trajectory in trajectories.items():
         write_tree(group.require_group(f"trajectories/{episode}"),
                    {**trajectory, "episode": episode}, compress=True, units=UNITS)
@@ -273,6 +301,39 @@ class RunReader:
             require_finite(self.path, f"/seeds/{seed}/episodes/{name}", values,
                            allow_nan=name == "loss")
         return curves
+
+    def evaluations(self, seed: int) -> dict[str, np.ndarray]:
+        """The greedy evaluations of ``seed`` during training, one row each (docs/training.md;
+        columns a run does not measure are NaN; files without evaluations: no rows)."""
+        def read() -> dict[str, np.ndarray]:
+            group = self.file[f"seeds/{seed}"].get("evaluations")
+            if group is None:
+                return {field.name: np.zeros(0) for field in EVALUATIONS}
+            return {field.name: group[field.name][:] for field in EVALUATIONS}
+        table = self._guard(f"seed {seed}'s evaluations", read)
+        for name, values in table.items():
+            require_finite(self.path, f"/seeds/{seed}/evaluations/{name}", values,
+                           allow_nan=True)
+        return table
+
+    def evaluation_oracle(self) -> list[np.ndarray] | None:
+        """The stored oracle of the evaluation layouts, one array per group (training layout,
+        held-out layouts; those the run has), or None (older files: computed again)."""
+        def read() -> list[np.ndarray] | None:
+            group = self.file.get("evaluation")
+            if group is None:
+                return None
+            return [group[f"{name}_oracle_bps"][:] for name in ("training", "heldout")
+                    if f"{name}_oracle_bps" in group]
+        return self._guard("/evaluation", read)
+
+    def best(self, seed: int) -> Tree | None:
+        """``seed``'s best policy in the greedy evaluations (episode, score, policy weights),
+        or None where it has none."""
+        self.require_checkpoint(seed)
+        if not self._guard(f"seed {seed}", lambda: f"seeds/{seed}/checkpoint/best" in self.file):
+            return None
+        return self._read_finite(f"seeds/{seed}/checkpoint/best", f"seed {seed}'s best policy")
 
     def trajectory(self, seed: int) -> Tree:
         return self._read_finite(f"seeds/{seed}/trajectory", f"seed {seed}'s trajectory")

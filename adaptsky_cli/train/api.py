@@ -20,6 +20,7 @@ from adaptsky_cli.store.atomic import StorageError, fresh_path, make_parent, utc
 from adaptsky_cli.store.lock import run_lock
 from adaptsky_cli.store.run_file import RunReader
 from adaptsky_cli.store.tree import Tree
+from adaptsky_cli.train.evaluation import EvaluationSet, evaluation_set
 from adaptsky_cli.train.progress import TrainingProgress
 from adaptsky_cli.train.runner import RunOutcome, SeedTask, run_tasks
 
@@ -77,13 +78,25 @@ def prepare_output(path: Path) -> None:
 
 
 def create_run_file(path: Path, scenario: Scenario, text: str,
-                    set_values: list[str] | None = None) -> None:
-    """A new run file for every seed of ``scenario`` (refuses an existing ``path``); the
-    caller holds its lock (:func:`adaptsky_cli.store.lock.run_lock`)."""
+                    set_values: list[str] | None = None) -> EvaluationSet | None:
+    """A new run file for every seed of ``scenario`` (refuses an existing ``path``), with the
+    layouts and oracle of its greedy evaluations (returned); the caller holds its lock
+    (:func:`adaptsky_cli.store.lock.run_lock`)."""
     prepare_output(path)
+    evaluation = evaluation_set(scenario)
     t = scenario.train
     run_file.create_run(path, text, scenario.model_dump(mode="json"), _plugins_used(scenario),
-                        t.seeds, t.episodes, scenario.num_users, set_values or [])
+                        t.seeds, t.episodes, scenario.num_users, set_values or [],
+                        evaluation=evaluation)
+    return evaluation
+
+
+def stored_evaluation(run_path: Path, scenario: Scenario) -> EvaluationSet | None:
+    """The evaluation set of a run file: its stored oracle, or computed again for a file
+    that has none."""
+    with RunReader(run_path, needs="curves") as run:
+        stored = run.evaluation_oracle()
+    return evaluation_set(scenario, stored)
 
 
 def train(*, scenario_path: Path, out: Path | None = None, seeds: list[int] | None = None,
@@ -105,10 +118,10 @@ def train(*, scenario_path: Path, out: Path | None = None, seeds: list[int] | No
     path = out if out is not None else default_output(scenario)
     prepare_output(path)
     with run_lock(path):
-        create_run_file(path, scenario, text, set_values)
+        evaluation = create_run_file(path, scenario, text, set_values)
         t = scenario.train
-        tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every)
-                 for seed in t.seeds]
+        tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every,
+                          evaluation=evaluation) for seed in t.seeds]
         outcome = _run(path, tasks, workers, torch_device, quiet, console)
         _record_session(path, "train", started_utc, start_s, dict.fromkeys(t.seeds, 0),
                         console)
@@ -148,12 +161,16 @@ def resume(*, run_path: Path, episodes: int | None = None, workers: int | None =
         if episodes is not None:
             run_file.set_planned_episodes(run_path, scenario.model_dump(mode="json"))
         t = scenario.train
-        tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every,
-                          checkpoint) for seed, checkpoint in checkpoints.items()]
-        tasks = [task for task in tasks if task.episodes_done < t.episodes]
-        if not tasks:
+        unfinished = {seed: checkpoint for seed, checkpoint in checkpoints.items()
+                      if (int(checkpoint["episode"]) if checkpoint is not None else 0)
+                      < t.episodes}
+        if not unfinished:
             return run_path, RunOutcome({seed: t.episodes for seed in checkpoints}, False,
                                         complete=True)
+        evaluation = stored_evaluation(run_path, scenario)
+        tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every,
+                          checkpoint, evaluation=evaluation)
+                 for seed, checkpoint in unfinished.items()]
         before = {seed: int(c["episode"]) if c is not None else 0
                   for seed, c in checkpoints.items()}
         outcome = _run(run_path, tasks, workers, torch_device, quiet, console)

@@ -4,6 +4,7 @@ at most one every ``log_every_s`` in between."""
 
 from __future__ import annotations
 
+import math
 import time
 from collections import deque
 
@@ -35,7 +36,7 @@ class TrainingProgress:
         self.progress = Progress(
             TextColumn("seed {task.fields[seed]:>3}"), BarColumn(), MofNCompleteColumn(),
             TextColumn("R {task.fields[rate]}  J {task.fields[fairness]}  "
-                       "eps {task.fields[epsilon]}"),
+                       "eps {task.fields[epsilon]}  greedy {task.fields[greedy]}"),
             TimeRemainingColumn(), console=console, disable=not self.live, transient=False)
         self.tasks: dict[int, int] = {}
         self.totals: dict[int, int] = {}
@@ -55,7 +56,9 @@ class TrainingProgress:
         self.fairness[seed] = deque(maxlen=MOVING_WINDOW)
         self.totals[seed], self.logs[seed] = total, _SeedLog(done)
         self.tasks[seed] = self.progress.add_task("", total=total, completed=done, seed=seed,
-                                                  rate="-", fairness="-", epsilon="-")
+                                                  rate="-", fairness="-", epsilon="-",
+                                                  greedy="-")
+        self.greedy: dict[int, str] = {}
 
     def episode(self, seed: int, episode: int, metrics: dict[str, float]) -> None:
         """Seed ``seed`` has done ``episode`` episodes, the last with ``metrics``."""
@@ -64,9 +67,12 @@ class TrainingProgress:
         rates, fairness = self.rates[seed], self.fairness[seed]
         rate = format_rate(sum(rates) / len(rates))
         mean_fairness = sum(fairness) / len(fairness)
+        if "greedy" in metrics:
+            self.greedy[seed] = greedy_text(metrics["greedy"])  # type: ignore[arg-type]
         self.progress.update(self.tasks[seed], completed=episode, rate=rate,
                              fairness=f"{mean_fairness:.3f}",
-                             epsilon=f"{metrics['epsilon']:.3f}")
+                             epsilon=f"{metrics['epsilon']:.3f}",
+                             greedy=self.greedy.get(seed, "-"))
         if not self.live and not self.quiet:
             self._log(seed, episode, rate, mean_fairness, metrics["epsilon"])
 
@@ -80,10 +86,23 @@ class TrainingProgress:
         speed = pace(now - log.start, episode - log.start_episode, total - log.start_episode,
                      "episode")
         averaged = len(self.rates[seed])
+        greedy = f"; greedy {self.greedy[seed]}" if seed in self.greedy else ""
         self.message(f"seed {seed}: episode {episode}/{total}, mean of the last {averaged}: "
-                     f"sum rate {rate}, J {fairness:.3f}; eps {epsilon:.3f}, {speed}")
+                     f"sum rate {rate}, J {fairness:.3f}; eps {epsilon:.3f}{greedy}, {speed}")
 
     def message(self, text: str) -> None:
         """A line above the live rows; timestamped where there are none (a log)."""
         self.progress.console.print(text if self.live else stamp(text), markup=False,
                                     highlight=False, soft_wrap=True)
+
+
+def greedy_text(row: dict[str, float]) -> str:
+    """The last greedy evaluation in a few characters: percent of the oracle on the training
+    layout, else on the held-out layouts (mean), else the training layout's sum rate."""
+    if math.isfinite(row["pct_oracle"]):
+        return f"{row['pct_oracle']:.1f}% of oracle"
+    if math.isfinite(row["heldout_pct_oracle"]):
+        return f"{row['heldout_pct_oracle']:.1f}% of oracle (held-out)"
+    if math.isfinite(row["sum_rate_bps"]):
+        return format_rate(row["sum_rate_bps"])
+    return f"{format_rate(row['heldout_sum_rate_bps'])} (held-out)"

@@ -27,6 +27,7 @@ from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.scenario.models import Scenario
 from adaptsky_cli.store import run_file
 from adaptsky_cli.store.tree import Tree
+from adaptsky_cli.train.evaluation import EvaluationSet
 from adaptsky_cli.train.progress import TrainingProgress
 
 if TYPE_CHECKING:  # torch is imported where training starts: commands start without it
@@ -51,6 +52,7 @@ class SeedTask:
     checkpoint: Tree | None = None
     parent_pid: int = field(default_factory=os.getpid)  # a worker's parent: the writer
     label: object = None  # names the task in messages when seeds alone do not (see key)
+    evaluation: EvaluationSet | None = None  # greedy evaluations during training (or none)
 
     @property
     def key(self) -> object:
@@ -93,8 +95,9 @@ def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
                 device: str | torch.device = "cpu") -> None:
     """Run every task to its ``episodes`` as stacks of members at the same episode, emitting
     ``("progress", key, episode, metrics)`` per member and episode, one ``("checkpoints", None,
-    [(key, rows, trajectories, last_trajectory, checkpoint), ...])`` per episode where members
-    checkpoint (written in one rewrite), and ``("done", key)`` (``key`` is ``task.key``).
+    [(key, rows, trajectories, last_trajectory, checkpoint, evaluations), ...])`` per episode
+    where members checkpoint (written in one rewrite), and ``("done", key)`` (``key`` is
+    ``task.key``).
 
     Tasks resumed from different episodes: the ones furthest behind train first and join the
     others when they catch up. ``stop()`` asks for a checkpoint of every member and an early
@@ -105,6 +108,7 @@ def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
     states = {task.key: task.checkpoint for task in tasks}
     done = {task.key: task.episodes_done for task in tasks}
     rows: dict[object, list[dict[str, Any]]] = {task.key: [] for task in tasks}
+    evaluations: dict[object, list[dict[str, float]]] = {task.key: [] for task in tasks}
     trajectories: dict[object, dict[int, Tree]] = {task.key: {} for task in tasks}
     while True:
         left = [task for task in tasks if done[task.key] < task.episodes]
@@ -114,7 +118,8 @@ def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
         group = [task for task in left if done[task.key] == episode]
         merge_at = min((done[task.key] for task in left if done[task.key] > episode),
                        default=None)
-        run = StackRun([Member(task.scenario, task.seed) for task in group], device)
+        run = StackRun([Member(task.scenario, task.seed, task.evaluation) for task in group],
+                       device)
         for index, task in enumerate(group):
             if states[task.key] is not None:
                 run.restore(index, states[task.key])
@@ -128,16 +133,19 @@ def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
                 rows[task.key].append(result.metrics)
                 if task.trajectory_every and result.episode % task.trajectory_every == 0:
                     trajectories[task.key][result.episode] = result.trajectory
-                emit(("progress", task.key, result.episode,
-                      {k: result.metrics[k] for k in ("sum_rate_bps", "fairness", "epsilon")}))
+                shown = {k: result.metrics[k] for k in ("sum_rate_bps", "fairness", "epsilon")}
+                if result.evaluation is not None:
+                    evaluations[task.key].append(result.evaluation)
+                    shown["greedy"] = result.evaluation
+                emit(("progress", task.key, result.episode, shown))
                 if (result.episode % task.checkpoint_every == 0
                         or result.episode == task.episodes or stopping):
-                    stacked = {name: np.array([row[name] for row in rows[task.key]])
-                               for name in rows[task.key][0]}
-                    checkpoints.append((task.key, stacked, trajectories[task.key],
+                    checkpoints.append((task.key, _columns(rows[task.key]),
+                                        trajectories[task.key],
                                         (result.episode, result.trajectory),
-                                        run.checkpoint(index)))
+                                        run.checkpoint(index), _columns(evaluations[task.key])))
                     rows[task.key], trajectories[task.key] = [], {}
+                    evaluations[task.key] = []
             if checkpoints:  # one message: the writer stores them in one rewrite
                 emit(("checkpoints", None, checkpoints))
             if stopping:
@@ -153,6 +161,11 @@ def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
                 states[task.key] = run.checkpoint(index)
     for task in tasks:
         emit(("done", task.key))
+
+
+def _columns(rows: list[dict[str, Any]]) -> dict[str, np.ndarray]:
+    """Rows of equal keys as one array per key ({} for no rows)."""
+    return {name: np.array([row[name] for row in rows]) for name in rows[0]} if rows else {}
 
 
 def ignore_stop_signals() -> None:
@@ -218,9 +231,9 @@ class RunFileWriter:
         kind, seed = message[0], message[1]
         if kind == "progress" and self.on_episode is not None:
             self.on_episode(seed, message[2], message[3])
-        elif kind == "checkpoints":  # [(seed, rows, trajectories, last, checkpoint), ...]
+        elif kind == "checkpoints":  # [(seed, rows, trajectories, last, checkpoint, evals)]
             run_file.append_checkpoints(self.path, message[2])
-            for seed, *_, checkpoint in message[2]:
+            for seed, *_, checkpoint, _ in message[2]:
                 self.done[seed] = int(checkpoint["episode"])
         elif kind == "error":
             self.errors.append(f"seed {seed} failed: {message[2]}")

@@ -12,6 +12,7 @@ member and holds everything needed to continue bit for bit.
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -20,14 +21,17 @@ import torch
 
 from adaptsky_cli.agent.device_step import DeviceStep, describe
 from adaptsky_cli.agent.replay import StackedReplay
+from adaptsky_cli.agent.returns import NStepWindow
 from adaptsky_cli.agent.schedule import epsilon
 from adaptsky_cli.agent.stacked import StackedDqn
 from adaptsky_cli.env.batch import NomaUavBatch, reward_weights
+from adaptsky_cli.env.layout import episode_layouts
 from adaptsky_cli.env.noma import jain_fairness
 from adaptsky_cli.env.observation import observation_size
 from adaptsky_cli.errors import NonFiniteError
 from adaptsky_cli.scenario.models import Scenario
 from adaptsky_cli.store.tree import Tree
+from adaptsky_cli.train.evaluation import EvaluationSet, GreedyEvaluator
 
 STATE_FIELDS = ("uav_m", "alpha", "gain", "los", "rate_bps")
 # what members of one stack may differ in; everything else must be equal
@@ -45,10 +49,12 @@ DEPENDS_ON = {
 
 @dataclass(frozen=True)
 class Member:
-    """One run of a stack: a scenario and a seed."""
+    """One run of a stack: a scenario, a seed, and what it evaluates on during training
+    (None: no evaluation)."""
 
     scenario: Scenario
     seed: int
+    evaluation: EvaluationSet | None = None
 
 
 @dataclass
@@ -58,6 +64,7 @@ class EpisodeResult:
     episode: int  # 1-based count of episodes done after this one
     metrics: dict[str, Any]
     trajectory: dict[str, np.ndarray]
+    evaluation: dict[str, float] | None = None  # a greedy evaluation after this episode
 
 
 def stack_key(scenario: Scenario) -> str:
@@ -66,6 +73,21 @@ def stack_key(scenario: Scenario) -> str:
     data = {k: v for k, v in scenario.model_dump(mode="json").items() if k not in PER_MEMBER}
     data["steps"] = scenario.train.steps
     return json.dumps(data, sort_keys=True)
+
+
+def _evaluators(members: list[Member]) -> list[tuple[int, list[int], GreedyEvaluator]]:
+    """(eval_every, member indices, evaluator) for each set of members that evaluate alike;
+    members without an evaluation are in none."""
+    groups: dict[tuple[object, ...], list[int]] = {}
+    for index, member in enumerate(members):
+        if member.evaluation is not None:
+            t = member.scenario.train
+            groups.setdefault((t.eval_every, t.eval_steps, t.eval_layouts, t.eval_layout_seed),
+                              []).append(index)
+    return [(key[0], indices,  # type: ignore[misc]
+             GreedyEvaluator([members[i].evaluation for i in indices],  # type: ignore[misc]
+                             members[indices[0]].scenario.train.eval_steps))
+            for key, indices in groups.items()]
 
 
 class StackRun:
@@ -90,7 +112,15 @@ class StackRun:
         self.memory = StackedReplay(len(members), scenario.agent.memory_size, obs_size, device)
         self.device_step = DeviceStep(self.agent, self.memory, scenario.agent.batch_size,
                                       graphs)
+        self.window = NStepWindow(scenario.agent.n_step, scenario.agent.gamma)
+        self._reward_scale = np.array(scenario.agent.reward_scale)
+        self._seeds = seeds
         self.episodes_done = 0
+        self.evaluators = _evaluators(members)
+        # the best policy so far of every member: its score, episode and weights
+        self.best_score = np.full(len(members), -np.inf)
+        self.best_episode = np.zeros(len(members), dtype=np.int64)
+        self.best_params = torch.zeros_like(self.agent.params)
 
     def _actions(self, observations: np.ndarray, eps: float) -> np.ndarray:
         """Epsilon-greedy per member (alg. 1 line 6): one uniform draw, one more to explore."""
@@ -110,6 +140,11 @@ class StackRun:
         not_terminal = np.zeros(len(self.members), dtype=bool)  # T is a truncation
         states, rewards, chosen = [], [], []
         eps = config.epsilon_start
+        scale, window = self._reward_scale, self.window
+        window.restart()
+        self.agent.set_learning_rate(self.episodes_done * steps)
+        if self.scenario.users.placement == "fresh":
+            self.env.set_layouts(episode_layouts(self.scenario, self._seeds, self.episodes_done))
         # a NaN or infinity is reported once, by _check_finite, not as numpy warnings
         with np.errstate(all="ignore"):
             obs, _ = self.env.reset()
@@ -118,7 +153,9 @@ class StackRun:
                               config.epsilon_end, config.epsilon_decay_steps)
                 actions = self._actions(obs, eps)
                 next_obs, reward, _, state = self.env.step(actions)
-                self.memory.add(obs, actions, reward, next_obs, not_terminal)
+                ready = window.push(obs, actions, reward * scale, next_obs)
+                if ready is not None:
+                    self.memory.add(*ready, not_terminal)
                 if self.memory.size >= config.batch_size:
                     self.device_step.update(self.memory.sample_index(config.batch_size,
                                                                      self.rngs))
@@ -126,7 +163,8 @@ class StackRun:
                 rewards.append(reward)
                 chosen.append(actions)
                 obs = next_obs
-        if self.episodes_done % config.target_update_episodes == 0:  # alg. 1: ep multiple of delta
+        # alg. 1: a hard copy when ep is a multiple of delta (unless the target is soft)
+        if config.target_tau == 0 and self.episodes_done % config.target_update_episodes == 0:
             self.agent.sync_target()
         self.episodes_done += 1
         updated = self.agent.updates > 0
@@ -135,8 +173,38 @@ class StackRun:
                       for name in STATE_FIELDS}  # time-major, (T, S, ...)
         trajectory["reward"], trajectory["action"] = np.stack(rewards), np.stack(chosen)
         self._check_finite(trajectory, losses if updated else None)
+        evaluations = self._evaluate()
         return [self._result({name: values[:, index] for name, values in trajectory.items()},
-                             eps, losses[index]) for index in range(len(self.members))]
+                             eps, losses[index], evaluations[index])
+                for index in range(len(self.members))]
+
+    def _evaluate(self) -> list[dict[str, float] | None]:
+        """A greedy evaluation of every member when one is due (``train.eval_every``), and
+        the best policies kept; None per member otherwise."""
+        found: list[dict[str, float] | None] = [None] * len(self.members)
+        for every, indices, evaluator in self.evaluators:
+            if self.episodes_done % every:
+                continue
+            for index, row in zip(indices, evaluator.run(self._greedy_of(indices)),
+                                  strict=True):
+                row["episode"] = self.episodes_done
+                found[index] = row
+                if row["score"] > self.best_score[index]:  # a NaN score is never the best
+                    self.best_score[index] = row["score"]
+                    self.best_episode[index] = self.episodes_done
+                    self.best_params[index] = self.agent.params[index]
+        return found
+
+    def _greedy_of(self, indices: list[int]) -> Callable[[np.ndarray], np.ndarray]:
+        """The greedy actions of the members ``indices`` for their observations (k, n, obs)."""
+        if len(indices) == len(self.members):
+            return self.agent.greedy
+
+        def greedy(observations: np.ndarray) -> np.ndarray:
+            every = np.zeros((len(self.members), *observations.shape[1:]), dtype=np.float32)
+            every[indices] = observations
+            return self.agent.greedy(every)[indices]
+        return greedy
 
     def _check_finite(self, trajectory: dict[str, np.ndarray], losses: np.ndarray | None
                       ) -> None:
@@ -158,8 +226,8 @@ class StackRun:
                 f"{name}{user} is {value}; it depends on {DEPENDS_ON[name]}. Training stopped; "
                 "the run file keeps its last checkpoint")
 
-    def _result(self, trajectory: dict[str, np.ndarray], eps: float,
-                loss: float) -> EpisodeResult:
+    def _result(self, trajectory: dict[str, np.ndarray], eps: float, loss: float,
+                evaluation: dict[str, float] | None) -> EpisodeResult:
         trajectory = {name: np.ascontiguousarray(values) for name, values in trajectory.items()}
         rates = trajectory["rate_bps"]
         metrics = {
@@ -172,11 +240,23 @@ class StackRun:
             "mean_rate_bps": rates.mean(axis=0),
             "mean_alpha": trajectory["alpha"].mean(axis=0),
         }
-        return EpisodeResult(self.episodes_done, metrics, trajectory)
+        return EpisodeResult(self.episodes_done, metrics, trajectory, evaluation)
+
+    def best(self, index: int) -> Tree | None:
+        """Member ``index``'s best policy so far (None before it has one): the episode that
+        made it, its score, and its weights named as ``QNetwork`` names them."""
+        if not self.best_episode[index]:
+            return None
+        row = self.best_params[index, :self.agent.layers[-1].end].cpu().numpy()
+        return {"episode": int(self.best_episode[index]),
+                "score": np.float64(self.best_score[index]),
+                "policy": self.agent.state_from_row(row)}
 
     def checkpoint(self, index: int) -> Tree:
-        """Everything member ``index`` needs to continue bit for bit, as arrays and JSON."""
-        return {
+        """Everything member ``index`` needs to continue bit for bit, as arrays and JSON (and
+        its best policy so far, when it has one)."""
+        best = self.best(index)
+        return ({"best": best} if best is not None else {}) | {
             "episode": self.episodes_done,
             "global_step": self.episodes_done * self.scenario.train.steps,
             "seed": self.members[index].seed,
@@ -205,4 +285,10 @@ class StackRun:
         self.rngs[index].bit_generator.state = json.loads(checkpoint["rng"]["numpy_agent_json"])
         self._env_rng(index).bit_generator.state = json.loads(
             checkpoint["rng"]["numpy_env_json"])
+        best = checkpoint.get("best")
+        if best is not None:
+            self.best_score[index] = float(best["score"])
+            self.best_episode[index] = int(best["episode"])
+            self.best_params[index, :self.agent.layers[-1].end] = torch.from_numpy(
+                self.agent.row_from_state(best["policy"]))
         self.episodes_done = episode
