@@ -73,6 +73,17 @@ def main() -> None:
                     "episode": episode, "pct_mean": float(np.nanmean(pct)),
                     "pct_median": float(np.nanmedian(pct)), "pct_min": float(np.nanmin(pct)),
                     "beats_soa": beats}
+        for name in ("best", "last"):
+            rows = [v for k, v in record["seeds"].items()  # type: ignore[attr-defined]
+                    if k.endswith(name)]
+            means = np.array([row["pct_mean"] for row in rows])
+            medians = np.array([row["pct_median"] for row in rows])
+            beats = np.array([row["beats_soa"] for row in rows])
+            print(f"\n{name}, over {len(rows)} seeds: % of oracle (per-seed mean) "
+                  f"{means.mean():.1f} ± {means.std():.1f} (population std), lowest seed "
+                  f"{means.min():.1f}; "
+                  f"per-seed median lowest {medians.min():.1f}; beats SoA on at least "
+                  f"{100 * beats.min():.0f}% of layouts")
         print(json.dumps(record))
 
 

@@ -77,15 +77,16 @@ def test_paper_preset_is_every_default():
 
 def test_tuned_preset_fills_the_keys_not_given_and_given_keys_win():
     tuned = make_scenario(agent={"preset": "tuned"}).agent
-    assert tuned.double_dqn is True and tuned.loss == "huber"
-    assert (tuned.gamma, tuned.reward_scale, tuned.epsilon_end) == (0.99, 0.01, 0.01)
-    assert (tuned.epsilon_decay_steps, tuned.target_tau) == (30_000.0, 0.005)
+    assert tuned.double_dqn is True and tuned.user_order == "clusters"
+    assert (tuned.epsilon_end, tuned.epsilon_decay_steps) == (0.01, 30_000.0)
     assert (tuned.lr_end, tuned.lr_decay_steps) == (1e-4, 300_000.0)
-    assert tuned.lr == 1e-3 and tuned.hidden_sizes == [128, 128]  # not in the recipe
+    # not in the recipe: the paper's
+    assert (tuned.lr, tuned.gamma, tuned.loss, tuned.reward_scale) == (1e-3, 0.999, "mse", 1.0)
+    assert (tuned.target_tau, tuned.n_step, tuned.hidden_sizes) == (0.0, 1, [128, 128])
     mine = make_scenario(agent={"preset": "tuned", "gamma": 0.5, "double_dqn": False,
-                                "target_tau": 0.0}).agent
-    assert (mine.gamma, mine.double_dqn, mine.target_tau) == (0.5, False, 0.0)
-    assert mine.loss == "huber" and mine.reward_scale == 0.01
+                                "target_tau": 0.01}).agent
+    assert (mine.gamma, mine.double_dqn, mine.target_tau) == (0.5, False, 0.01)
+    assert mine.epsilon_end == 0.01 and mine.user_order == "clusters"
     # the resolved agent (as a run file's config stores it) reads back as itself
     again = make_scenario(agent=mine.model_dump(mode="json")).agent
     assert again == mine
@@ -104,8 +105,8 @@ def test_scenario_show_prints_what_a_preset_resolves_to(tmp_path, capsys):
     path.write_text('name = "x"\n[agent]\npreset = "tuned"\nlr_end = 5e-5\n')
     assert main(["scenario", "show", str(path)]) == 0
     out = capsys.readouterr().out
-    assert 'preset = "tuned"' in out and "target_tau = 0.005" in out
-    assert "lr_end = 5e-05" in out and 'loss = "huber"' in out
+    assert 'preset = "tuned"' in out and "epsilon_end = 0.01" in out
+    assert "lr_end = 5e-05" in out and 'user_order = "clusters"' in out
 
 
 # ---- reward scale --------------------------------------------------------------------------

@@ -12,16 +12,12 @@ from typing import Any
 PRESETS: dict[str, dict[str, Any]] = {
     "paper": {},
     "tuned": {
-        "user_order": "clusters",
         "double_dqn": True,
-        "loss": "huber",
-        "gamma": 0.99,
-        "reward_scale": 0.01,
         "epsilon_end": 0.01,
         "epsilon_decay_steps": 30_000.0,
-        "target_tau": 0.005,
         "lr_end": 1e-4,
         "lr_decay_steps": 300_000.0,
+        "user_order": "clusters",
     },
 }
 

@@ -9,7 +9,7 @@ import time
 from collections import deque
 
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+from rich.progress import MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
 from adaptsky_cli.report import progress as work_progress
 from adaptsky_cli.report.progress import pace, stamp
@@ -34,9 +34,9 @@ class TrainingProgress:
         self.log_every_s = work_progress.LOG_EVERY_S if log_every_s is None else log_every_s
         self.live = console.is_terminal and not quiet
         self.progress = Progress(
-            TextColumn("seed {task.fields[seed]:>3}"), BarColumn(), MofNCompleteColumn(),
-            TextColumn("R {task.fields[rate]}  J {task.fields[fairness]}  "
-                       "eps {task.fields[epsilon]}  greedy {task.fields[greedy]}"),
+            TextColumn("seed {task.fields[seed]:>3}"), MofNCompleteColumn(),
+            TextColumn("R {task.fields[rate]} J {task.fields[fairness]} "
+                       "eps {task.fields[epsilon]} greedy {task.fields[greedy]}"),
             TimeRemainingColumn(), console=console, disable=not self.live, transient=False)
         self.tasks: dict[int, int] = {}
         self.totals: dict[int, int] = {}
@@ -72,7 +72,7 @@ class TrainingProgress:
         self.progress.update(self.tasks[seed], completed=episode, rate=rate,
                              fairness=f"{mean_fairness:.3f}",
                              epsilon=f"{metrics['epsilon']:.3f}",
-                             greedy=self.greedy.get(seed, "-"))
+                             greedy=self.greedy.get(seed, "-").split(" of ")[0])
         if not self.live and not self.quiet:
             self._log(seed, episode, rate, mean_fairness, metrics["epsilon"])
 

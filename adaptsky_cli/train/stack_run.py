@@ -3,10 +3,12 @@
 Every member is a whole independent run: its own environment generator (LoS draws, user
 moves; seeded with (seed, 0)), its own agent generator (exploration, replay sampling; (seed,
 1)), its own initial weights (torch seeded with the seed), memory and Adam state, and its own
-reward weights. Nothing a member computes reads another member's numbers, so a seed trained in
-a stack of four gives the numbers it gives alone (on a CPU, bit for bit; docs/training.md says
-what holds on a GPU). Members of one stack are at the same episode; every checkpoint is per
-member and holds everything needed to continue bit for bit.
+reward weights, and with ``users.placement = "fresh"`` its own layout every episode (from
+(seed, 2, episode)). Nothing a member computes reads another member's numbers, so a seed
+trained in a stack of four gives the numbers it gives alone (on a CPU, bit for bit;
+docs/training.md says what holds on a GPU). Members of one stack are at the same episode; every
+checkpoint is per member and holds everything needed to continue bit for bit, its best policy
+of the greedy evaluations (``train.evaluation``) included.
 """
 
 from __future__ import annotations
