@@ -356,3 +356,64 @@ def test_fresh_run_resumes_bit_for_bit_and_evaluates_on_layout_seed(tmp_path, ca
     results = json.loads(capsys.readouterr().out)
     expected = np.random.default_rng(9).uniform(-50.0, 50.0, (1, 4, 2))
     assert np.array_equal(np.array(results["layouts_m"]), expected)
+
+
+# ---- users in the observation cluster by cluster ----------------------------------------------
+
+# four users at known distances from the start (0, 0): by gain (nearest first) 2, 0, 3, 1, so
+# near-far pairs (2, 1) and (0, 3): cluster 1 is the strongest with the weakest
+ORDER_LAYOUT_M = [[20.0, 0.0], [-45.0, 40.0], [0.0, 5.0], [30.0, -30.0]]
+
+
+def test_clusters_order_lists_each_clusters_first_then_second_user():
+    from adaptsky_cli.env.batch import NomaUavBatch
+
+    users = {"positions_m": ORDER_LAYOUT_M, "pairing": "near-far"}
+    listed = NomaUavBatch(scenario(users=users))
+    clustered = NomaUavBatch(scenario(users=users, agent={"user_order": "clusters"}))
+    by_user, _ = listed.reset()
+    by_cluster, _ = clustered.reset()
+    blocks = by_user[0, :-1].reshape(4, 4)  # [dx, dy, alpha, g] per user, as listed
+    assert np.array_equal(by_cluster[0, :-1].reshape(4, 4), blocks[[2, 1, 0, 3]])
+    assert by_cluster[0, -1] == by_user[0, -1]  # the height stays last
+    # dx of the first block is x_UAV - x_user2 = 0 - 0, of the second 0 - (-45) scaled by L/2
+    assert by_cluster[0, 0] == 0.0 and by_cluster[0, 4] == np.float32(45.0 / 50.0)
+    assert np.array_equal(clustered.observation(), by_cluster)
+    # with the paper's listed pairing, clusters are (1, 2), (3, 4): the same order as listed
+    paper = NomaUavBatch(scenario(agent={"user_order": "clusters"}))
+    plain = NomaUavBatch(scenario())
+    assert np.array_equal(paper.reset()[0], plain.reset()[0])
+
+
+def test_eval_refuses_a_scenario_that_orders_users_otherwise(tmp_path, capsys):
+    path = write(tmp_path, "run", train={"episodes": 2})
+    run = tmp_path / "run.h5"
+    assert main(["train", str(path), "--out", str(run), "--quiet"]) == 0
+    other = write(tmp_path, "other", agent={"user_order": "clusters"})
+    capsys.readouterr()
+    assert main(["eval", "--checkpoint", str(run), "--scenario", str(other), "--steps", "5",
+                 "--out", str(tmp_path / "e.h5")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert "agent.user_order is 'clusters', the policy was trained with 'listed'" in err
+    assert len(err.splitlines()) == 1 and not (tmp_path / "e.h5").exists()
+
+
+def test_gym_env_draws_a_fresh_layout_at_every_reset(tmp_path):
+    import gymnasium
+
+    import adaptsky  # noqa: F401  (registers the environment)
+
+    path = write(tmp_path, "fresh", users={"count": 4, "placement": "fresh"})
+    env = gymnasium.make("adaptsky/NomaUav-v0", scenario=str(path)).unwrapped
+    env.reset(seed=7)
+    first = env.batch.users_m.copy()
+    env.reset()
+    second = env.batch.users_m.copy()
+    assert not np.array_equal(first, second)
+    expected = np.random.default_rng(7).uniform(-50.0, 50.0, size=(1, 4, 2))
+    assert np.array_equal(first, expected)  # gymnasium seeds np_random as default_rng(seed)
+    fixed = gymnasium.make("adaptsky/NomaUav-v0", scenario=str(path),
+                           users_m=np.array(ORDER_LAYOUT_M)).unwrapped
+    fixed.reset(seed=1)
+    fixed.reset()
+    assert np.array_equal(fixed.batch.users_m[0], ORDER_LAYOUT_M)
