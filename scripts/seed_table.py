@@ -49,7 +49,10 @@ def main() -> None:
             best_episode = {seed: (run.best(seed) or {}).get("episode") for seed in run.seeds}
         scenario = eval_scenario(trained, args.layouts, args.layout_seed)
         users_m = eval_layouts(scenario, args.layouts)
-        key = json.dumps(scenario.model_dump(mode="json"), sort_keys=True)
+        # the baselines depend on the network, not on the agent or the run's name
+        physics = {k: v for k, v in scenario.model_dump(mode="json").items()
+                   if k not in ("name", "description", "agent", "train")}
+        key = json.dumps(physics, sort_keys=True)
         if key not in baselines:
             baselines[key] = {name: run_baseline(scenario, name, args.steps, users_m)
                               for name in ("oracle", "soa")}
