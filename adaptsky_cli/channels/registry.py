@@ -1,7 +1,9 @@
 """Discovery of channel-model plugins through the entry-point group ``adaptsky.channel_models``.
 
-Each entry point is loaded on its own: one that fails to import, or that does not follow the
-contract, is recorded as broken with its error and fails only the run that asks for it.
+Each entry point is loaded on its own: one that fails to import, or whose class does not
+declare what the contract asks (``checker.structural_problems``: a subclass of
+ChannelModel with every method, Params with defaults and descriptions), is recorded as broken
+with its error and fails only the run that asks for it.
 """
 
 from __future__ import annotations
@@ -10,9 +12,8 @@ from dataclasses import dataclass
 from functools import cache
 from importlib.metadata import EntryPoint, entry_points
 
-from pydantic import ValidationError
-
-from adaptsky_cli.channels.contract import ChannelModel, ChannelParams
+from adaptsky_cli.channels.checker import structural_problems
+from adaptsky_cli.channels.contract import ChannelModel
 from adaptsky_cli.errors import PluginError
 
 ENTRY_POINT_GROUP = "adaptsky.channel_models"
@@ -48,18 +49,26 @@ def _load(entry_point: EntryPoint) -> PluginInfo:
         model = entry_point.load()
     except Exception as error:  # any import failure of third-party code
         return PluginInfo(**info, model=None, error=f"{type(error).__name__}: {error}")
-    if not (isinstance(model, type) and issubclass(model, ChannelModel)):
-        return PluginInfo(**info, model=None,
-                          error=f"{entry_point.value} is not a ChannelModel subclass")
-    if not (isinstance(model.Params, type) and issubclass(model.Params, ChannelParams)):
-        return PluginInfo(**info, model=None,
-                          error=f"{entry_point.value}.Params is not a ChannelParams subclass")
-    try:
-        model.Params()
-    except ValidationError:
-        return PluginInfo(**info, model=None,
-                          error=f"{entry_point.value}.Params has a field without a default")
+    problems = structural_problems(model)  # the cheap part of the contract's checks
+    if problems:
+        return PluginInfo(**info, model=None, error=f"{entry_point.value}: {problems[0]}"
+                          + (f" (and {len(problems) - 1} more: adaptsky plugins check "
+                             f"{entry_point.name})" if len(problems) > 1 else ""))
     return PluginInfo(**info, model=model)
+
+
+def load_class(name: str) -> type[ChannelModel] | object:
+    """What the entry point ``name`` names, loaded even when it breaks the contract (for
+    ``plugins check``); PluginError if it is unknown or cannot be imported."""
+    for entry_point in entry_points(group=ENTRY_POINT_GROUP):
+        if entry_point.name == name:
+            try:
+                return entry_point.load()
+            except Exception as error:
+                raise PluginError(f"channel model '{name}' cannot be imported: "
+                                  f"{type(error).__name__}: {error}") from None
+    installed = ", ".join(discover()) or "none"
+    raise PluginError(f"unknown channel model '{name}'; installed: {installed}")
 
 
 @cache

@@ -1,12 +1,12 @@
-"""``adaptsky plugins list|show``."""
+"""``adaptsky plugins list|show|check``."""
 
 import json
 
 import typer
 from rich.table import Table
 
-from adaptsky_cli.channels.registry import discover, get_model_class
-from adaptsky_cli.cli.console import out
+from adaptsky_cli.channels.registry import discover, get_model_class, load_class
+from adaptsky_cli.cli.console import err, out
 from adaptsky_cli.cli.options import Json, PluginName
 
 app = typer.Typer(help="Channel-model plugins (entry-point group adaptsky.channel_models).",
@@ -27,8 +27,12 @@ def list_plugins(as_json: Json = False) -> None:
         column.no_wrap = True
     for p in plugins:
         status = "[green]ok[/]" if p.status == "ok" else "[red]broken[/]"
-        table.add_row(p.name, p.package, p.version, status, p.description or p.error)
+        table.add_row(p.name, p.package, p.version, status,
+                      p.description or "(see its error below)")
     out.print(table)
+    for p in plugins:  # whole, on lines of their own: never cut to the table's width
+        if p.error:
+            out.print(f"{p.name}: {p.error}", markup=False, highlight=False, soft_wrap=True)
 
 
 @app.command()
@@ -48,3 +52,17 @@ def show(name: PluginName, as_json: Json = False) -> None:
     for key, field in fields.items():
         table.add_row(key, repr(field.default), field.description or "")
     out.print(table)
+
+
+@app.command()
+def check(name: PluginName) -> None:
+    """Check a channel model against every rule of the plugin contract (docs/plugins.md):
+    one line per failure, exit 1 if any."""
+    from adaptsky_cli.channels.checker import check_channel_model
+
+    failures = check_channel_model(load_class(name))
+    if failures:
+        for line in failures:
+            err.print(f"{name}: {line}", markup=False, highlight=False, soft_wrap=True)
+        raise typer.Exit(1)
+    out.print(f"ok  {name}: follows the plugin contract", markup=False)

@@ -1,0 +1,151 @@
+"""The plugin contract's checks: check_channel_model, the structural part at discovery, and
+``adaptsky plugins check``/``list`` on installed (fake) distributions."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import textwrap
+
+import numpy as np
+import pytest
+
+from adaptsky_cli.channels import ChannelModel, ChannelParams
+from adaptsky_cli.channels.checker import check_channel_model, structural_problems
+from adaptsky_cli.channels.registry import discover
+from tests.test_cli import ADAPTSKY, _fake_distribution
+
+
+class Good(ChannelModel):
+    description = "free space at 28 GHz, always LoS"
+
+    def los_probability(self, geometry):
+        return np.ones(geometry.shape)
+
+    def gain_los(self, geometry):
+        return (299_792_458.0 / (4 * np.pi * 28e9 * geometry.distance_m)) ** 2
+
+    def gain_nlos(self, geometry):
+        return 0.1 * self.gain_los(geometry)
+
+
+class MissingMethod(ChannelModel):
+    description = "forgets gain_nlos"
+
+    def los_probability(self, geometry):
+        return np.ones(geometry.shape)
+
+    def gain_los(self, geometry):
+        return 1.0 / geometry.distance_m ** 2
+
+
+class WrongShape(Good):
+    def gain_los(self, geometry):
+        return 1.0 / geometry.distance_m[:, 0] ** 2
+
+
+class Grows(Good):
+    def gain_nlos(self, geometry):
+        return 1e-12 * geometry.distance_m
+
+
+class OutOfRange(Good):
+    def los_probability(self, geometry):
+        return geometry.elevation_deg / 45.0  # up to 2
+
+
+class GlobalDraws(Good):
+    def sample_los(self, geometry, rng):
+        return np.random.random(geometry.shape) < 0.5
+
+
+class NoDescriptionParams(ChannelParams):
+    carrier_hz: float = 28e9
+
+
+class Undocumented(Good):
+    Params = NoDescriptionParams
+
+
+def test_a_model_that_follows_the_contract_passes():
+    assert check_channel_model(Good) == []
+
+
+@pytest.mark.parametrize("name", [name for name, info in discover().items()
+                                  if info.status == "ok"])
+def test_installed_models_pass(name):
+    assert check_channel_model(discover()[name].model) == []
+
+
+@pytest.mark.parametrize(("model", "line"), [
+    (MissingMethod, "method: gain_nlos() is not implemented (abstract in ChannelModel)"),
+    (WrongShape, "shape: gain_los() returned shape (6,) for links of shape (6, 5)"),
+    (Grows, "monotone: gain_nlos() grows with distance at a UAV height of 10 m"),
+    (OutOfRange, "range: los_probability() left [0, 1]"),
+    (GlobalDraws, "generator: sample_los() drew from numpy's global generator"),
+    (Undocumented, "params: carrier_hz has no description"),
+    (int, "class: 'int' is not a ChannelModel subclass"),
+])
+def test_each_broken_rule_is_one_line_naming_it(model, line):
+    failures = check_channel_model(model)
+    assert any(failure.startswith(line) for failure in failures), failures
+    assert all("\n" not in failure for failure in failures)
+
+
+def test_structure_alone_calls_nothing():
+    assert structural_problems(WrongShape) == []  # shapes need a call: not structural
+    assert structural_problems(MissingMethod) == [
+        "method: gain_nlos() is not implemented (abstract in ChannelModel)"]
+
+
+MISSING = """\
+    import numpy as np
+    from adaptsky_cli.channels import ChannelModel
+
+    class Model(ChannelModel):
+        description = "forgets gain_nlos"
+        def los_probability(self, geometry):
+            return np.ones(geometry.shape)
+        def gain_los(self, geometry):
+            return 1.0 / geometry.distance_m ** 2
+    """
+WRONG_SHAPE = textwrap.dedent(MISSING) + """\
+    def gain_nlos(self, geometry):
+        return 0.1 / geometry.distance_m[:, 0] ** 2
+"""
+
+
+def _run(tmp_path, *args, columns: int = 80):
+    env = {**os.environ, "PYTHONPATH": str(tmp_path), "COLUMNS": str(columns)}
+    return subprocess.run([str(ADAPTSKY), *args], capture_output=True, text=True, env=env,
+                          check=False)
+
+
+def test_installed_plugins_are_checked_at_discovery_and_by_plugins_check(tmp_path):
+    _fake_distribution(tmp_path, "missing-method", MISSING)
+    _fake_distribution(tmp_path, "wrong-shape", WRONG_SHAPE)
+    listed = {p["name"]: p for p in json.loads(_run(tmp_path, "plugins", "list",
+                                                    "--json").stdout)}
+    assert listed["missing-method"]["status"] == "broken"
+    assert listed["missing-method"]["error"] == (
+        "missing_method:Model: method: gain_nlos() is not implemented (abstract in "
+        "ChannelModel)")
+    assert listed["wrong-shape"]["status"] == "ok"  # declared right: only a call shows it
+    for name, rule in (("missing-method", "method: gain_nlos()"),
+                       ("wrong-shape", "shape: gain_nlos() returned shape (6,)")):
+        checked = _run(tmp_path, "plugins", "check", name)
+        assert checked.returncode == 1
+        lines = checked.stderr.strip().splitlines()
+        assert lines[0].startswith(f"{name}: {rule}"), lines
+    ok = _run(tmp_path, "plugins", "check", "mmwave-nyc")
+    assert ok.returncode == 0 and ok.stdout.startswith("ok  mmwave-nyc")
+
+
+def test_plugins_list_keeps_a_broken_plugins_error_whole_at_80_columns(tmp_path):
+    _fake_distribution(tmp_path, "broken-channel", "import no_such_module_with_a_long_name\n")
+    shown = _run(tmp_path, "plugins", "list", columns=80)
+    assert shown.returncode == 0
+    assert ("broken-channel: ModuleNotFoundError: No module named "
+            "'no_such_module_with_a_long_name'") in shown.stdout.replace("\n", " ")
+    assert max(len(line) for line in shown.stdout.splitlines()[:-1]) <= 80
