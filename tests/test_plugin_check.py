@@ -149,3 +149,18 @@ def test_plugins_list_keeps_a_broken_plugins_error_whole_at_80_columns(tmp_path)
     assert ("broken-channel: ModuleNotFoundError: No module named "
             "'no_such_module_with_a_long_name'") in shown.stdout.replace("\n", " ")
     assert max(len(line) for line in shown.stdout.splitlines()[:-1]) <= 80
+
+
+def test_plugins_show_prints_types_and_limits(capsys):
+    from adaptsky_cli.cli.main import main
+
+    assert main(["plugins", "show", "mmwave-nyc", "--json"]) == 0
+    params = json.loads(capsys.readouterr().out)["params"]
+    # MmWaveNycParams: los_c is a float in (0, 100], intercept_los_db in [-200, 0]
+    assert params["los_c"] == {"type": "float", "default": 9.6117,
+                               "limits": {"gt": 0, "le": 100.0},
+                               "description": "C of eq. 4 (environment), 1"}
+    assert params["intercept_los_db"]["limits"] == {"ge": -200.0, "le": 0.0}
+    assert main(["plugins", "show", "mmwave-nyc"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "los_c │ float │ 9.6117 │ > 0, <= 100" in text

@@ -1,6 +1,7 @@
 """``adaptsky plugins list|show|check``."""
 
 import json
+from typing import Any
 
 import typer
 from rich.table import Table
@@ -44,14 +45,33 @@ def show(name: PluginName, as_json: Json = False) -> None:
     if as_json:
         print(json.dumps({"name": name, "package": info.package, "version": info.version,
                           "description": model.description,
-                          "params": {key: {"default": f.default, "description": f.description}
+                          "params": {key: {"type": _type_name(f.annotation),
+                                           "default": f.default,
+                                           "limits": _limits(f.metadata),
+                                           "description": f.description}
                                      for key, f in fields.items()}}, indent=2))
         return
     out.print(f"[bold]{name}[/] ({info.package} {info.version}): {model.description}")
-    table = Table("parameter", "default", "description (unit)")
+    table = Table("parameter", "type", "default", "allowed", "description (unit)")
     for key, field in fields.items():
-        table.add_row(key, repr(field.default), field.description or "")
+        limits = _limits(field.metadata)
+        allowed = ", ".join(f"{_SYMBOLS[bound]} {value:g}" for bound, value in limits.items())
+        table.add_row(key, _type_name(field.annotation), repr(field.default), allowed or "any",
+                      field.description or "")
     out.print(table)
+
+
+_SYMBOLS = {"gt": ">", "ge": ">=", "lt": "<", "le": "<="}
+
+
+def _limits(metadata: list[Any]) -> dict[str, float]:
+    """A field's numeric bounds (Pydantic's gt/ge/lt/le constraints) as {"gt": 0, ...}."""
+    return {bound: getattr(item, bound) for item in metadata for bound in _SYMBOLS
+            if isinstance(getattr(item, bound, None), int | float)}
+
+
+def _type_name(annotation: Any) -> str:
+    return getattr(annotation, "__name__", None) or str(annotation).replace("typing.", "")
 
 
 @app.command()

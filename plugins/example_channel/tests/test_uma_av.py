@@ -3,7 +3,9 @@
 The ``reference_*`` functions are plain scalar re-implementations written with ``math``
 straight from TR 36.777 Tables B-1 and B-2 (and TR 38.901 Table 7.4.2-1 UMa for h <= 22.5 m);
 they do not call the plugin's own helpers. The plugin must be installed
-(``pip install -e plugins/example_channel``): this module fails, it does not skip, without it.
+(``pip install -e "plugins/example_channel[test]"``): this module fails, it does not skip,
+without it. Run from the plugin's folder: ``python -m pytest``; adaptsky's own test run
+includes it.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from adaptsky_example_channel.uma_av import UmaAv
 from pydantic import ValidationError
 
 from adaptsky_cli.channels import LinkGeometry
+from adaptsky_cli.channels.checker import check_channel_model
 from adaptsky_cli.channels.registry import discover
 
 HEIGHTS_M = (12.0, 20.0, 50.0, 150.0)  # C' = 0, C' > 0 (TR 38.901), UMa-AV, always LoS
@@ -202,3 +205,10 @@ def test_sample_los_is_seeded():
     assert first.shape == geometry.shape and first.dtype == np.bool_
     np.testing.assert_array_equal(first, again)
     assert np.all(first[DENSE_HEIGHTS_M > 100.0])  # P_LoS = 1 there
+
+
+@pytest.mark.parametrize("carrier_hz", [0.5e9, 2e9, 100e9])  # the range's ends and the default
+def test_follows_the_plugin_contract(carrier_hz):
+    """Every rule of adaptsky's plugin contract (adaptsky plugins check uma-av), at the
+    default carrier and at both ends of its allowed range."""
+    assert check_channel_model(UmaAv, UmaAv.Params(carrier_hz=carrier_hz)) == []
