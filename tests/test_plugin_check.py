@@ -5,8 +5,12 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
+import sys
 import textwrap
+import tomllib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -164,3 +168,46 @@ def test_plugins_show_prints_types_and_limits(capsys):
     assert main(["plugins", "show", "mmwave-nyc"]) == 0
     text = " ".join(capsys.readouterr().out.split())
     assert "los_c │ float │ 9.6117 │ > 0, <= 100" in text
+
+
+def _guide_blocks(language: str) -> list[str]:
+    text = (Path(__file__).parent.parent / "docs" / "plugins.md").read_text()
+    return re.findall(rf"```{language}\n(.*?)```", text, flags=re.DOTALL)
+
+
+def test_the_guides_free_space_plugin_works_as_written(tmp_path):
+    """docs/plugins.md section 5 and 7, as a plugin author copies them: the module, its
+    pyproject's entry point, a scenario using it, and the guide's test file."""
+    module = next(b for b in _guide_blocks("python") if b.startswith('"""Free-space channel'))
+    tests = next(b for b in _guide_blocks("python") if "def test_matches_friis" in b)
+    pyproject = tomllib.loads(next(b for b in _guide_blocks("toml") if "[project]" in b))
+    channel = next(b for b in _guide_blocks("toml") if 'model = "free-space"' in b)
+    package = tmp_path / "adaptsky_free_space"
+    package.mkdir()
+    (package / "__init__.py").write_text("")
+    (package / "free_space.py").write_text(module)
+    (tmp_path / "test_free_space.py").write_text(tests)
+    info = tmp_path / "adaptsky_free_space-0.1.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: adaptsky-free-space\n"
+                                   "Version: 0.1.0\n")
+    points = pyproject["project"]["entry-points"]["adaptsky.channel_models"]
+    (info / "entry_points.txt").write_text(
+        "[adaptsky.channel_models]\n" + "".join(f"{k} = {v}\n" for k, v in points.items()))
+    listed = {p["name"]: p for p in json.loads(_run(tmp_path, "plugins", "list",
+                                                    "--json").stdout)}
+    assert listed["free-space"]["status"] == "ok", listed["free-space"]
+    checked = _run(tmp_path, "plugins", "check", "free-space")
+    assert checked.returncode == 0, checked.stderr
+    scenario = tmp_path / "free.toml"
+    scenario.write_text('name = "free"\n' + channel
+                        + "[train]\nepisodes = 2\nsteps = 10\neval_every = 0\n")
+    trained = _run(tmp_path, "train", str(scenario), "--out", str(tmp_path / "free.h5"),
+                   "--quiet")
+    assert trained.returncode == 0, trained.stderr
+    env = {**os.environ, "PYTHONPATH": str(tmp_path)}
+    guide_tests = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+                                  str(tmp_path / "test_free_space.py")], capture_output=True,
+                                 text=True, env=env, cwd=tmp_path, check=False)
+    assert guide_tests.returncode == 0, guide_tests.stdout[-2000:]
+    assert "4 passed" in guide_tests.stdout
