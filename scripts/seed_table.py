@@ -25,9 +25,9 @@ from adaptsky_cli.evaluate.api import (
     run_baseline,
     with_policy,
 )
+from adaptsky_cli.evaluate.metrics import compare, percent_of
 from adaptsky_cli.evaluate.rollout import greedy_policy, rollout
 from adaptsky_cli.store.run_file import RunReader
-from adaptsky_cli.train.evaluation import percent_of
 from adaptsky_cli.train.runner import pin_threads
 
 
@@ -57,7 +57,7 @@ def main() -> None:
             baselines[key] = {name: run_baseline(scenario, name, args.steps, users_m)
                               for name in ("oracle", "soa")}
         oracle = baselines[key]["oracle"].metrics["mean_sum_rate_bps"]
-        soa = baselines[key]["soa"].metrics["mean_sum_rate_bps"]
+        soa = baselines[key]["soa"].metrics
         print(f"\n{path} ({len(users_m)} layout(s)"
               + (f", layout seed {args.layout_seed}" if args.layouts else "") + ")\n")
         print("| seed | policy (episode) | % of oracle, mean | median | min | beats SoA |")
@@ -68,7 +68,7 @@ def main() -> None:
                 method = Method.of(name, scenario, rollout(
                     scenario, greedy_policy(trained, checkpoint), args.steps, users_m))
                 pct = percent_of(method.metrics["steady_sum_rate_bps"], oracle)
-                beats = float(np.mean(method.metrics["mean_sum_rate_bps"] > soa))
+                beats = compare(method.metrics, soa)["beats_share"]
                 episode = best_episode[seed] if name == "best" else int(checkpoint["episode"])
                 print(f"| {seed} | {name} ({episode}) | {np.nanmean(pct):.1f} | "
                       f"{np.nanmedian(pct):.1f} | {np.nanmin(pct):.1f} | {100 * beats:.0f}% |")

@@ -67,8 +67,7 @@ def load_class(name: str) -> type[ChannelModel] | object:
             except Exception as error:
                 raise PluginError(f"channel model '{name}' cannot be imported: "
                                   f"{type(error).__name__}: {error}") from None
-    installed = ", ".join(discover()) or "none"
-    raise PluginError(f"unknown channel model '{name}'; installed: {installed}")
+    raise unknown_model(name)
 
 
 @cache
@@ -90,12 +89,17 @@ def discover() -> dict[str, PluginInfo]:
     return dict(sorted(found.items()))
 
 
+def unknown_model(name: str) -> PluginError:
+    """The error for a name no installed plugin registers, naming those that are."""
+    installed = ", ".join(discover()) or "none"
+    return PluginError(f"unknown channel model '{name}'; installed: {installed}")
+
+
 def get_model_class(name: str) -> type[ChannelModel]:
     """The channel-model class registered as ``name``; PluginError if unknown or broken."""
     plugins = discover()
     if name not in plugins:
-        installed = ", ".join(plugins) or "none"
-        raise PluginError(f"unknown channel model '{name}'; installed: {installed}")
+        raise unknown_model(name)
     info = plugins[name]
     if info.model is None:
         raise PluginError(f"channel model '{name}' ({info.package}) is broken: {info.error}")

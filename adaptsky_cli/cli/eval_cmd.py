@@ -8,7 +8,6 @@ import time
 from pathlib import Path
 from typing import Annotated, Any
 
-import numpy as np
 import typer
 
 from adaptsky_cli.cli.console import err, out
@@ -93,12 +92,11 @@ def evaluate(
 
 def _show_training(results: dict[str, Any]) -> None:
     """Which policy was evaluated, and the greedy evaluations during training."""
-    from adaptsky_cli.report.evaluations import curve_table, policy_line
+    from adaptsky_cli.report.evaluations import curve_arrays, curve_table, policy_line
 
     used = results["policy"]
     out.print(policy_line(used, used["score_kind"]), markup=False)
-    curve = {name: np.array([np.nan if v is None else v for v in values], dtype=float)
-             for name, values in results["training_evaluations"].items()}
+    curve = curve_arrays(results["training_evaluations"])
     if len(curve["episode"]):
         best = used["episode"] if used["policy"] == "best" else None
         out.print(curve_table(results["seed"], curve, best, limit=6))

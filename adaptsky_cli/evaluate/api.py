@@ -10,7 +10,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -20,7 +20,7 @@ from adaptsky_cli.env.layout import user_layouts
 from adaptsky_cli.env.observation import observation_size
 from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.evaluate.labels import distinct_labels
-from adaptsky_cli.evaluate.metrics import compare, layout_metrics, summary_row
+from adaptsky_cli.evaluate.metrics import compare, layout_metrics, percent_of, summary_row
 from adaptsky_cli.evaluate.oracle import oracle, require_deterministic_gains
 from adaptsky_cli.evaluate.rollout import (
     Policy,
@@ -168,10 +168,20 @@ def compared_methods(items: list[str]) -> list[Compared]:
 POLICIES = ("best", "last")
 
 
-def _read_run(run_path: Path, seed: int | None, policy: str = "best"
-              ) -> tuple[Scenario, Tree, int, dict[str, Any]]:
-    """The training scenario, the checkpoint of ``seed`` (default: the first) with the
-    ``policy`` asked for, the seed, and which policy that is (:func:`policy_record`)."""
+class TrainedPolicy(NamedTuple):
+    """What an evaluation reads of a run: the training scenario, the checkpoint with the
+    policy asked for, the seed, which policy that is (:func:`policy_record`), and the seed's
+    greedy evaluations during training."""
+
+    scenario: Scenario
+    checkpoint: Tree
+    seed: int
+    record: dict[str, Any]
+    evaluations: dict[str, np.ndarray]
+
+
+def _read_run(run_path: Path, seed: int | None, policy: str = "best") -> TrainedPolicy:
+    """:class:`TrainedPolicy` of ``seed`` (default: the run's first) in one reading."""
     if policy not in POLICIES:
         raise EvaluationError(f"--policy: unknown policy '{policy}'; choose best or last")
     with RunReader(run_path) as run:
@@ -182,8 +192,9 @@ def _read_run(run_path: Path, seed: int | None, policy: str = "best"
                                   f"{', '.join(map(str, seeds))}")
         checkpoint = run.checkpoint(chosen)  # (validated on opening)
         best = run.best(chosen) if policy == "best" else None
-        return (run.scenario, with_policy(checkpoint, best), chosen,
-                policy_record(run_path, chosen, checkpoint, policy, best))
+        return TrainedPolicy(run.scenario, with_policy(checkpoint, best), chosen,
+                             policy_record(run_path, chosen, checkpoint, policy, best),
+                             run.evaluations(chosen))
 
 
 def with_policy(checkpoint: Tree, best: Tree | None) -> Tree:
@@ -214,7 +225,7 @@ def load_policy(run_path: Path, seed: int | None, scenario: Scenario, policy: st
                 ) -> tuple[Policy, dict[str, Any]]:
     """The greedy policy (``best`` or ``last``) of a run's seed, checked to fit the
     evaluation ``scenario``, and which policy it is."""
-    trained, checkpoint, _, record = _read_run(run_path, seed, policy)
+    trained, checkpoint, _, record, _ = _read_run(run_path, seed, policy)
     _check_compatible(run_path, trained, scenario)
     return greedy_policy(trained, checkpoint), record
 
@@ -268,7 +279,7 @@ def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path |
     and the oracle's search."""
     progress = progress or SilentProgress()
     compared = compared_methods(compare_with or [])
-    trained, state, chosen, used = _read_run(checkpoint, seed, policy)
+    trained, state, chosen, used, curve = _read_run(checkpoint, seed, policy)
     base = load_scenario(scenario_path) if scenario_path else trained
     scenario = eval_scenario(base, layouts, layout_seed)
     _check_compatible(checkpoint, trained, scenario)
@@ -287,11 +298,9 @@ def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path |
             methods.append(_policy_method(item.label, scenario, others[item.label][0], steps,
                                           users_m, progress))
     results = results_json(methods, scenario, steps, layouts, layout_seed, users_m)
-    with RunReader(checkpoint, needs="curves") as run:
-        curve = curve_json(run.evaluations(chosen))
     used["score_kind"] = score_kind(trained)
     results |= {"checkpoint": used["path"], "seed": chosen, "checkpoint_episode":
-                used["episode"], "policy": used, "training_evaluations": curve,
+                used["episode"], "policy": used, "training_evaluations": curve_json(curve),
                 "dueling": trained.agent.dueling,
                 "scenario_file": str(scenario_path.resolve()) if scenario_path else None,
                 "scenario_toml": dumps(scenario.model_dump(mode="json")),
@@ -331,10 +340,9 @@ def results_json(methods: list[Method], scenario: Scenario, steps: int, layouts:
         results["comparison"] = {m.name: compare(first.metrics, m.metrics) for m in others}
         oracle_method = next((m for m in others if m.name == "oracle"), None)
         if oracle_method is not None:
-            ceiling = oracle_method.metrics["mean_sum_rate_bps"]
-            share = np.where(ceiling > 0, first.metrics["steady_sum_rate_bps"] / np.where(
-                ceiling > 0, ceiling, 1.0), np.nan)
+            pct = percent_of(first.metrics["steady_sum_rate_bps"],
+                             oracle_method.metrics["mean_sum_rate_bps"])
             results["policy_steady_pct_of_oracle"] = {
-                "mean": float(100 * np.nanmean(share)), "median": float(100 * np.nanmedian(share)),
-                "layouts": (100 * share).tolist()}
+                "mean": float(np.nanmean(pct)), "median": float(np.nanmedian(pct)),
+                "layouts": pct.tolist()}
     return results

@@ -39,6 +39,14 @@ def layout_metrics(trace: Trace, bandwidth_hz: float, min_rate_bps: float
     }
 
 
+def percent_of(steady_bps: NDArray[np.float64], oracle_bps: NDArray[np.float64]
+               ) -> NDArray[np.float64]:
+    """100 steady / oracle per layout, NaN where the oracle is NaN or 0 (no point meets
+    R_min)."""
+    positive = oracle_bps > 0
+    return np.where(positive, 100 * steady_bps / np.where(positive, oracle_bps, 1.0), np.nan)
+
+
 def compare(policy: dict[str, NDArray], other: dict[str, NDArray]) -> dict[str, float]:
     """How the policy's mean sum rate compares with another method's over the layouts.
 

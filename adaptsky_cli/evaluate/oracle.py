@@ -97,9 +97,14 @@ def _best_alpha_first(gain_first: FloatArray, gain_second: FloatArray, alphas: F
     return best_alpha, best_rate
 
 
+def has_oracle(scenario: Scenario) -> bool:
+    """Whether the oracle applies: deterministic gains (LoS not drawn at random)."""
+    return scenario.channel.los != "sampled"
+
+
 def require_deterministic_gains(scenario: Scenario) -> None:
     """Refuse a scenario whose LoS is drawn at random: the oracle needs fixed gains."""
-    if scenario.channel.los == "sampled":
+    if not has_oracle(scenario):
         raise AdaptskyError(f"scenario '{scenario.name}': channel.los is 'sampled'; the oracle "
                             "needs deterministic gains: los = 'always' or 'expected'")
 

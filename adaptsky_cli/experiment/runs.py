@@ -19,8 +19,8 @@ from adaptsky_cli.store import run_file
 from adaptsky_cli.store.atomic import make_parent
 from adaptsky_cli.store.lock import run_lock
 from adaptsky_cli.store.run_file import RunFileError, RunReader
-from adaptsky_cli.train.api import create_run_file, stored_evaluation
-from adaptsky_cli.train.evaluation import EVALUATION_KEYS
+from adaptsky_cli.train.api import create_run_file
+from adaptsky_cli.train.evaluation import EVALUATION_KEYS, evaluation_set
 from adaptsky_cli.train.runner import RunFileWriter, SeedTask, pin_threads, train_stack
 
 if TYPE_CHECKING:
@@ -106,9 +106,10 @@ def _prepare(spec: RunSpec) -> tuple[RunState, SeedTask | None]:
             planned = run.seed_attrs(spec.seed)["episodes_planned"]
             # the file's own evaluation settings (a file older than evaluations has none)
             scenario = _with_evaluation_of(scenario, run.scenario)
+            stored_oracle = run.evaluation_oracle()
         if planned != spec.episodes:
             run_file.set_planned_episodes(spec.path, spec.config)
-        evaluation = stored_evaluation(spec.path, scenario)
+        evaluation = evaluation_set(scenario, stored_oracle)
     if state.status == "done":
         return state, None
     t = scenario.train

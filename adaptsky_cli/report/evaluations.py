@@ -10,9 +10,9 @@ import numpy as np
 from rich import box
 from rich.table import Table
 
+from adaptsky_cli.evaluate.oracle import has_oracle
 from adaptsky_cli.report.units import format_rate
 from adaptsky_cli.scenario import Scenario
-from adaptsky_cli.train.evaluation import has_oracle
 
 CURVE_ROWS = 12
 
@@ -28,6 +28,12 @@ def curve_json(table: dict[str, np.ndarray]) -> dict[str, list[Any]]:
     """The evaluation rows as JSON lists (NaN as None)."""
     return {name: [None if isinstance(v, float) and math.isnan(v) else v
                    for v in values.tolist()] for name, values in table.items()}
+
+
+def curve_arrays(curve: dict[str, list[Any]]) -> dict[str, np.ndarray]:
+    """Inverse of :func:`curve_json`: float arrays, None as NaN."""
+    return {name: np.array([np.nan if v is None else v for v in values], dtype=float)
+            for name, values in curve.items()}
 
 
 def shown_rows(episodes: np.ndarray, best_episode: int | None, limit: int = CURVE_ROWS

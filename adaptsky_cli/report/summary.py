@@ -10,7 +10,13 @@ from typing import Any
 import numpy as np
 from rich.table import Table
 
-from adaptsky_cli.report.evaluations import curve_json, curve_table, format_score, score_kind
+from adaptsky_cli.report.evaluations import (
+    curve_arrays,
+    curve_json,
+    curve_table,
+    format_score,
+    score_kind,
+)
 from adaptsky_cli.report.units import format_rate, format_rate_spread, plural
 from adaptsky_cli.store.run_file import RunReader
 
@@ -97,8 +103,7 @@ def curve_tables(summary: dict[str, Any], limit: int = 8) -> list[Table]:
     """Each seed's greedy evaluations during training (seeds without any: none)."""
     tables = []
     for s in summary["seeds"]:
-        curve = {name: np.array([np.nan if v is None else v for v in values], dtype=float)
-                 for name, values in s["evaluations"].items()}
+        curve = curve_arrays(s["evaluations"])
         if len(curve["episode"]):
             best = s["best"]["episode"] if s["best"] is not None else None
             tables.append(curve_table(s["seed"], curve, best, limit))

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
 from rich.console import Console
 
 from adaptsky_cli.channels.registry import discover
@@ -91,14 +93,6 @@ def create_run_file(path: Path, scenario: Scenario, text: str,
     return evaluation
 
 
-def stored_evaluation(run_path: Path, scenario: Scenario) -> EvaluationSet | None:
-    """The evaluation set of a run file: its stored oracle, or computed again for a file
-    that has none."""
-    with RunReader(run_path, needs="curves") as run:
-        stored = run.evaluation_oracle()
-    return evaluation_set(scenario, stored)
-
-
 def train(*, scenario_path: Path, out: Path | None = None, seeds: list[int] | None = None,
           episodes: int | None = None, steps: int | None = None, workers: int | None = None,
           checkpoint_every: int | None = None, set_values: list[str] | None = None,
@@ -128,16 +122,18 @@ def train(*, scenario_path: Path, out: Path | None = None, seeds: list[int] | No
         return path, outcome
 
 
-def read_progress(run_path: Path) -> tuple[Scenario, dict[int, Tree | None]]:
-    """A run file's scenario (validated on opening) and each seed's last checkpoint (None for
-    a seed stopped before its first: it starts from zero)."""
+def read_progress(run_path: Path) -> tuple[Scenario, dict[int, Tree | None],
+                                           list[np.ndarray] | None]:
+    """A run file's scenario (validated on opening), each seed's last checkpoint (None for
+    a seed stopped before its first: it starts from zero) and the stored oracle of its
+    evaluations (None where the file has none)."""
     with RunReader(run_path) as run:
         scenario = run.scenario
         checkpoints: dict[int, Tree | None] = {}
         for seed in run.seeds:  # (the reader refuses a seed with episodes but no checkpoint)
             checkpoints[seed] = run.checkpoint(seed) if run.has_checkpoint(seed) else None
             run.episodes(seed)  # the curves it appends to must read back (no damaged index)
-    return scenario, checkpoints
+        return scenario, checkpoints, run.evaluation_oracle()
 
 
 def resume(*, run_path: Path, episodes: int | None = None, workers: int | None = None,
@@ -150,7 +146,7 @@ def resume(*, run_path: Path, episodes: int | None = None, workers: int | None =
     with RunReader(run_path, needs="curves"):
         pass  # a missing or damaged file: its own line, before a lock file is made beside it
     with run_lock(run_path):
-        scenario, checkpoints = read_progress(run_path)
+        scenario, checkpoints, stored_oracle = read_progress(run_path)
         done = max(int(c["episode"]) if c is not None else 0 for c in checkpoints.values())
         if episodes is not None and episodes < done:
             raise AdaptskyError(f"--episodes {episodes} is fewer than the {done} episodes "
@@ -161,16 +157,14 @@ def resume(*, run_path: Path, episodes: int | None = None, workers: int | None =
         if episodes is not None:
             run_file.set_planned_episodes(run_path, scenario.model_dump(mode="json"))
         t = scenario.train
-        unfinished = {seed: checkpoint for seed, checkpoint in checkpoints.items()
-                      if (int(checkpoint["episode"]) if checkpoint is not None else 0)
-                      < t.episodes}
-        if not unfinished:
+        tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every,
+                          checkpoint) for seed, checkpoint in checkpoints.items()]
+        tasks = [task for task in tasks if task.episodes_done < t.episodes]
+        if not tasks:
             return run_path, RunOutcome({seed: t.episodes for seed in checkpoints}, False,
                                         complete=True)
-        evaluation = stored_evaluation(run_path, scenario)
-        tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every,
-                          checkpoint, evaluation=evaluation)
-                 for seed, checkpoint in unfinished.items()]
+        evaluation = evaluation_set(scenario, stored_oracle)  # computed only if it must run
+        tasks = [replace(task, evaluation=evaluation) for task in tasks]
         before = {seed: int(c["episode"]) if c is not None else 0
                   for seed, c in checkpoints.items()}
         outcome = _run(run_path, tasks, workers, torch_device, quiet, console)

@@ -26,25 +26,17 @@ from numpy.typing import NDArray
 from adaptsky_cli.env.batch import NomaUavBatch
 from adaptsky_cli.env.layout import user_layouts
 from adaptsky_cli.env.noma import jain_fairness
-from adaptsky_cli.scenario import Scenario, parse_scenario
+from adaptsky_cli.evaluate.api import eval_scenario
+from adaptsky_cli.evaluate.metrics import STEADY_STEPS, percent_of
+from adaptsky_cli.evaluate.oracle import has_oracle, oracle
+from adaptsky_cli.scenario import Scenario
 from adaptsky_cli.store.layout import EVALUATIONS
 
 FloatArray = NDArray[np.float64]
-STEADY_STEPS = 100  # as adaptsky_cli.evaluate.metrics (imported there with torch-free modules)
 # the [train] keys of the evaluation: they change nothing of training
 EVALUATION_KEYS = ("eval_every", "eval_steps", "eval_layouts", "eval_layout_seed")
 # the columns of /seeds/<S>/evaluations (docs/file-format.md); NaN where a column does not apply
 COLUMNS = tuple(field.name for field in EVALUATIONS)
-
-
-def held_out_scenario(scenario: Scenario) -> Scenario:
-    """The scenario on its held-out layouts: uniform, paired near-far (as ``eval
-    --layouts``)."""
-    data = scenario.model_dump(mode="json")
-    data["users"] = {"count": scenario.num_users, "placement": "uniform",
-                     "layout_seed": scenario.train.eval_layout_seed, "pairing": "near-far",
-                     "speed_m_per_step": scenario.users.speed_m_per_step}
-    return parse_scenario(data, "evaluation layouts")
 
 
 @dataclass(frozen=True)
@@ -70,54 +62,31 @@ class EvaluationSet:
         return [group for group in (self.training, self.held_out) if group is not None]
 
 
-def has_oracle(scenario: Scenario) -> bool:
-    return scenario.channel.los != "sampled"
-
-
 def evaluation_set(scenario: Scenario, oracle_bps: list[FloatArray] | None = None
                    ) -> EvaluationSet | None:
     """The scenario's evaluation layouts (None when it evaluates nothing, also when its run
-    is shorter than ``eval_every``), with their oracle:
-    ``oracle_bps`` as stored (one array per group), else computed (about 2 s per layout for
-    the paper's lattice)."""
+    is shorter than ``eval_every``), with their oracle: ``oracle_bps`` as stored (one array
+    per group, training layout first), else computed (about 2 s per layout for the paper's
+    lattice). The held-out layouts are those of ``eval --layouts`` (uniform, near-far)."""
     train = scenario.train
     if train.eval_every == 0 or train.episodes < train.eval_every:
         return None  # nothing to evaluate (a longer --resume computes it then)
-    groups: list[tuple[Scenario, FloatArray] | None] = [
-        None if scenario.users.placement == "fresh" else (scenario,
-                                                          user_layouts(scenario, 1)),
-        None]
-    if train.eval_layouts:
-        held = held_out_scenario(scenario)
-        groups[1] = (held, user_layouts(held, train.eval_layouts))
-    if groups == [None, None]:
-        return None
     stored = iter(oracle_bps or [])
-    built: list[LayoutGroup | None] = []
-    for group in groups:
-        if group is None:
-            built.append(None)
-            continue
-        variant, layouts_m = group
+
+    def group(variant: Scenario, count: int) -> LayoutGroup:
+        layouts_m = user_layouts(variant, count)
         ceiling = next(stored, None)
         if ceiling is None:
-            ceiling = _oracle(variant, layouts_m)
-        built.append(LayoutGroup(variant, layouts_m, np.asarray(ceiling, dtype=np.float64)))
-    return EvaluationSet(built[0], built[1])
+            ceiling = (oracle(variant, layouts_m).objective_bps if has_oracle(variant)
+                       else np.full(count, np.nan))
+        return LayoutGroup(variant, layouts_m, np.asarray(ceiling, dtype=np.float64))
 
-
-def _oracle(scenario: Scenario, layouts_m: FloatArray) -> FloatArray:
-    if not has_oracle(scenario):
-        return np.full(len(layouts_m), np.nan)
-    from adaptsky_cli.evaluate.oracle import oracle
-
-    return oracle(scenario, layouts_m).objective_bps
-
-
-def percent_of(steady_bps: FloatArray, oracle_bps: FloatArray) -> FloatArray:
-    """100 steady / oracle, NaN where the oracle is NaN or 0 (no point meets R_min)."""
-    positive = oracle_bps > 0
-    return np.where(positive, 100 * steady_bps / np.where(positive, oracle_bps, 1.0), np.nan)
+    training = None if scenario.users.placement == "fresh" else group(scenario, 1)
+    held_out = (group(eval_scenario(scenario, train.eval_layouts, train.eval_layout_seed),
+                      train.eval_layouts) if train.eval_layouts else None)
+    if training is None and held_out is None:
+        return None
+    return EvaluationSet(training, held_out)
 
 
 def _nan_reduce(reduce: object, values: FloatArray) -> float:

@@ -43,6 +43,7 @@ class TrainingProgress:
         self.logs: dict[int, _SeedLog] = {}
         self.rates: dict[int, deque[float]] = {}
         self.fairness: dict[int, deque[float]] = {}
+        self.greedy: dict[int, dict[str, float]] = {}  # each seed's last greedy evaluation
 
     def __enter__(self) -> TrainingProgress:
         self.progress.start()
@@ -58,7 +59,6 @@ class TrainingProgress:
         self.tasks[seed] = self.progress.add_task("", total=total, completed=done, seed=seed,
                                                   rate="-", fairness="-", epsilon="-",
                                                   greedy="-")
-        self.greedy: dict[int, str] = {}
 
     def episode(self, seed: int, episode: int, metrics: dict[str, float]) -> None:
         """Seed ``seed`` has done ``episode`` episodes, the last with ``metrics``."""
@@ -68,11 +68,11 @@ class TrainingProgress:
         rate = format_rate(sum(rates) / len(rates))
         mean_fairness = sum(fairness) / len(fairness)
         if "greedy" in metrics:
-            self.greedy[seed] = greedy_text(metrics["greedy"])  # type: ignore[arg-type]
+            self.greedy[seed] = metrics["greedy"]  # type: ignore[assignment]
+        greedy = greedy_text(self.greedy[seed], short=True) if seed in self.greedy else "-"
         self.progress.update(self.tasks[seed], completed=episode, rate=rate,
                              fairness=f"{mean_fairness:.3f}",
-                             epsilon=f"{metrics['epsilon']:.3f}",
-                             greedy=self.greedy.get(seed, "-").split(" of ")[0])
+                             epsilon=f"{metrics['epsilon']:.3f}", greedy=greedy)
         if not self.live and not self.quiet:
             self._log(seed, episode, rate, mean_fairness, metrics["epsilon"])
 
@@ -86,7 +86,7 @@ class TrainingProgress:
         speed = pace(now - log.start, episode - log.start_episode, total - log.start_episode,
                      "episode")
         averaged = len(self.rates[seed])
-        greedy = f"; greedy {self.greedy[seed]}" if seed in self.greedy else ""
+        greedy = f"; greedy {greedy_text(self.greedy[seed])}" if seed in self.greedy else ""
         self.message(f"seed {seed}: episode {episode}/{total}, mean of the last {averaged}: "
                      f"sum rate {rate}, J {fairness:.3f}; eps {epsilon:.3f}{greedy}, {speed}")
 
@@ -96,13 +96,14 @@ class TrainingProgress:
                                     highlight=False, soft_wrap=True)
 
 
-def greedy_text(row: dict[str, float]) -> str:
+def greedy_text(row: dict[str, float], short: bool = False) -> str:
     """The last greedy evaluation in a few characters: percent of the oracle on the training
-    layout, else on the held-out layouts (mean), else the training layout's sum rate."""
-    if math.isfinite(row["pct_oracle"]):
-        return f"{row['pct_oracle']:.1f}% of oracle"
-    if math.isfinite(row["heldout_pct_oracle"]):
-        return f"{row['heldout_pct_oracle']:.1f}% of oracle (held-out)"
-    if math.isfinite(row["sum_rate_bps"]):
-        return format_rate(row["sum_rate_bps"])
-    return f"{format_rate(row['heldout_sum_rate_bps'])} (held-out)"
+    layout, else on the held-out layouts (mean), else the training layout's sum rate;
+    ``short`` (the live row, 80 columns) leaves out what it is measured against."""
+    name = next((name for name in ("pct_oracle", "heldout_pct_oracle", "sum_rate_bps")
+                 if math.isfinite(row[name])), "heldout_sum_rate_bps")
+    value = format_rate(row[name]) if name.endswith("bps") else f"{row[name]:.1f}%"
+    if short:
+        return value
+    return (value + (" of oracle" if name.endswith("oracle") else "")
+            + (" (held-out)" if name.startswith("heldout") else ""))

@@ -33,7 +33,7 @@ from adaptsky_cli.env.observation import observation_size
 from adaptsky_cli.errors import NonFiniteError
 from adaptsky_cli.scenario.models import Scenario
 from adaptsky_cli.store.tree import Tree
-from adaptsky_cli.train.evaluation import EvaluationSet, GreedyEvaluator
+from adaptsky_cli.train.evaluation import EVALUATION_KEYS, EvaluationSet, GreedyEvaluator
 
 STATE_FIELDS = ("uav_m", "alpha", "gain", "los", "rate_bps")
 # what members of one stack may differ in; everything else must be equal
@@ -83,13 +83,15 @@ def _evaluators(members: list[Member]) -> list[tuple[int, list[int], GreedyEvalu
     groups: dict[tuple[object, ...], list[int]] = {}
     for index, member in enumerate(members):
         if member.evaluation is not None:
-            t = member.scenario.train
-            groups.setdefault((t.eval_every, t.eval_steps, t.eval_layouts, t.eval_layout_seed),
-                              []).append(index)
-    return [(key[0], indices,  # type: ignore[misc]
-             GreedyEvaluator([members[i].evaluation for i in indices],  # type: ignore[misc]
-                             members[indices[0]].scenario.train.eval_steps))
-            for key, indices in groups.items()]
+            settings = tuple(getattr(member.scenario.train, key) for key in EVALUATION_KEYS)
+            groups.setdefault(settings, []).append(index)
+    evaluators = []
+    for indices in groups.values():
+        train = members[indices[0]].scenario.train
+        evaluations = [members[i].evaluation for i in indices]
+        evaluators.append((train.eval_every, indices,
+                           GreedyEvaluator(evaluations, train.eval_steps)))  # type: ignore[arg-type]
+    return evaluators
 
 
 class StackRun:
