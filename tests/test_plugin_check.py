@@ -120,22 +120,29 @@ WRONG_SHAPE = textwrap.dedent(MISSING) + """\
 """
 
 
-def _run(tmp_path, *args, columns: int = 80):
-    env = {**os.environ, "PYTHONPATH": str(tmp_path), "COLUMNS": str(columns)}
+def _run(tmp_path, *args, columns: int = 80, pythonpath: str | None = None):
+    env = {**os.environ, "PYTHONPATH": pythonpath or str(tmp_path), "COLUMNS": str(columns)}
     return subprocess.run([str(ADAPTSKY), *args], capture_output=True, text=True, env=env,
                           check=False)
 
 
+def _installed(tmp_path, modules: dict[str, str]) -> dict[str, dict]:
+    """Install each module text as a plugin distribution; ``plugins list --json`` by name."""
+    for name, text in modules.items():
+        _fake_distribution(tmp_path, name, text)
+    return {p["name"]: p for p in json.loads(_run(tmp_path, "plugins", "list", "--json").stdout)}
+
+
 def test_installed_plugins_are_checked_at_discovery_and_by_plugins_check(tmp_path):
-    _fake_distribution(tmp_path, "missing-method", MISSING)
-    _fake_distribution(tmp_path, "wrong-shape", WRONG_SHAPE)
-    listed = {p["name"]: p for p in json.loads(_run(tmp_path, "plugins", "list",
-                                                    "--json").stdout)}
+    listed = _installed(tmp_path, {"missing-method": MISSING, "wrong-shape": WRONG_SHAPE})
     assert listed["missing-method"]["status"] == "broken"
     assert listed["missing-method"]["error"] == (
         "missing_method:Model: method: gain_nlos() is not implemented (abstract in "
         "ChannelModel)")
-    assert listed["wrong-shape"]["status"] == "ok"  # declared right: only a call shows it
+    assert listed["wrong-shape"]["status"] == "broken"  # declared right: a call shows it
+    assert listed["wrong-shape"]["error"] == (
+        "wrong_shape:Model: shape: gain_nlos() returned shape (2,) for links of shape (2, 3) "
+        "(and 1 more: adaptsky plugins check wrong-shape)")  # expected_gain() uses gain_nlos
     for name, rule in (("missing-method", "method: gain_nlos()"),
                        ("wrong-shape", "shape: gain_nlos() returned shape (6,)")):
         checked = _run(tmp_path, "plugins", "check", name)
@@ -170,44 +177,189 @@ def test_plugins_show_prints_types_and_limits(capsys):
     assert "los_c │ float │ 9.6117 │ > 0, <= 100" in text
 
 
-def _guide_blocks(language: str) -> list[str]:
-    text = (Path(__file__).parent.parent / "docs" / "plugins.md").read_text()
-    return re.findall(rf"```{language}\n(.*?)```", text, flags=re.DOTALL)
+GUIDE = Path(__file__).parent.parent / "docs" / "plugins.md"
+
+# every fenced block of docs/plugins.md, by what it is; each is run (or, for the layout, built)
+# by the tests below, and a block that none of these names fails the first test
+GUIDE_BLOCKS = {
+    "entry point": lambda lang, text: lang == "toml" and text.startswith("[project.entry"),
+    "imports": lambda lang, text: lang == "python" and text.startswith("from adaptsky_cli"),
+    "fading": lambda lang, text: lang == "python" and "class FreeSpaceFading" in text,
+    "layout": lambda lang, text: lang == "" and text.startswith("adaptsky-free-space/"),
+    "module": lambda lang, text: lang == "python" and text.startswith('"""Free-space channel'),
+    "pyproject": lambda lang, text: lang == "toml" and "[project]" in text,
+    "scenario": lambda lang, text: lang == "toml" and 'model = "free-space"' in text,
+    "commands": lambda lang, text: lang == "sh" and "adaptsky plugins check" in text,
+    "tests": lambda lang, text: lang == "python" and "def test_matches_friis" in text,
+}
 
 
-def test_the_guides_free_space_plugin_works_as_written(tmp_path):
-    """docs/plugins.md section 5 and 7, as a plugin author copies them: the module, its
-    pyproject's entry point, a scenario using it, and the guide's test file."""
-    module = next(b for b in _guide_blocks("python") if b.startswith('"""Free-space channel'))
-    tests = next(b for b in _guide_blocks("python") if "def test_matches_friis" in b)
-    pyproject = tomllib.loads(next(b for b in _guide_blocks("toml") if "[project]" in b))
-    channel = next(b for b in _guide_blocks("toml") if 'model = "free-space"' in b)
-    package = tmp_path / "adaptsky_free_space"
-    package.mkdir()
+def _guide_block(kind: str) -> str:
+    return next(text for lang, text in _guide_blocks() if GUIDE_BLOCKS[kind](lang, text))
+
+
+def _guide_blocks() -> list[tuple[str, str]]:
+    return re.findall(r"^```(\w*)\n(.*?)^```", GUIDE.read_text(), flags=re.DOTALL | re.MULTILINE)
+
+
+def test_every_block_of_the_guide_is_one_the_tests_run():
+    kinds = [[kind for kind, is_it in GUIDE_BLOCKS.items() if is_it(lang, text)]
+             for lang, text in _guide_blocks()]
+    assert all(len(found) == 1 for found in kinds), kinds
+    assert sorted(found[0] for found in kinds) == sorted(GUIDE_BLOCKS)
+    assert _guide_block("entry point").strip() in _guide_block("pyproject")
+    exec(_guide_block("imports"), {})  # the contract's names import as the guide lists them
+
+
+def _guide_package(root: Path) -> Path:
+    """The guide's free-space package as section 5 lays it out, installed on ``root`` as pip
+    would leave it (a dist-info folder; ``pip install -e`` would need the network for
+    hatchling), with the fading model of section 3 registered beside it."""
+    project = root / "adaptsky-free-space"
+    package = project / "adaptsky_free_space"
+    package.mkdir(parents=True)
+    layout = [line.split()[0] for line in _guide_block("layout").splitlines()[1:]]
+    assert layout == ["pyproject.toml", "adaptsky_free_space/__init__.py",
+                      "adaptsky_free_space/free_space.py", "tests/test_free_space.py"]
+    (project / "pyproject.toml").write_text(_guide_block("pyproject"))
     (package / "__init__.py").write_text("")
-    (package / "free_space.py").write_text(module)
-    (tmp_path / "test_free_space.py").write_text(tests)
-    info = tmp_path / "adaptsky_free_space-0.1.0.dist-info"
+    (package / "free_space.py").write_text(_guide_block("module"))
+    (package / "fading.py").write_text(_guide_block("fading"))
+    (project / "tests").mkdir()
+    (project / "tests" / "test_free_space.py").write_text(_guide_block("tests"))
+    pyproject = tomllib.loads(_guide_block("pyproject"))
+    info = root / "adaptsky_free_space-0.1.0.dist-info"
     info.mkdir()
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: adaptsky-free-space\n"
                                    "Version: 0.1.0\n")
-    points = pyproject["project"]["entry-points"]["adaptsky.channel_models"]
+    points = {**pyproject["project"]["entry-points"]["adaptsky.channel_models"],
+              "free-space-fading": "adaptsky_free_space.fading:FreeSpaceFading"}
     (info / "entry_points.txt").write_text(
         "[adaptsky.channel_models]\n" + "".join(f"{k} = {v}\n" for k, v in points.items()))
-    listed = {p["name"]: p for p in json.loads(_run(tmp_path, "plugins", "list",
-                                                    "--json").stdout)}
+    return project
+
+
+def test_the_guides_free_space_plugin_works_as_written(tmp_path):
+    """docs/plugins.md sections 5 to 7 as a plugin author copies them: the package, its
+    pyproject's entry point, a scenario using it, section 6's commands and section 7's tests."""
+    project = _guide_package(tmp_path)
+    pythonpath = f"{tmp_path}{os.pathsep}{project}"
+    listed = {p["name"]: p for p in json.loads(_run(tmp_path, "plugins", "list", "--json",
+                                                    pythonpath=pythonpath).stdout)}
     assert listed["free-space"]["status"] == "ok", listed["free-space"]
-    checked = _run(tmp_path, "plugins", "check", "free-space")
-    assert checked.returncode == 0, checked.stderr
-    scenario = tmp_path / "free.toml"
-    scenario.write_text('name = "free"\n' + channel
+    assert listed["free-space"]["contract_version"] == 2
+    scenario = tmp_path / "my_scenario.toml"
+    scenario.write_text('name = "free"\n' + _guide_block("scenario")
                         + "[train]\nepisodes = 2\nsteps = 10\neval_every = 0\n")
+    ran = []
+    for line in _guide_block("commands").splitlines():
+        command = line.split("#")[0].strip()
+        if command.startswith("pip install"):
+            continue  # _guide_package installed it
+        if command.startswith("cd "):
+            folder, _, command = command.removeprefix("cd ").partition(" && ")
+            assert folder == "path/to/adaptsky-free-space" and command == "python -m pytest"
+            result = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p",
+                                     "no:cacheprovider"], capture_output=True, text=True,
+                                    env={**os.environ, "PYTHONPATH": pythonpath}, cwd=project,
+                                    check=False)
+            assert result.returncode == 0, result.stdout[-2000:]
+            assert "4 passed" in result.stdout
+        else:
+            words = command.replace("my_scenario.toml", str(scenario)).split()
+            assert words[0] == "adaptsky", command
+            result = _run(tmp_path, *words[1:], pythonpath=pythonpath)
+            assert result.returncode == 0, (command, result.stderr)
+        ran.append(command)
+    assert len(ran) == 5
     trained = _run(tmp_path, "train", str(scenario), "--out", str(tmp_path / "free.h5"),
-                   "--quiet")
+                   "--quiet", pythonpath=pythonpath)
     assert trained.returncode == 0, trained.stderr
-    env = {**os.environ, "PYTHONPATH": str(tmp_path)}
-    guide_tests = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
-                                  str(tmp_path / "test_free_space.py")], capture_output=True,
-                                 text=True, env=env, cwd=tmp_path, check=False)
-    assert guide_tests.returncode == 0, guide_tests.stdout[-2000:]
-    assert "4 passed" in guide_tests.stdout
+
+
+def test_the_guides_fading_model_follows_the_contract_and_trains(tmp_path):
+    """docs/plugins.md section 3's fading example, registered and checked, trained, and the
+    oracle refused for it in one line."""
+    _guide_package(tmp_path)
+    pythonpath = f"{tmp_path}{os.pathsep}{tmp_path / 'adaptsky-free-space'}"
+    checked = _run(tmp_path, "plugins", "check", "free-space-fading", pythonpath=pythonpath)
+    assert checked.returncode == 0, checked.stderr
+    scenario = tmp_path / "fading.toml"
+    scenario.write_text('name = "fading"\n[channel]\nmodel = "free-space-fading"\n'
+                        "[train]\nepisodes = 1\nsteps = 10\neval_every = 0\n")
+    out = tmp_path / "fading.h5"
+    assert _run(tmp_path, "train", str(scenario), "--out", str(out), "--quiet",
+                pythonpath=pythonpath).returncode == 0
+    refused = _run(tmp_path, "eval", "--checkpoint", str(out), "--compare", "oracle",
+                   pythonpath=pythonpath)
+    assert refused.returncode == 1
+    assert refused.stderr.strip().splitlines() == [
+        "scenario 'fading': channel model 'free-space-fading' draws per-step fading; the "
+        "oracle needs deterministic gains: los = 'always' or 'expected', without fading"]
+
+
+def test_plugins_check_takes_parameters_and_a_carrier():
+    from_the_example = _run(Path("."), "plugins", "check", "uma-av", "--param",
+                            "shadowing=true", "--carrier-hz", "3.5e9")
+    assert from_the_example.returncode == 0, from_the_example.stderr
+    assert from_the_example.stdout.strip() == (
+        "ok  uma-av: follows plugin contract 2 (f_c 3.5 GHz, users on the ground and 1.5 m up, "
+        "parameters: shadowing=True)")
+    for param, line in (("shadowing=3", "--param shadowing: Input should be a valid boolean"),
+                        ("nope=1", "--param nope: unknown key"),
+                        ("carrier_hz", "--param 'carrier_hz': expected KEY=VALUE, e.g. "
+                                       "carrier_hz=3.5e9"),
+                        ("carrier_hz=3e9", "uma-av: carrier: carrier_hz = 3.5e+09 Hz differs "
+                                           "from the parameters' carrier_hz = 3e+09 Hz; in a "
+                                           "run they are one value")):
+        refused = _run(Path("."), "plugins", "check", "uma-av", "--param", param,
+                       "--carrier-hz", "3.5e9")
+        assert refused.returncode == 1 and refused.stderr.strip().splitlines() == [line]
+
+
+def test_plugins_show_prints_the_contract_and_markup_free_text(capsys):
+    from adaptsky_cli.cli.main import main
+
+    assert main(["plugins", "show", "uma-av"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "plugin contract 2" in text and "[radio]" in text and "true, false" in text
+    assert main(["plugins", "show", "uma-av", "--json"]) == 0
+    shown = json.loads(capsys.readouterr().out)
+    assert shown["contract_version"] == 2
+    assert shown["params"]["shadowing"] == {
+        "type": "bool", "default": False, "limits": {},
+        "description": "lognormal shadow fading of TR 36.777, drawn every step; off: the mean "
+                       "path loss"}
+
+
+UNDECLARED = textwrap.dedent(MISSING) + """\
+    def gain_nlos(self, geometry):
+        return 0.1 / geometry.distance_m ** 2
+"""  # complete, written before contract versions
+FUTURE = UNDECLARED + "    contract_version = 3\n"
+
+
+def test_contract_versions_at_discovery_and_in_plugins_check(tmp_path):
+    listed = _installed(tmp_path, {"old-channel": UNDECLARED, "future-channel": FUTURE})
+    assert listed["old-channel"]["status"] == "ok"
+    assert listed["old-channel"]["contract_version"] == 1
+    assert listed["future-channel"]["status"] == "broken"
+    assert listed["future-channel"]["error"] == (
+        "future_channel:Model: contract: written for plugin contract 3; this adaptsky supports "
+        "contracts 1 and 2: upgrade adaptsky")
+    assert listed["mmwave-nyc"]["contract_version"] == 2
+    old = _run(tmp_path, "plugins", "check", "old-channel")
+    assert old.returncode == 0
+    assert old.stdout.splitlines()[0] == (
+        "ok  old-channel: follows plugin contract 1 (f_c 28 GHz, users on the ground, "
+        "parameters: defaults)")
+    assert "declares no contract_version and is taken as contract 1" in old.stdout
+    shown = _run(tmp_path, "plugins", "show", "old-channel")
+    assert "plugin contract 1 (declares no contract_version)" in shown.stdout
+    scenario = tmp_path / "old.toml"
+    scenario.write_text('name = "old"\n[users]\ncount = 4\nheight_m = 1.5\n'
+                        '[channel]\nmodel = "old-channel"\n')
+    refused = _run(tmp_path, "scenario", "validate", str(scenario))
+    assert refused.returncode == 1
+    assert "users.height_m: channel model 'old-channel' follows plugin contract 1" in (
+        refused.stdout + refused.stderr)

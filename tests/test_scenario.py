@@ -59,6 +59,12 @@ def test_defaults_are_the_papers():
     assert s.radio.noise_w == pytest.approx(10 ** (-84 / 10) / 1000)
 
 
+def test_a_users_table_without_positions_or_count_keeps_the_training_layout():
+    s = parse_scenario({"name": "u", "users": {"height_m": 1.5, "speed_m_per_step": 1.0}})
+    assert s.users.positions_m == [[4.0, 15.0], [-44.0, -49.0], [-5.0, 21.0], [47.0, 49.0]]
+    assert (s.users.placement, s.users.pairing, s.users.height_m) == ("listed", "listed", 1.5)
+
+
 def test_uniform_placement_resolves_count_and_pairing():
     s = parse_scenario({"name": "u", "users": {"count": 8}})
     assert (s.users.placement, s.users.pairing, s.num_clusters) == ("uniform", "near-far", 4)
@@ -68,7 +74,7 @@ def test_uniform_placement_resolves_count_and_pairing():
     ({"count": 4, "placement": "listed"}, "placement = 'listed' needs positions_m"),
     ({"positions_m": [[0, 0], [1, 1]], "count": 4}, "count = 4 but positions_m lists 2"),
     ({"positions_m": [[0, 0], [1, 1]], "placement": "uniform"}, "exclude each other"),
-    ({"speed_m_per_step": 1.0}, "give positions_m, or count"),
+    ({"speed_m_per_step": 1.0, "placement": "uniform"}, "give positions_m, or count"),
 ])
 def test_inconsistent_user_sections(users, message):
     with pytest.raises(ScenarioError, match=message):

@@ -5,19 +5,32 @@ under the entry-point group ``adaptsky.channel_models``. See ``docs/plugins.md``
 
 Every array method takes a :class:`LinkGeometry` of shape (B, N): B UAVs (independent
 environments), N ground users, and returns float64 arrays of that shape.
+
+The contract is versioned (``CONTRACT_VERSION``, docs/plugins.md §2): a class says which
+version it was written for with ``contract_version``; one that says nothing was written before
+versions existed and is taken as contract 1 (users on the ground, no fading hook).
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
-from typing import ClassVar
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from pydantic import BaseModel, ConfigDict
 
 SPEED_OF_LIGHT_M_PER_S = 299_792_458.0
+
+CONTRACT_VERSION = 2
+"""The plugin contract this adaptsky defines (docs/plugins.md §2, "Contract versions")."""
+SUPPORTED_CONTRACT_VERSIONS = (1, 2)
+"""The versions a plugin may declare; 1 is what a class that declares none is taken as."""
+DEFAULT_CARRIER_HZ = 28e9
+"""f_c of a geometry built without one: the paper's mmWave carrier (Table I), Hz."""
+DEFAULT_BANDWIDTH_HZ = 2e9
+"""W of a geometry built without one: the paper's mmWave bandwidth (Table I), Hz."""
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -31,38 +44,86 @@ class ChannelParams(BaseModel):
 
 @dataclass(frozen=True)
 class LinkGeometry:
-    """UAV-to-user geometry, every array of shape (B, N), users on the ground (height 0).
+    """UAV-to-user geometry of B UAVs and N users each, and the radio's f_c and W.
 
-    horizontal_m: ground distance; height_m: UAV height (broadcast over users);
-    distance_m: 3D Euclidean distance d; elevation_deg: theta = asin(h / d) in degrees.
+    Every link array is float64 of shape (B, N):
+    horizontal_m: ground distance d2D; height_m: UAV height h above the ground (broadcast over
+    users); user_height_m: antenna height h_UT of each user above the ground (0: the paper);
+    distance_m: 3D distance d = sqrt(d2D^2 + (h - h_UT)^2) between the two antennas;
+    elevation_deg: theta = asin((h - h_UT) / d), degrees.
+    Positions: uav_m (B, 3) [x, y, h]; users_m (B, N, 2) [x, y]. carrier_hz and bandwidth_hz
+    are the scenario's ``[radio]`` f_c and W (contract 2; a contract-1 plugin ignores them).
+
+    A geometry built from distances alone (``LinkGeometry(horizontal_m, height_m, distance_m,
+    elevation_deg)``) puts each UAV at (0, 0, h) and its users at (d2D, 0) on the ground.
     """
 
     horizontal_m: FloatArray
     height_m: FloatArray
     distance_m: FloatArray
     elevation_deg: FloatArray
+    user_height_m: FloatArray = field(default=None)  # type: ignore[assignment]
+    uav_m: FloatArray = field(default=None)  # type: ignore[assignment]
+    users_m: FloatArray = field(default=None)  # type: ignore[assignment]
+    carrier_hz: float = DEFAULT_CARRIER_HZ
+    bandwidth_hz: float = DEFAULT_BANDWIDTH_HZ
+
+    def __post_init__(self) -> None:
+        """Fill what a geometry built from distances alone leaves out (see the class doc)."""
+        shape = np.shape(self.distance_m)
+        if self.user_height_m is None:
+            object.__setattr__(self, "user_height_m", np.zeros(shape))
+        if len(shape) != 2:  # not links of B UAVs and N users: no placement to give
+            return
+        if self.uav_m is None:
+            heights = np.broadcast_to(self.height_m, shape)
+            uav_m = np.zeros((shape[0], 3))
+            uav_m[:, 2] = heights[:, 0] if shape[1] else 0.0
+            object.__setattr__(self, "uav_m", uav_m)
+        if self.users_m is None:
+            users_m = np.zeros((*shape, 2))
+            users_m[..., 0] = self.horizontal_m
+            object.__setattr__(self, "users_m", users_m)
 
     @classmethod
-    def between(cls, uav_m: FloatArray, users_m: FloatArray) -> LinkGeometry:
-        """Geometry of UAVs ``uav_m`` (B, 3) [x, y, h] and users ``users_m`` (B, N, 2)."""
+    def between(cls, uav_m: FloatArray, users_m: FloatArray, *,
+                user_height_m: ArrayLike = 0.0, carrier_hz: float = DEFAULT_CARRIER_HZ,
+                bandwidth_hz: float = DEFAULT_BANDWIDTH_HZ) -> LinkGeometry:
+        """Geometry of UAVs ``uav_m`` (B, 3) [x, y, h] and users ``users_m`` (B, N, 2) [x, y]
+        whose antennas stand ``user_height_m`` (a number, or anything that broadcasts to
+        (B, N)) above the ground, on carrier ``carrier_hz`` with bandwidth ``bandwidth_hz``."""
+        uav_m, users_m = np.asarray(uav_m, dtype=np.float64), np.asarray(users_m,
+                                                                         dtype=np.float64)
         delta = users_m - uav_m[:, None, :2]
         height_m = np.empty_like(delta[..., 0])    # h broadcast over users, as an array
         height_m[...] = uav_m[:, 2:3]
-        return cls._from_offsets(delta[..., 0], delta[..., 1], height_m)
+        user_height = np.zeros_like(height_m)
+        user_height[...] = user_height_m
+        return cls._from_offsets(delta[..., 0], delta[..., 1], height_m, user_height, uav_m,
+                                 users_m, carrier_hz, bandwidth_hz,
+                                 None if user_height.any() else height_m)
 
     @classmethod
-    def _from_offsets(cls, dx_m: FloatArray, dy_m: FloatArray, height_m: FloatArray
-                      ) -> LinkGeometry:
+    def _from_offsets(cls, dx_m: FloatArray, dy_m: FloatArray, height_m: FloatArray,
+                      user_height_m: FloatArray, uav_m: FloatArray, users_m: FloatArray,
+                      carrier_hz: float, bandwidth_hz: float,
+                      above_m: FloatArray | None = None) -> LinkGeometry:
         """Geometry from the ground offsets between UAV and user (either sign: only their
-        sizes count) and the UAV height, each (B, N)."""
+        sizes count), the UAV and user heights, each (B, N), and the positions; ``above_m``
+        is h - h_UT where the caller has it (``height_m`` itself when users are on the
+        ground, which gives the same numbers as the subtraction)."""
         horizontal_m = np.hypot(dx_m, dy_m)
-        distance_m = np.hypot(horizontal_m, height_m)
-        elevation_deg = np.degrees(np.arcsin(height_m / distance_m))
+        if above_m is None:
+            above_m = height_m - user_height_m
+        distance_m = np.hypot(horizontal_m, above_m)
+        elevation_deg = np.degrees(np.arcsin(above_m / distance_m))
         # the frozen dataclass's __init__ sets each field through object.__setattr__; filling
         # the instance's __dict__ at once is the same object, made faster (once per step)
         geometry = object.__new__(cls)
         geometry.__dict__.update(horizontal_m=horizontal_m, height_m=height_m,
-                                 distance_m=distance_m, elevation_deg=elevation_deg)
+                                 distance_m=distance_m, elevation_deg=elevation_deg,
+                                 user_height_m=user_height_m, uav_m=uav_m, users_m=users_m,
+                                 carrier_hz=carrier_hz, bandwidth_hz=bandwidth_hz)
         return geometry
 
     @property
@@ -70,22 +131,27 @@ class LinkGeometry:
         return self.distance_m.shape
 
     def rows(self, start: int, stop: int) -> LinkGeometry:
-        """The links of environments ``start:stop`` (a view)."""
-        return LinkGeometry(self.horizontal_m[start:stop], self.height_m[start:stop],
-                            self.distance_m[start:stop], self.elevation_deg[start:stop])
+        """The links of environments ``start:stop`` (views)."""
+        rows = slice(start, stop)
+        return LinkGeometry(self.horizontal_m[rows], self.height_m[rows],
+                            self.distance_m[rows], self.elevation_deg[rows],
+                            self.user_height_m[rows], self.uav_m[rows], self.users_m[rows],
+                            self.carrier_hz, self.bandwidth_hz)
 
 
 class ChannelModel(ABC):
-    """Large-scale channel of one UAV-user antenna pair (sec. II-C).
+    """Large-scale channel of one UAV-user antenna pair (sec. II-C), and optional fading.
 
     Subclasses set ``Params`` (a :class:`ChannelParams` subclass whose every field has a
-    default and a description with its unit) and ``description``, and implement the three
-    abstract methods. Gains are linear power gains (not dB) of one antenna pair; the antenna
-    gain G = N_UAV x N_UE is applied by the environment.
+    default and a description with its unit), ``description`` and ``contract_version``, and
+    implement the three abstract methods. Gains are linear power gains (not dB) of one antenna
+    pair; the antenna gain G = N_UAV x N_UE is applied by the environment.
     """
 
     Params: ClassVar[type[ChannelParams]] = ChannelParams
     description: ClassVar[str] = ""
+    contract_version: ClassVar[int | None] = None
+    """The contract the class was written for (``CONTRACT_VERSION`` today); None: 1."""
 
     def __init__(self, params: ChannelParams | None = None) -> None:
         self.params = params if params is not None else self.Params()
@@ -114,6 +180,26 @@ class ChannelModel(ABC):
         """``P g_LoS + (1 - P) g_NLoS`` (docs/model.md §2, ``los = "expected"``)."""
         p_los = self.los_probability(geometry)
         return p_los * self.gain_los(geometry) + (1 - p_los) * self.gain_nlos(geometry)
+
+    def fading_enabled(self) -> bool:
+        """Contract 2: whether :meth:`sample_fading` applies with these parameters (decided
+        by the parameters alone). The default: whether the class implements it."""
+        return type(self).sample_fading is not ChannelModel.sample_fading
+
+    def sample_fading(self, geometry: LinkGeometry, los: BoolArray,
+                      rng: np.random.Generator) -> FloatArray:
+        """Contract 2, optional: per-step fading or shadowing of each link, a linear power
+        factor > 0 of shape (B, N) by which the step's gain is multiplied; ``los`` (B, N) is
+        each link's LoS state in this step. Draw from ``rng`` only (the run's seeded
+        generator). Not implemented here: the paper's models have no fading."""
+        raise NotImplementedError(f"{type(self).__name__} has no fading hook")
+
+
+def contract_version_of(model: Any) -> int | Any:
+    """The contract version a model class (or instance) was written for: its
+    ``contract_version``, or 1 where it declares none."""
+    declared = getattr(model, "contract_version", None)
+    return 1 if declared is None else declared
 
 
 def db_to_linear(value_db: FloatArray | float) -> FloatArray | float:

@@ -1,9 +1,11 @@
 """Discovery of channel-model plugins through the entry-point group ``adaptsky.channel_models``.
 
-Each entry point is loaded on its own: one that fails to import, or whose class does not
+Each entry point is loaded on its own: one that fails to import, whose class does not
 declare what the contract asks (``checker.structural_problems``: a subclass of
-ChannelModel with every method, Params with defaults and descriptions), is recorded as broken
-with its error and fails only the run that asks for it.
+ChannelModel with every method, Params with defaults and descriptions, a known contract
+version), or whose methods raise or return arrays of the wrong shape, dtype or with NaN in one
+call on a few links (``checker.call_problems``), is recorded as broken with its error and fails
+only the run that asks for it.
 """
 
 from __future__ import annotations
@@ -12,8 +14,8 @@ from dataclasses import dataclass
 from functools import cache
 from importlib.metadata import EntryPoint, entry_points
 
-from adaptsky_cli.channels.checker import structural_problems
-from adaptsky_cli.channels.contract import ChannelModel
+from adaptsky_cli.channels.checker import call_problems, structural_problems
+from adaptsky_cli.channels.contract import ChannelModel, contract_version_of
 from adaptsky_cli.errors import PluginError
 
 ENTRY_POINT_GROUP = "adaptsky.channel_models"
@@ -38,6 +40,15 @@ class PluginInfo:
     def description(self) -> str:
         return self.model.description if self.model is not None else ""
 
+    @property
+    def contract_version(self) -> int | None:
+        """The plugin contract the model follows (1 where it declares none); None if broken."""
+        return contract_version_of(self.model) if self.model is not None else None
+
+    @property
+    def contract_declared(self) -> bool:
+        return self.model is not None and self.model.contract_version is not None
+
 
 def _load(entry_point: EntryPoint) -> PluginInfo:
     dist = entry_point.dist
@@ -49,7 +60,8 @@ def _load(entry_point: EntryPoint) -> PluginInfo:
         model = entry_point.load()
     except Exception as error:  # any import failure of third-party code
         return PluginInfo(**info, model=None, error=f"{type(error).__name__}: {error}")
-    problems = structural_problems(model)  # the cheap part of the contract's checks
+    # the cheap part of the contract's checks: the declarations, then one call of each method
+    problems = structural_problems(model) or call_problems(model)
     if problems:
         return PluginInfo(**info, model=None, error=f"{entry_point.value}: {problems[0]}"
                           + (f" (and {len(problems) - 1} more: adaptsky plugins check "

@@ -12,7 +12,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from adaptsky_cli.channels.contract import ChannelModel, LinkGeometry
+from adaptsky_cli.channels.contract import (
+    DEFAULT_CARRIER_HZ,
+    ChannelModel,
+    LinkGeometry,
+    contract_version_of,
+)
 from adaptsky_cli.channels.registry import get_model_class
 from adaptsky_cli.env import noma
 from adaptsky_cli.env.actions import TABLE_MAX_ACTIONS, ActionSet
@@ -32,8 +37,30 @@ def build_channel(scenario: Scenario) -> ChannelModel:
 
 
 def deterministic_gain(channel: ChannelModel, los: str, geometry: LinkGeometry) -> FloatArray:
-    """The gain planning uses: the LoS gain for ``los = "always"``, else the expected gain."""
+    """The gain planning uses: the LoS gain for ``los = "always"``, else the expected gain
+    (never with fading)."""
     return channel.gain_los(geometry) if los == "always" else channel.expected_gain(geometry)
+
+
+def fading_active(channel: ChannelModel) -> bool:
+    """Whether the environment draws per-step fading from this model (contract 2 and its
+    ``fading_enabled()``)."""
+    return contract_version_of(channel) >= 2 and bool(channel.fading_enabled())
+
+
+def scenario_geometry(scenario: Scenario, uav_m: FloatArray, users_m: FloatArray
+                      ) -> LinkGeometry:
+    """The links between UAVs ``uav_m`` (B, 3) and users ``users_m`` (B, N, 2) with the
+    scenario's user height, carrier and bandwidth (docs/plugins.md, the geometry)."""
+    return LinkGeometry.between(uav_m, users_m, user_height_m=scenario.users.height_m,
+                                carrier_hz=carrier_hz(scenario),
+                                bandwidth_hz=scenario.radio.bandwidth_hz)
+
+
+def carrier_hz(scenario: Scenario) -> float:
+    """f_c of the scenario (``radio.carrier_hz``, resolved when the scenario is loaded)."""
+    value = scenario.radio.carrier_hz
+    return DEFAULT_CARRIER_HZ if value is None else value
 
 
 def reward_weights(scenario: Scenario) -> noma.RewardWeights:
@@ -47,8 +74,9 @@ def reward_weights(scenario: Scenario) -> noma.RewardWeights:
 class NetworkState:
     """The network after a reset or step; leading axis B, then users N where it applies.
 
-    gain is the linear gain of one antenna pair used for the rates; los the LoS state of each
-    link (for ``los = "expected"``: P_LoS > 0.5); p_los the LoS probability.
+    gain is the linear gain of one antenna pair used for the rates (with the step's fading
+    where the channel model draws it); los the LoS state of each link (for ``los =
+    "expected"``: P_LoS > 0.5); p_los the LoS probability.
     """
 
     uav_m: FloatArray
@@ -148,7 +176,7 @@ class NomaUavBatch:
         self.layouts_m = np.array(users_m, dtype=np.float64)
         start_uav = np.broadcast_to(self._start_m, (self.num_envs, 3))
         start_gain = deterministic_gain(self.channel, self.scenario.channel.los,
-                                        LinkGeometry.between(start_uav, self.layouts_m))
+                                        self.geometry(start_uav, self.layouts_m))
         self.first_user, self.second_user = pair_users(start_gain, self.scenario.users.pairing)
         # flat positions of (first users, second users) in a (B, N) array, for fast gathers
         rows = np.arange(self.num_envs)[:, None] * self.num_users
@@ -195,6 +223,12 @@ class NomaUavBatch:
         # the base class's sample_los and expected_gain, computed here from the p_los at hand
         self._own_sample_los = channel_type.sample_los is ChannelModel.sample_los
         self._own_expected_gain = channel_type.expected_gain is ChannelModel.expected_gain
+        self._fading = fading_active(self.channel)
+        self._carrier_hz = carrier_hz(scenario)
+        # user antenna heights (B, N), and h - h_UT needs a subtraction only where they are > 0
+        self._user_height_m = np.full((self.num_envs, self.num_users), scenario.users.height_m)
+        self._user_height_m.flags.writeable = False
+        self._users_above_ground = scenario.users.height_m > 0
         self._reward = noma.RewardFromSums(self.weights, self.num_users, self.bandwidth_hz)
         self._shape = (self.num_envs, self.num_users)
         self._observer = Observer(scenario, self._shape)
@@ -244,6 +278,11 @@ class NomaUavBatch:
             self.rngs = [np.random.default_rng(s) for s in seed]
         self.rng = np.random.default_rng(None if isinstance(seed, list) else seed)
 
+    def geometry(self, uav_m: FloatArray, users_m: FloatArray) -> LinkGeometry:
+        """The links between UAVs ``uav_m`` (B', 3) and users ``users_m`` (B', N, 2) in this
+        scenario (its user height, carrier and bandwidth)."""
+        return scenario_geometry(self.scenario, uav_m, users_m)
+
     @property
     def max_steps(self) -> int:
         return self.scenario.train.steps
@@ -277,6 +316,14 @@ class NomaUavBatch:
     def _link_gains(self, geometry: LinkGeometry) -> tuple[FloatArray, NDArray[np.bool_],
                                                            FloatArray]:
         """Gain, LoS state and LoS probability of every link under the scenario's LoS mode."""
+        gain, los, p_los = self._large_scale_gains(geometry)
+        if self._fading:
+            gain = gain * self._sample_fading(geometry, los)
+        return gain, los, p_los
+
+    def _large_scale_gains(self, geometry: LinkGeometry) -> tuple[FloatArray,
+                                                                  NDArray[np.bool_], FloatArray]:
+        """Gain, LoS state and LoS probability before fading."""
         channel = self.channel
         p_los = channel.los_probability(geometry)
         mode = self._los_mode
@@ -292,6 +339,15 @@ class NomaUavBatch:
         else:
             gain = channel.expected_gain(geometry)
         return gain, p_los > 0.5, p_los
+
+    def _sample_fading(self, geometry: LinkGeometry, los: NDArray[np.bool_]) -> FloatArray:
+        """The step's fading factors (B, N), drawn after the LoS states from the same
+        generator: the shared one, or row b from environment b's."""
+        channel = self.channel
+        if self.rngs is None:
+            return channel.sample_fading(geometry, los, self.rng)
+        return np.concatenate([channel.sample_fading(geometry.rows(b, b + 1), los[b:b + 1], rng)
+                               for b, rng in enumerate(self.rngs)])
 
     def _sample_los(self, geometry: LinkGeometry, p_los: FloatArray) -> NDArray[np.bool_]:
         """LoS states drawn from the shared generator, or row b from environment b's."""
@@ -333,7 +389,11 @@ class NomaUavBatch:
         # rows 2 and 3 first hold every user's share and its partner's (alpha_k, 1 - alpha_k)
         features = np.empty((FEATURES_PER_USER, *shape))
         delta = np.subtract(per_user[:2], self._users_xy, out=features[:2])
-        geometry = LinkGeometry._from_offsets(delta[0], delta[1], per_user[2])
+        height_m = per_user[2]
+        geometry = LinkGeometry._from_offsets(
+            delta[0], delta[1], height_m, self._user_height_m, config[:, :3], self._users_m,
+            self._carrier_hz, self.bandwidth_hz,
+            height_m - self._user_height_m if self._users_above_ground else height_m)
         gain, los, p_los = self._link_gains(geometry)
         shares = np.add(self._share_offset, self._share_sign * per_user[3:],
                         out=features[2:])
@@ -395,11 +455,16 @@ class NomaUavBatch:
     @property
     def users_m(self) -> FloatArray:
         """User positions (B, N, 2), m (a view of the positions kept as x and y, (2, B, N))."""
-        return np.moveaxis(self._users_xy, 0, -1)
+        return self._users_m
 
     @users_m.setter
     def users_m(self, value: FloatArray) -> None:
-        self._users_xy = np.array(np.moveaxis(value, -1, 0), dtype=np.float64, order="C")
+        self._set_users_xy(np.array(np.moveaxis(value, -1, 0), dtype=np.float64, order="C"))
+
+    def _set_users_xy(self, users_xy: FloatArray) -> None:
+        """New user positions (2, B, N), and their (B, N, 2) view, made once per move."""
+        self._users_xy = users_xy
+        self._users_m = np.moveaxis(users_xy, 0, -1)
 
     def _move_users(self) -> None:
         """Every user walks ``speed_m_per_step`` in a uniform random heading, clipped to the
@@ -421,7 +486,7 @@ class NomaUavBatch:
         moved += self._users_xy
         half_m = self._half_side_m
         # np.clip(moved, -L/2, L/2)
-        self._users_xy = np.minimum(np.maximum(moved, -half_m, out=moved), half_m, out=moved)
+        self._set_users_xy(np.minimum(np.maximum(moved, -half_m, out=moved), half_m, out=moved))
 
     def _action_changes(self, actions: NDArray[np.integer]) -> FloatArray:
         """Checked actions (B,) as changes (B, 3 + K) of the configuration."""

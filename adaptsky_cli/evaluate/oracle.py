@@ -28,9 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from adaptsky_cli.channels.contract import LinkGeometry
 from adaptsky_cli.env import noma
-from adaptsky_cli.env.batch import NomaUavBatch, deterministic_gain
+from adaptsky_cli.env.batch import NomaUavBatch, build_channel, deterministic_gain, fading_active
 from adaptsky_cli.errors import AdaptskyError
 from adaptsky_cli.scenario.models import Scenario
 
@@ -98,15 +97,26 @@ def _best_alpha_first(gain_first: FloatArray, gain_second: FloatArray, alphas: F
 
 
 def has_oracle(scenario: Scenario) -> bool:
-    """Whether the oracle applies: deterministic gains (LoS not drawn at random)."""
-    return scenario.channel.los != "sampled"
+    """Whether the oracle applies: deterministic gains (LoS not drawn at random, no fading)."""
+    return _random_gains(scenario) is None
+
+
+def _random_gains(scenario: Scenario) -> str | None:
+    """What makes the scenario's gains random, or None."""
+    if scenario.channel.los == "sampled":
+        return "channel.los is 'sampled'"
+    if fading_active(build_channel(scenario)):
+        return f"channel model '{scenario.channel.model}' draws per-step fading"
+    return None
 
 
 def require_deterministic_gains(scenario: Scenario) -> None:
-    """Refuse a scenario whose LoS is drawn at random: the oracle needs fixed gains."""
-    if not has_oracle(scenario):
-        raise AdaptskyError(f"scenario '{scenario.name}': channel.los is 'sampled'; the oracle "
-                            "needs deterministic gains: los = 'always' or 'expected'")
+    """Refuse a scenario whose gains are drawn at random: the oracle needs fixed gains."""
+    reason = _random_gains(scenario)
+    if reason is not None:
+        raise AdaptskyError(f"scenario '{scenario.name}': {reason}; the oracle needs "
+                            "deterministic gains: los = 'always' or 'expected', without "
+                            "fading")
 
 
 def oracle(scenario: Scenario, users_m: FloatArray,
@@ -127,7 +137,7 @@ def oracle(scenario: Scenario, users_m: FloatArray,
         for start in range(0, len(grid), POINTS_PER_CHUNK):
             points = grid[start:start + POINTS_PER_CHUNK]
             users = np.broadcast_to(users_m[layout], (len(points), *users_m.shape[1:]))
-            geometry = LinkGeometry.between(points, users)
+            geometry = env.geometry(points, users)
             gain = deterministic_gain(channel, scenario.channel.los, geometry)
             gain_first = gain[:, env.first_user[layout]]
             gain_second = gain[:, env.second_user[layout]]

@@ -14,7 +14,6 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from adaptsky_cli.channels.contract import LinkGeometry
 from adaptsky_cli.env.batch import NomaUavBatch
 
 FloatArray = NDArray[np.float64]
@@ -26,7 +25,7 @@ def soa_configuration(env: NomaUavBatch) -> tuple[FloatArray, FloatArray]:
     centroid = env.layouts_m.mean(axis=1)
     height = np.full((env.num_envs, 1), scenario.uav.start_m[2])
     uav_m = np.concatenate([centroid, height], axis=1)
-    gain = env.channel.gain_los(LinkGeometry.between(uav_m, env.layouts_m))
+    gain = env.channel.gain_los(env.geometry(uav_m, env.layouts_m))
     gain_first = np.take_along_axis(gain, env.first_user, axis=1)
     gain_second = np.take_along_axis(gain, env.second_user, axis=1)
     radio = scenario.radio

@@ -13,6 +13,12 @@ from typing import Any
 
 from pydantic import ValidationError
 
+from adaptsky_cli.channels.contract import (
+    DEFAULT_CARRIER_HZ,
+    ChannelModel,
+    ChannelParams,
+    contract_version_of,
+)
 from adaptsky_cli.channels.registry import get_model_class
 from adaptsky_cli.errors import PluginError, ScenarioError
 from adaptsky_cli.scenario.models import Scenario
@@ -35,7 +41,8 @@ def _error_lines(source: str, error: ValidationError,
 
 
 def parse_scenario(data: dict[str, Any], source: str = "<scenario>") -> Scenario:
-    """Validate a scenario mapping; resolve ``channel.params`` with the named plugin's model."""
+    """Validate a scenario mapping; resolve ``channel.params`` with the named plugin's model
+    and ``radio.carrier_hz`` with them (docs/scenario-format.md, ``[radio]``)."""
     try:
         scenario = Scenario.model_validate(data)
     except ValidationError as error:
@@ -44,12 +51,48 @@ def parse_scenario(data: dict[str, Any], source: str = "<scenario>") -> Scenario
         model_class = get_model_class(scenario.channel.model)
     except PluginError as error:
         raise ScenarioError([f"{source}: channel.model: {error}"]) from None
-    try:
-        params = model_class.Params.model_validate(scenario.channel.params)
-    except ValidationError as error:
-        raise ScenarioError(_error_lines(source, error, ("channel", "params"))) from None
+    if scenario.users.height_m > 0 and contract_version_of(model_class) < 2:
+        raise ScenarioError([
+            f"{source}: users.height_m: channel model '{scenario.channel.model}' follows "
+            f"plugin contract {contract_version_of(model_class)}, where users are on the "
+            "ground; a user height needs a contract-2 model (docs/plugins.md, contract "
+            "versions), or users.height_m = 0"])
+    params, carrier_hz = _channel_params(scenario, model_class, source)
     channel = scenario.channel.model_copy(update={"params": params.model_dump()})
-    return scenario.model_copy(update={"channel": channel})
+    radio = scenario.radio.model_copy(update={"carrier_hz": carrier_hz})
+    return scenario.model_copy(update={"channel": channel, "radio": radio})
+
+
+def _channel_params(scenario: Scenario, model_class: type[ChannelModel], source: str
+                    ) -> tuple[ChannelParams, float]:
+    """The model's validated parameters and the run's carrier f_c.
+
+    A model with a ``carrier_hz`` parameter shares it with ``[radio]``: given in one place,
+    the other takes it; given in both, they must agree. Otherwise f_c is ``radio.carrier_hz``
+    or, unset, the paper's 28 GHz.
+    """
+    data, radio_hz = dict(scenario.channel.params), scenario.radio.carrier_hz
+    shared = "carrier_hz" in model_class.Params.model_fields
+    given_hz = data.get("carrier_hz")
+    if shared and radio_hz is not None:
+        if given_hz is not None and given_hz != radio_hz:
+            raise ScenarioError([f"{source}: channel.params.carrier_hz: {given_hz!r} Hz "
+                                 f"differs from radio.carrier_hz = {radio_hz!r} Hz; give the "
+                                 "carrier once, in [radio]"])
+        data["carrier_hz"] = radio_hz
+    try:
+        params = model_class.Params.model_validate(data)
+    except ValidationError as error:
+        lines = _error_lines(source, error, ("channel", "params"))
+        if shared and radio_hz is not None and given_hz is None:  # the carrier came from [radio]
+            lines = [line.replace(": channel.params.carrier_hz: ", ": radio.carrier_hz: ")
+                     + f" (the range of channel model '{scenario.channel.model}')"
+                     if ": channel.params.carrier_hz: " in line else line for line in lines]
+        raise ScenarioError(lines) from None
+    value = params.carrier_hz if shared else None  # type: ignore[attr-defined]
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        return params, float(value)
+    return params, DEFAULT_CARRIER_HZ if radio_hz is None else radio_hz
 
 
 def load_scenario(path: str | Path) -> Scenario:

@@ -81,6 +81,10 @@ class Users(Section):
     )
     speed_m_per_step: float = Field(0.0, ge=0, le=1000.0,
                                     description="random-walk speed of every user, m/step")
+    height_m: float = Field(0.0, ge=0, le=MAX_HEIGHT_M - MIN_HEIGHT_M,
+                            description="antenna height h_UT of every user above the ground, "
+                            "m (the paper: 0, users on the ground; needs a contract-2 "
+                            "channel model)")
 
     @field_validator("positions_m")
     @classmethod
@@ -109,6 +113,11 @@ class Users(Section):
                                  f"{len(self.positions_m)} users")
             self.placement = "listed"
             self.count = len(self.positions_m)
+        elif self.count is None and self.placement in (None, "listed"):
+            # a [users] table without positions or count (only height_m, say): the default
+            # users, the paper's training layout
+            self.positions_m = [list(p) for p in PAPER_TRAINING_LAYOUT_M]
+            self.placement, self.count = "listed", len(self.positions_m)
         else:
             if self.count is None:
                 raise ValueError("give positions_m, or count with placement = 'uniform'")
@@ -156,6 +165,10 @@ class Uav(Section):
 
 
 class Radio(Section):
+    carrier_hz: float | None = Field(
+        None, ge=1e8, le=1e12, description="carrier frequency f_c, Hz, handed to the channel "
+        "model; default: the model's carrier_hz parameter where it has one, else 28e9 "
+        "(Table I, mmWave)")
     tx_power_dbm: float = Field(20.0, ge=-50.0, le=80.0,
                                 description="power P_T of each cluster, dBm")
     bandwidth_hz: float = Field(2e9, gt=0, le=1e12, description="bandwidth W of each cluster, Hz")
@@ -341,6 +354,17 @@ class Scenario(Section):
         if abs(x) > half_m or abs(y) > half_m:
             raise ValueError(f"uav.start_m: ({x}, {y}) lies outside the area "
                              f"|x|, |y| <= {half_m:g} m")
+        return self
+
+    @model_validator(mode="after")
+    def _uav_above_users(self) -> Scenario:
+        """Every link at least MIN_HEIGHT_M long: the UAV's lowest height that far above the
+        users' antennas."""
+        if self.uav.min_height_m - self.users.height_m < MIN_HEIGHT_M:
+            raise ValueError(f"users.height_m: {self.users.height_m:g} m leaves the UAV's "
+                             f"lowest height (uav.min_height_m = {self.uav.min_height_m:g} m) "
+                             f"less than {MIN_HEIGHT_M:g} m above the users; lower the users or "
+                             "raise uav.min_height_m")
         return self
 
     @property

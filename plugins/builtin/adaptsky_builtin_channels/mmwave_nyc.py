@@ -31,6 +31,7 @@ class MmWaveNycParams(ChannelParams):
 
 class MmWaveNyc(ChannelModel):
     Params = MmWaveNycParams
+    contract_version = 2
     description = "28 GHz mmWave, NYC path loss (Akdeniz 2014), sigmoid LoS probability"
     params: MmWaveNycParams
 

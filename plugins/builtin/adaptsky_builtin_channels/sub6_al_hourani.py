@@ -32,6 +32,7 @@ class Sub6AlHouraniParams(ChannelParams):
 
 class Sub6AlHourani(ChannelModel):
     Params = Sub6AlHouraniParams
+    contract_version = 2
     description = "2 GHz sub-6, free space + mean excess loss (Al-Hourani 2014)"
     params: Sub6AlHouraniParams
 

@@ -1,8 +1,10 @@
-"""3GPP TR 36.777 "UMa-AV" aerial-vehicle channel (Annex B), mean path loss, no shadow fading.
+"""3GPP TR 36.777 "UMa-AV" aerial-vehicle channel (Annex B): mean path loss, and optional
+lognormal shadow fading drawn every step.
 
 Heights h and distances in m, carrier f_c in GHz inside the formulas. h is the UAV height
 (``geometry.height_m``), d2D the ground distance (``geometry.horizontal_m``), d3D the 3D
-distance (``geometry.distance_m``); users are on the ground.
+distance between the antennas (``geometry.distance_m``, which counts the users' antenna height
+``users.height_m``: plugin contract 2).
 
 LoS probability, TR 36.777 Table B-1 (UMa-AV)::
 
@@ -28,6 +30,14 @@ Path loss, TR 36.777 Table B-2 (UMa-AV), dB::
 Gain g = 10^(-PL/10): linear power gain of one antenna pair (the antenna gain is applied by
 the environment).
 
+Shadow fading, TR 36.777 Annex B (UMa-AV), with ``shadowing = true`` only: every step each
+link's path loss gains X ~ N(0, sigma_SF^2) dB, so its gain is multiplied by 10^(-X/10)::
+
+    sigma_SF LoS  = 4.64 exp(-0.0066 h)  for h > 22.5 m,  4 dB (TR 38.901 UMa) below
+    sigma_SF NLoS = 6 dB
+
+drawn independently per link and per step from the run's generator (no spatial correlation).
+
 Validity clamps. Outside their height ranges the aerial formulas are extended, not switched:
 the height h inside PL_NLoS is clamped into the NLoS validity range [10, 100] m; PL_LoS has no
 height term and is used at every height (TR 36.777 refers h <= 22.5 m to the terrestrial
@@ -51,10 +61,19 @@ NLOS_MAX_HEIGHT_M = 100.0
 """Table B-2: highest height of the UMa-AV NLoS path loss (clamp), m."""
 
 
+SHADOWING_LOS_TERRESTRIAL_DB = 4.0
+"""sigma_SF of a LoS link at h <= 22.5 m (TR 38.901 UMa), dB."""
+SHADOWING_NLOS_DB = 6.0
+"""sigma_SF of an NLoS link (TR 36.777 UMa-AV), dB."""
+
+
 class UmaAvParams(ChannelParams):
     """TR 38.901's UMa path loss is specified for 0.5 to 100 GHz."""
 
-    carrier_hz: float = Field(2e9, ge=0.5e9, le=100e9, description="carrier frequency f_c, Hz")
+    carrier_hz: float = Field(2e9, ge=0.5e9, le=100e9, description="carrier frequency f_c, Hz "
+                              "(shared with the scenario's [radio] carrier_hz)")
+    shadowing: bool = Field(False, description="lognormal shadow fading of TR 36.777, drawn "
+                            "every step; off: the mean path loss")
 
 
 def _los_probability_aerial(height_m: np.ndarray, horizontal_m: np.ndarray) -> np.ndarray:
@@ -83,7 +102,8 @@ class UmaAv(ChannelModel):
     """
 
     Params = UmaAvParams
-    description = "3GPP TR 36.777 UMa-AV aerial channel (Tables B-1, B-2), mean path loss"
+    description = "3GPP TR 36.777 UMa-AV aerial channel (Tables B-1, B-2), optional shadowing"
+    contract_version = 2
     params: UmaAvParams
 
     @property
@@ -119,3 +139,21 @@ class UmaAv(ChannelModel):
     def gain_nlos(self, geometry: LinkGeometry) -> np.ndarray:
         """10^(-PL_NLoS/10), linear, one antenna pair; never above :meth:`gain_los`."""
         return db_to_linear(-self.path_loss_nlos_db(geometry))
+
+    def shadowing_std_db(self, geometry: LinkGeometry, los: np.ndarray) -> np.ndarray:
+        """sigma_SF of each link (B, N), dB: 4.64 exp(-0.0066 h) LoS above 22.5 m, 4 dB LoS
+        at or below, 6 dB NLoS."""
+        height_m = geometry.height_m
+        los_db = np.where(height_m > TERRESTRIAL_MAX_HEIGHT_M, 4.64 * np.exp(-0.0066 * height_m),
+                          SHADOWING_LOS_TERRESTRIAL_DB)
+        return np.where(los, los_db, SHADOWING_NLOS_DB)
+
+    def fading_enabled(self) -> bool:
+        """Shadow fading only with ``shadowing = true``."""
+        return self.params.shadowing
+
+    def sample_fading(self, geometry: LinkGeometry, los: np.ndarray,
+                      rng: np.random.Generator) -> np.ndarray:
+        """10^(-X/10) with X ~ N(0, sigma_SF^2) dB per link, drawn from ``rng``."""
+        shadow_db = self.shadowing_std_db(geometry, los) * rng.standard_normal(geometry.shape)
+        return db_to_linear(-shadow_db)

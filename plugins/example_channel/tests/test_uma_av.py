@@ -212,3 +212,62 @@ def test_follows_the_plugin_contract(carrier_hz):
     """Every rule of adaptsky's plugin contract (adaptsky plugins check uma-av), at the
     default carrier and at both ends of its allowed range."""
     assert check_channel_model(UmaAv, UmaAv.Params(carrier_hz=carrier_hz)) == []
+
+
+def test_follows_the_plugin_contract_with_shadowing():
+    assert UmaAv.contract_version == 2
+    assert check_channel_model(UmaAv, UmaAv.Params(shadowing=True)) == []
+
+
+# --- contract 2: user antennas above the ground, shadow fading -----------------------------
+
+
+def test_gains_count_the_users_antenna_height():
+    # h = 50 m, user antenna 1.5 m up, d2D = 30 m: d3D = sqrt(30^2 + 48.5^2) = 57.0285 m,
+    # PL_LoS = 28 + 22 log10(57.0285) + 20 log10(2) = 28 + 22 * 1.756092 + 6.0206
+    #        = 28 + 38.6340 + 6.0206 = 72.6546 dB
+    uav_m = np.array([[0.0, 0.0, 50.0]])
+    geometry = LinkGeometry.between(uav_m, np.array([[[30.0, 0.0]]]), user_height_m=1.5)
+    d3d = math.hypot(30.0, 48.5)
+    assert d3d == pytest.approx(57.0285, abs=1e-4)
+    model = UmaAv()
+    assert model.gain_los(geometry)[0, 0] == close(gain(reference_pl_los_db(d3d, 2.0)))
+    assert -10 * math.log10(model.gain_los(geometry)[0, 0]) == pytest.approx(72.6546, abs=1e-4)
+    assert model.gain_nlos(geometry)[0, 0] == close(gain(reference_pl_nlos_db(50.0, d3d, 2.0)))
+
+
+def reference_shadowing_std_db(h: float, los: bool) -> float:
+    """TR 36.777 Annex B, UMa-AV: 4.64 exp(-0.0066 h) LoS above 22.5 m (4 dB, TR 38.901 UMa,
+    at or below), 6 dB NLoS."""
+    if not los:
+        return 6.0
+    return 4.64 * math.exp(-0.0066 * h) if h > 22.5 else 4.0
+
+
+def test_shadowing_std_follows_tr_36777():
+    # by hand: h = 100 m LoS, 4.64 exp(-0.66) = 4.64 * 0.516851 = 2.398190 dB
+    geometry = grid_geometry([20.0, 50.0, 100.0], [0.0, 30.0])
+    los = np.array([[True, False]] * 3)
+    std_db = UmaAv().shadowing_std_db(geometry, los)
+    assert std_db[2, 0] == pytest.approx(2.398190, abs=1e-6)
+    for b, h in enumerate((20.0, 50.0, 100.0)):
+        for n in range(2):
+            assert std_db[b, n] == close(reference_shadowing_std_db(h, bool(los[b, n])))
+
+
+def test_shadowing_draws_have_the_standards_spread():
+    """200,000 draws per link: the spread of 10 log10(factor) is sigma_SF within 1% (the
+    standard error of a sample std is sigma / sqrt(2 n) = 0.16%), its mean 0 dB within 0.05 dB."""
+    model = UmaAv(UmaAv.Params(shadowing=True))
+    assert model.fading_enabled() and not UmaAv().fading_enabled()
+    geometry = grid_geometry(np.full(200_000, 100.0), [30.0, 60.0])  # 200,000 UAVs at 100 m
+    los = np.zeros(geometry.shape, dtype=bool)
+    los[:, 0] = True
+    draws_db = -10 * np.log10(model.sample_fading(geometry, los, np.random.default_rng(3)))
+    assert draws_db[:, 0].std() == pytest.approx(2.398190, rel=0.01)
+    assert draws_db[:, 1].std() == pytest.approx(6.0, rel=0.01)
+    assert np.abs(draws_db.mean(axis=0)).max() < 0.05
+    geometry, los = grid_geometry([100.0], [30.0, 60.0]), los[:1]
+    again = model.sample_fading(geometry, los, np.random.default_rng(5))
+    np.testing.assert_array_equal(again, model.sample_fading(geometry, los,
+                                                             np.random.default_rng(5)))
