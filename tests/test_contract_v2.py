@@ -358,6 +358,13 @@ class ScalarFading(FreeSpace28):
         return np.ones(geometry.shape[1])
 
 
+class GlobalFadingOff(GlobalFading):
+    """Off by default: the hook is checked all the same."""
+
+    def fading_enabled(self):
+        return False
+
+
 class MaybeFading(FreeSpace28):
     def fading_enabled(self):
         return 1
@@ -373,6 +380,7 @@ class NanAboveTheGround(FreeSpace28):
 
 @pytest.mark.parametrize(("model", "line"), [
     (GlobalFading, "generator: sample_fading() drew from numpy's global generator"),
+    (GlobalFadingOff, "generator: sample_fading() drew from numpy's global generator"),
     (NegativeFading, "positive: sample_fading() returned factors <= 0"),
     (OwnGenerator, "reproducible: sample_fading() gave other draws from the same generator "
                    "state"),

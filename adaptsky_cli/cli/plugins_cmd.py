@@ -70,8 +70,9 @@ def show(name: PluginName, as_json: Json = False) -> None:
         allowed = ", ".join(f"{_SYMBOLS[bound]} {value:g}" for bound, value in limits.items())
         if not allowed and field.annotation is bool:
             allowed = "true, false"
-        table.add_row(escape(key), escape(_type_name(field.annotation)), escape(repr(
-            field.default)), allowed or "any", escape(field.description or ""))
+        table.add_row(escape(key), escape(_type_name(field.annotation)),
+                      escape(_shown(field.default)), allowed or "any",
+                      escape(field.description or ""))
     out.print(table)
 
 
@@ -108,6 +109,15 @@ def _params(name: str, model: Any, items: list[str]) -> Any:
         where = ".".join(str(part) for part in first["loc"])
         message = "unknown key" if first["type"] == "extra_forbidden" else first["msg"]
         raise PluginError(f"--param {where}: {message}") from None
+
+
+def _shown(value: Any) -> str:
+    """A default as a scenario file would write it: ``3.5e+09``, ``true``, ``"text"``."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return f"{value:g}"
+    return repr(value)
 
 
 def _contract(info: PluginInfo) -> str:
