@@ -27,7 +27,9 @@ from adaptsky_cli.channels.contract import (
     ChannelModel,
     ChannelParams,
     LinkGeometry,
+    carrier_parameter_hz,
     contract_version_of,
+    implements_fading,
 )
 
 ARRAY_METHODS = ("los_probability", "gain_los", "gain_nlos", "expected_gain")
@@ -94,7 +96,7 @@ def _contract_problems(model: type[ChannelModel]) -> list[str]:
                      "in the class to use it" for hook in CONTRACT_2_HOOKS
                      if getattr(model, hook) is not getattr(ChannelModel, hook)]
     elif (model.fading_enabled is not ChannelModel.fading_enabled
-          and model.sample_fading is ChannelModel.sample_fading):
+          and not implements_fading(model)):
         problems.append("fading: fading_enabled() is overridden but sample_fading() is not "
                         "implemented")
     return problems
@@ -105,8 +107,8 @@ def _carrier_hz(instance: ChannelModel, carrier_hz: float | None) -> float:
     the paper's 28 GHz."""
     if carrier_hz is not None:
         return carrier_hz
-    value = getattr(instance.params, "carrier_hz", None)
-    return value if isinstance(value, int | float) else DEFAULT_CARRIER_HZ
+    value = carrier_parameter_hz(instance.params)
+    return DEFAULT_CARRIER_HZ if value is None else value
 
 
 def _links(user_height_m: float, carrier_hz: float, seed: int = 0) -> LinkGeometry:
@@ -191,7 +193,7 @@ def checked_conditions(model: type[ChannelModel], params: ChannelParams | None =
     given = ", ".join(f"{key}={value!r}" for key, value in
                       (params.model_dump(exclude_defaults=True).items() if params else ())
                       if key != "carrier_hz")
-    fading = ("fading hook checked" if has_fading_hook(model) and contract_version_of(model) >= 2
+    fading = ("fading hook checked" if implements_fading(model) and contract_version_of(model) >= 2
               else "no fading hook")
     return (f"f_c {_carrier_hz(instance, carrier_hz) / 1e9:g} GHz, users {heights}, "
             f"{fading}, parameters: {given or 'defaults'}")
@@ -304,11 +306,6 @@ def _sampling(instance: ChannelModel, geometry: LinkGeometry) -> list[str]:
     return failures
 
 
-def has_fading_hook(model: Any) -> bool:
-    """Whether a model class implements ``sample_fading``."""
-    return getattr(model, "sample_fading", None) is not ChannelModel.sample_fading
-
-
 def _fading(instance: ChannelModel, geometry: LinkGeometry) -> list[str]:
     """Contract 2: fading_enabled() is a bool; where the class implements sample_fading()
     (whether or not these parameters enable it, so that a hook off by default is checked
@@ -320,7 +317,7 @@ def _fading(instance: ChannelModel, geometry: LinkGeometry) -> list[str]:
         return failures
     if not isinstance(enabled, bool | np.bool_):
         return [f"fading: fading_enabled() returned {type(enabled).__name__}, not a bool"]
-    if not has_fading_hook(type(instance)):
+    if not implements_fading(type(instance)):
         return failures
     los = np.random.default_rng(3).random(SHAPE) < 0.5
     before = _global_state()

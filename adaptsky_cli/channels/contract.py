@@ -184,7 +184,7 @@ class ChannelModel(ABC):
     def fading_enabled(self) -> bool:
         """Contract 2: whether :meth:`sample_fading` applies with these parameters (decided
         by the parameters alone). The default: whether the class implements it."""
-        return type(self).sample_fading is not ChannelModel.sample_fading
+        return implements_fading(type(self))
 
     def sample_fading(self, geometry: LinkGeometry, los: BoolArray,
                       rng: np.random.Generator) -> FloatArray:
@@ -193,6 +193,20 @@ class ChannelModel(ABC):
         each link's LoS state in this step. Draw from ``rng`` only (the run's seeded
         generator). Not implemented here: the paper's models have no fading."""
         raise NotImplementedError(f"{type(self).__name__} has no fading hook")
+
+
+def implements_fading(model: Any) -> bool:
+    """Whether a model class implements :meth:`ChannelModel.sample_fading`."""
+    return getattr(model, "sample_fading", None) is not ChannelModel.sample_fading
+
+
+def carrier_parameter_hz(params: BaseModel) -> float | None:
+    """The value of a model's ``carrier_hz`` parameter (shared with ``[radio] carrier_hz``,
+    docs/plugins.md), or None where its ``Params`` has no such number."""
+    value = getattr(params, "carrier_hz", None)
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        return float(value)
+    return None
 
 
 def contract_version_of(model: Any) -> int | Any:

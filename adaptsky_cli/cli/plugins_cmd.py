@@ -144,7 +144,7 @@ Params = Annotated[list[str] | None, typer.Option(
 def check(name: PluginName, carrier_hz: CarrierHz = None, param: Params = None) -> None:
     """Check a channel model against every rule of the plugin contract (docs/plugins.md):
     one line per failure, exit 1 if any."""
-    from adaptsky_cli.channels.checker import check_channel_model
+    from adaptsky_cli.channels.checker import check_channel_model, checked_conditions
 
     model = load_class(name)
     params = _params(name, model, param or [])
@@ -154,8 +154,6 @@ def check(name: PluginName, carrier_hz: CarrierHz = None, param: Params = None) 
             err.print(f"{name}: {line}", markup=False, highlight=False, soft_wrap=True)
         raise typer.Exit(1)
     info = discover()[name]
-    from adaptsky_cli.channels.checker import checked_conditions
-
     out.print(f"ok  {name}: follows plugin contract {info.contract_version} ("
               f"{checked_conditions(model, params, carrier_hz)})", markup=False,
               soft_wrap=True)

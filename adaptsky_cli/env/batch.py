@@ -48,15 +48,6 @@ def fading_active(channel: ChannelModel) -> bool:
     return contract_version_of(channel) >= 2 and bool(channel.fading_enabled())
 
 
-def scenario_geometry(scenario: Scenario, uav_m: FloatArray, users_m: FloatArray
-                      ) -> LinkGeometry:
-    """The links between UAVs ``uav_m`` (B, 3) and users ``users_m`` (B, N, 2) with the
-    scenario's user height, carrier and bandwidth (docs/plugins.md, the geometry)."""
-    return LinkGeometry.between(uav_m, users_m, user_height_m=scenario.users.height_m,
-                                carrier_hz=carrier_hz(scenario),
-                                bandwidth_hz=scenario.radio.bandwidth_hz)
-
-
 def carrier_hz(scenario: Scenario) -> float:
     """f_c of the scenario (``radio.carrier_hz``, resolved when the scenario is loaded)."""
     value = scenario.radio.carrier_hz
@@ -280,8 +271,11 @@ class NomaUavBatch:
 
     def geometry(self, uav_m: FloatArray, users_m: FloatArray) -> LinkGeometry:
         """The links between UAVs ``uav_m`` (B', 3) and users ``users_m`` (B', N, 2) in this
-        scenario (its user height, carrier and bandwidth)."""
-        return scenario_geometry(self.scenario, uav_m, users_m)
+        scenario (its user height, carrier and bandwidth; docs/plugins.md, the geometry)."""
+        scenario = self.scenario
+        return LinkGeometry.between(uav_m, users_m, user_height_m=scenario.users.height_m,
+                                    carrier_hz=carrier_hz(scenario),
+                                    bandwidth_hz=scenario.radio.bandwidth_hz)
 
     @property
     def max_steps(self) -> int:

@@ -17,6 +17,7 @@ from adaptsky_cli.channels.contract import (
     DEFAULT_CARRIER_HZ,
     ChannelModel,
     ChannelParams,
+    carrier_parameter_hz,
     contract_version_of,
 )
 from adaptsky_cli.channels.registry import get_model_class
@@ -89,9 +90,9 @@ def _channel_params(scenario: Scenario, model_class: type[ChannelModel], source:
                      + f" (the range of channel model '{scenario.channel.model}')"
                      if ": channel.params.carrier_hz: " in line else line for line in lines]
         raise ScenarioError(lines) from None
-    value = params.carrier_hz if shared else None  # type: ignore[attr-defined]
-    if isinstance(value, int | float) and not isinstance(value, bool):
-        return params, float(value)
+    value = carrier_parameter_hz(params)
+    if value is not None:
+        return params, value
     return params, DEFAULT_CARRIER_HZ if radio_hz is None else radio_hz
 
 
