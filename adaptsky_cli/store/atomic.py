@@ -92,15 +92,40 @@ def _copy_name(path: Path, pid: int | str) -> Path:
     return path.with_name(f".{path.name}.tmp-{pid}")
 
 
+class FileGoneError(AdaptskyError):
+    """The file being updated was removed or replaced by another while adaptsky worked on it:
+    nothing is written (neither over another file nor as a new one)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        super().__init__(f"{path}: the file was removed or replaced while adaptsky was "
+                         "updating it; nothing was written, and what it would have stored "
+                         "is lost")
+
+
+# which file a path names and its version: (st_dev, st_ino, st_size, st_mtime_ns); a file
+# overwritten in place (cp) changes the last two
+Identity = tuple[int, int, int, int]
+
+
+def _identity_of(info: os.stat_result) -> Identity:
+    return info.st_dev, info.st_ino, info.st_size, info.st_mtime_ns
+
+
 @contextmanager
 def rewrite(path: Path, fresh: bool = False) -> Iterator[h5py.File]:
-    """Open ``path`` (or a new file, always with ``fresh``) as an in-memory HDF5 image for
-    writing; on success the image replaces ``path`` in one rename. Disk faults raise
-    :class:`StorageError` and leave ``path`` as it was."""
-    data = b""
-    if not fresh and path.exists():
+    """Open ``path`` as an in-memory HDF5 image for writing (with ``fresh``, a new file at a
+    path that must not exist yet); on success the image replaces ``path`` in one rename. Disk
+    faults raise :class:`StorageError` and leave ``path`` as it was; a file removed or
+    replaced meanwhile raises :class:`FileGoneError` (it is never created again)."""
+    data, identity = b"", None
+    if not fresh:
         try:
-            data = path.read_bytes()
+            with open(path, "rb") as handle:
+                identity = _identity_of(os.fstat(handle.fileno()))
+                data = handle.read()
+        except FileNotFoundError:
+            raise FileGoneError(path) from None
         except OSError as error:
             raise storage_error(path, "cannot read it", error) from None
     image = io.BytesIO(data)
@@ -108,7 +133,7 @@ def rewrite(path: Path, fresh: bool = False) -> Iterator[h5py.File]:
     with h5py.File(image, "a" if image.getbuffer().nbytes else "w") as file:
         yield file
     with image.getbuffer() as view:
-        write_bytes_atomic(path, view)
+        write_bytes_atomic(path, view, replaces=identity)
 
 
 def _alive(pid: int) -> bool:
@@ -165,18 +190,31 @@ def _check_free_space(path: Path, size_bytes: int) -> None:
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
 
 
-def write_bytes_atomic(path: Path, data: bytes | memoryview) -> None:
+def _identity(path: Path) -> Identity | None:
+    try:
+        return _identity_of(os.stat(path))
+    except FileNotFoundError:
+        return None
+
+
+def write_bytes_atomic(path: Path, data: bytes | memoryview,
+                       replaces: Identity | None = None) -> None:
     """Write ``data`` to a copy that replaces ``path`` in one rename: never half written.
-    Disk faults raise :class:`StorageError`; the copy is removed and ``path`` kept."""
+    Disk faults raise :class:`StorageError`; the copy is removed and ``path`` kept. With
+    ``replaces``, only that file, unchanged, is replaced (:class:`FileGoneError` if ``path``
+    names another file, a changed one or none by the time of the rename)."""
     tmp = _copy_name(path, os.getpid())
-    failure: StorageError | None = None
+    failure: AdaptskyError | None = None
     try:
         _check_free_space(path, len(data))
         with open(tmp, "wb") as handle:
             handle.write(data)
             handle.flush()
             os.fsync(handle.fileno())
-        os.replace(tmp, path)
+        if replaces is not None and _identity(path) != replaces:
+            failure = FileGoneError(path)
+        else:
+            os.replace(tmp, path)
     except OSError as error:
         failure = storage_error(path, "cannot write it", error)
     finally:

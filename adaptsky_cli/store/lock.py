@@ -3,7 +3,8 @@
 The run file itself is replaced by a rename at every checkpoint, so the lock lives beside it.
 ``fcntl.flock`` is released by the kernel when its holder dies (kill -9 included), so a lock
 is never stale; the file holds the writer's PID for the message a second writer gets.
-Readers (``inspect``, ``eval``) do not lock.
+Readers (``inspect``, ``eval``) do not lock; :func:`writer_of` tells them whether a writer is
+at work.
 """
 
 from __future__ import annotations
@@ -32,6 +33,25 @@ def _holder(lock: Path) -> str:
     except OSError:
         pid = ""
     return f"process {pid}" if pid.isdigit() else "another process"
+
+
+def writer_of(path: Path) -> str | None:
+    """"process PID" (or "another process") while a writer holds the lock of ``path``, else
+    None; the lock file is never created here."""
+    lock = lock_path(path)
+    try:
+        fd = os.open(lock, os.O_RDONLY)
+    except OSError:
+        return None  # no lock file: no writer (or one we cannot see; then it says so itself)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return _holder(lock)
+    except OSError:
+        return None
+    finally:
+        os.close(fd)  # releases the shared lock taken to look
+    return None
 
 
 def _acquire(path: Path) -> int:

@@ -36,6 +36,7 @@ from adaptsky_cli.store.layout import (
     require_finite,
     validate_run,
 )
+from adaptsky_cli.store.lock import writer_of
 from adaptsky_cli.store.tree import Tree, read_tree, write_tree
 
 if TYPE_CHECKING:
@@ -68,7 +69,7 @@ def create_run(path: Path, scenario_text: str, config: dict[str, Any],
     ``--set`` items applied to the scenario text (already part of ``config``), ``argv`` the
     command line that made it (default ``sys.argv``), ``evaluation`` the layouts and oracle of
     the greedy evaluations during training."""
-    with rewrite(path) as file:
+    with rewrite(path, fresh=True) as file:
         file.attrs.update(format_version=FORMAT_VERSION, kind=KIND,
                           adaptsky_version=__version__,
                           created_utc=utc_timestamp(),
@@ -343,10 +344,18 @@ class RunReader:
         return self._read_finite(f"seeds/{seed}/checkpoint", f"seed {seed}'s checkpoint")
 
     def require_checkpoint(self, seed: int) -> None:
-        if not self.has_checkpoint(seed):
-            raise RunFileError(f"{self.path}: seed {seed} has no checkpoint (the run stopped "
-                               "before its first one); continue it with adaptsky train "
-                               f"--resume {self.path}")
+        if self.has_checkpoint(seed):
+            return
+        writer = writer_of(self.path)
+        if writer is not None:
+            every = self.scenario.train.checkpoint_every
+            episodes = "1 episode" if every == 1 else f"{every} episodes"
+            raise RunFileError(f"{self.path}: seed {seed} has no checkpoint yet: {writer} is "
+                               f"training it and writes the first after {episodes}; try "
+                               "again then")
+        raise RunFileError(f"{self.path}: seed {seed} has no checkpoint (the run stopped "
+                           "before its first one); continue it with adaptsky train "
+                           f"--resume {self.path}")
 
     def _read_finite(self, name: str, what: str) -> Tree:
         if self.needs != "all":

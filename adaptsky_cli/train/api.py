@@ -18,7 +18,13 @@ from adaptsky_cli.scenario.loading import parse_toml, read_scenario_text
 from adaptsky_cli.scenario.overrides import apply_overrides
 from adaptsky_cli.scenario.resources import check_fits
 from adaptsky_cli.store import run_file
-from adaptsky_cli.store.atomic import StorageError, fresh_path, make_parent, utc_timestamp
+from adaptsky_cli.store.atomic import (
+    FileGoneError,
+    StorageError,
+    fresh_path,
+    make_parent,
+    utc_timestamp,
+)
 from adaptsky_cli.store.lock import run_lock
 from adaptsky_cli.store.run_file import RunReader
 from adaptsky_cli.store.tree import Tree
@@ -32,6 +38,22 @@ if TYPE_CHECKING:  # imported where training starts: commands start without torc
 
 class OutputExistsError(AdaptskyError):
     pass
+
+
+class RunFileGoneError(AdaptskyError):
+    """The run file was removed or replaced by another file while training: adaptsky stops
+    and never writes it again (the same for any number of seeds)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        if path.exists():
+            text = ("was replaced by another file during training; training stopped without "
+                    "writing over it (if that file is a copy of this run, continue it with "
+                    f"adaptsky train --resume {path})")
+        else:
+            text = ("was removed during training; training stopped and wrote nothing in its "
+                    "place (a copy of the run continues with adaptsky train --resume COPY)")
+        super().__init__(f"{path}: the run file {text}")
 
 
 def default_output(scenario: Scenario, directory: Path = Path("runs")) -> Path:
@@ -179,6 +201,8 @@ def _record_session(path: Path, kind: str, started_utc: str, start_s: float,
     try:
         run_file.record_session(path, kind, sys.argv, started_utc, time.monotonic() - start_s,
                                 episodes_before)
+    except FileGoneError:
+        raise RunFileGoneError(path) from None
     except StorageError as error:
         (console or Console(stderr=True)).print(
             f"warning: the session history was not recorded: {error}", markup=False,
@@ -208,4 +232,9 @@ def _run(path: Path, tasks: list[SeedTask], workers: int | None, device: torch.d
             raise
         failure = error.with_advice(f"{error.advice}; {path} keeps its last checkpoints: "
                                     f"continue it with adaptsky train --resume {path}")
+    except FileGoneError as error:
+        if error.path != path:
+            raise
+        failure = RunFileGoneError(path)
     raise failure
+

@@ -11,13 +11,14 @@ from __future__ import annotations
 
 import multiprocessing
 import os
-import queue
 import signal
 import threading
+import time
 import traceback
 from collections.abc import Callable
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -176,32 +177,40 @@ def ignore_stop_signals() -> None:
     signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
 
 
-def _worker(group: list[SeedTask], messages: Any, stop_event: Any) -> None:
+def _worker(group: list[SeedTask], connection: Connection, stop_event: Any,
+            quit_event: Any) -> None:
+    """A worker process: train ``group`` as one stack, sending every message through
+    ``connection`` (a pipe of its own; a send waits until the parent reads it). It ends
+    without a word when the parent is gone or says to quit (``quit_event``)."""
     ignore_stop_signals()
     pin_threads()
     parent_pid = group[0].parent_pid
 
     def orphaned() -> bool:
-        if os.getppid() == parent_pid:
-            return False
-        messages.cancel_join_thread()  # unsent messages have no reader: do not wait on them
-        return True
+        return os.getppid() != parent_pid or quit_event.is_set()
 
     try:
-        train_stack(group, messages.put, stop_event.is_set, orphaned)
-    except Exception as error:  # reported by the parent as one line
-        last = (str(error) if isinstance(error, AdaptskyError)
-                else traceback.format_exception_only(type(error), error)[-1].strip())
-        for task in group:
-            messages.put(("error", task.key, last))
+        try:
+            train_stack(group, connection.send, stop_event.is_set, orphaned)
+        except Exception as error:  # reported by the parent as one line
+            last = (str(error) if isinstance(error, AdaptskyError)
+                    else traceback.format_exception_only(type(error), error)[-1].strip())
+            for task in group:
+                connection.send(("error", task.key, last))
+    except OSError:  # the parent closed its end (it quit or died): nobody reads any more
+        pass
+    finally:
+        connection.close()
 
 
 class _StopOnInterrupt:
     """First Ctrl-C (or SIGTERM): finish the current episodes, checkpoint, stop. Second: stop
-    at once."""
+    at once, but never in the middle of writing the run file (:meth:`shielded`): then it
+    takes effect when the write is done."""
 
     def __init__(self, event: Any, view: TrainingProgress) -> None:
         self.event, self.view = event, view
+        self.writing = self.quit_pending = False
 
     def __enter__(self) -> _StopOnInterrupt:
         self.previous = {signum: signal.signal(signum, self._handle) for signum in STOP_SIGNALS}
@@ -209,10 +218,26 @@ class _StopOnInterrupt:
 
     def _handle(self, signum: int, frame: Any) -> None:
         if self.event.is_set():
+            if self.writing:
+                self.quit_pending = True
+                return
             raise KeyboardInterrupt
         self.event.set()
         self.view.message("interrupted: checkpointing at the end of the current episode "
                           "(Ctrl-C again to quit now)")
+
+    def shielded(self, handle: Emit) -> Emit:
+        """``handle`` with a second Ctrl-C held back while it runs (it writes the run file:
+        an interrupt inside HDF5's callbacks could leave a file it cannot close)."""
+        def shielded_handle(message: tuple[Any, ...]) -> None:
+            self.writing = True
+            try:
+                handle(message)
+            finally:
+                self.writing = False
+            if self.quit_pending:
+                raise KeyboardInterrupt
+        return shielded_handle
 
     def __exit__(self, *exc: object) -> None:
         for signum, previous in self.previous.items():
@@ -221,22 +246,35 @@ class _StopOnInterrupt:
 
 class RunFileWriter:
     """Handles a seed's messages: checkpoints go into the run file at ``path`` (this process is
-    its only writer), progress to ``on_episode``, errors into ``errors``."""
+    its only writer), progress to ``on_episode``, errors into ``errors``; ``reached`` holds
+    each seed's last episode trained (stored or not)."""
 
     def __init__(self, path: Path, done: dict[int, int], errors: list[str],
                  on_episode: Callable[[int, int, dict[str, float]], None] | None = None) -> None:
         self.path, self.done, self.errors, self.on_episode = path, done, errors, on_episode
+        self.reached: dict[object, int] = dict(done)
 
     def __call__(self, message: tuple[Any, ...]) -> None:
         kind, seed = message[0], message[1]
-        if kind == "progress" and self.on_episode is not None:
-            self.on_episode(seed, message[2], message[3])
+        if kind == "progress":
+            self.reached[seed] = message[2]
+            if self.on_episode is not None:
+                self.on_episode(seed, message[2], message[3])
         elif kind == "checkpoints":  # [(seed, rows, trajectories, last, checkpoint, evals)]
             run_file.append_checkpoints(self.path, message[2])
             for seed, *_, checkpoint, _ in message[2]:
                 self.done[seed] = int(checkpoint["episode"])
         elif kind == "error":
             self.errors.append(f"seed {seed} failed: {message[2]}")
+
+    def lost(self) -> str:
+        """What an end without waiting for checkpoints keeps and loses, in one line."""
+        kept = ", ".join(f"seed {seed} at episode {done}" if done else
+                         f"seed {seed} without a checkpoint" for seed, done in self.done.items())
+        behind = [seed for seed, done in self.done.items() if self.reached.get(seed, 0) > done]
+        lost = (f"; what seed{'s' if len(behind) > 1 else ''} "
+                f"{', '.join(map(str, behind))} trained after that is lost" if behind else "")
+        return f"quit: {self.path} keeps {kept}{lost}"
 
 
 @dataclass
@@ -252,13 +290,22 @@ def partition(tasks: list[SeedTask], workers: int) -> list[list[SeedTask]]:
     return [tasks[start::count] for start in range(count)]
 
 
+# how long workers told to quit (a second Ctrl-C, an error here) may take to end by themselves
+# (they look at the end of every episode) before they are killed; nothing they hold would be
+# stored
+QUIT_GRACE_S = 1.0
+# how long workers that sent everything may take to exit before they are killed
+EXIT_GRACE_S = 10.0
+
+
 def run_tasks(path: Path, tasks: list[SeedTask], workers: int, view: TrainingProgress,
               device: torch.device | None = None) -> RunOutcome:
     """Train every task, writing each checkpoint to the run file at ``path``.
 
     On a CPU the tasks are shared among ``workers`` processes (at most the cores), each
     training its share as one stack; on another device one stack in this process holds them
-    all.
+    all. A second Ctrl-C ends at once (after a write in progress), saying in one line what
+    the run file keeps.
     """
     import torch
 
@@ -267,61 +314,100 @@ def run_tasks(path: Path, tasks: list[SeedTask], workers: int, view: TrainingPro
     handle = RunFileWriter(path, done, errors, view.episode)
     device = device or torch.device("cpu")
     workers = max(1, min(workers, len(tasks), os.cpu_count() or 1))
-    if device.type != "cpu" or workers == 1:
-        stop = threading.Event()
-        pin_threads()
-        with _StopOnInterrupt(stop, view):
-            train_stack(tasks, handle, stop.is_set, device=device)
-        if errors:
-            raise TrainingError("; ".join(errors))
-        return RunOutcome(done, stop.is_set())
-
-    context = multiprocessing.get_context("spawn")
-    messages, stop_event = context.Queue(), context.Event()
-    processes = []
-    with _StopOnInterrupt(stop_event, view):
-        try:
-            with stop_signals_blocked():  # children ignore them before they import anything
-                for group in partition(tasks, workers):
-                    process = context.Process(target=_worker,
-                                              args=(group, messages, stop_event), daemon=True)
-                    process.start()
-                    processes.append((process, {task.key for task in group}))
-            _collect(messages, processes, {task.key for task in tasks}, handle, errors,
-                     stop_event)
-            for process, _ in processes:
-                process.join()
-        finally:
-            _end(processes)
+    local = device.type != "cpu" or workers == 1
+    stop = threading.Event() if local else multiprocessing.get_context("spawn").Event()
+    try:
+        with _StopOnInterrupt(stop, view) as interrupts:
+            if local:
+                pin_threads()
+                train_stack(tasks, interrupts.shielded(handle), stop.is_set, device=device)
+            else:
+                _run_workers(tasks, workers, interrupts.shielded(handle), errors, stop)
+    except KeyboardInterrupt:
+        view.message(handle.lost())
+        raise
     if errors:
         raise TrainingError("; ".join(errors))
-    return RunOutcome(done, stop_event.is_set())
+    return RunOutcome(done, stop.is_set())
 
 
-def _collect(messages: Any, processes: list[tuple[Any, set[object]]], left: set[object],
-             handle: RunFileWriter, errors: list[str], stop_event: Any) -> None:
+@dataclass
+class _Worker:
+    """A worker process, the read end of its pipe (None once it ended) and its tasks' keys."""
+
+    process: Any
+    connection: Connection | None
+    keys: set[object]
+
+
+def _run_workers(tasks: list[SeedTask], workers: int, handle: Emit, errors: list[str],
+                 stop_event: Any) -> None:
+    """Train ``tasks`` in ``workers`` processes, handing their messages to ``handle``; every
+    process has ended (or been killed) when this returns or raises."""
+    context = multiprocessing.get_context("spawn")
+    quit_event = context.Event()
+    started: list[_Worker] = []
+    try:
+        with stop_signals_blocked():  # children ignore them before they import anything
+            for group in partition(tasks, workers):
+                reader, writer = context.Pipe(duplex=False)
+                process = context.Process(target=_worker, daemon=True,
+                                          args=(group, writer, stop_event, quit_event))
+                started.append(_Worker(process, reader, {task.key for task in group}))
+                process.start()
+                writer.close()  # the child's end: EOF here once the child has ended
+        _collect(started, {task.key for task in tasks}, handle, errors, stop_event)
+    except BaseException:
+        quit_event.set()  # nobody will write what they send: end now
+        _end(started, QUIT_GRACE_S)
+        raise
+    _end(started, EXIT_GRACE_S)
+
+
+def _collect(started: list[_Worker], left: set[object], handle: Emit, errors: list[str],
+             stop_event: Any) -> None:
     """Hand the workers' messages to ``handle`` until every task is done or failed."""
     while left:
-        try:
-            message = messages.get(timeout=0.5)
-        except queue.Empty:
-            for process, keys in processes:
-                if not process.is_alive() and keys & left:
-                    errors.append(f"seeds {sorted(keys & left)} failed: their process "
-                                  f"ended with exit code {process.exitcode}")
-                    left -= keys
-            continue
-        handle(message)
-        if message[0] in ("done", "error"):
-            left.discard(message[1])
-            if message[0] == "error":
-                stop_event.set()
+        open_ends = {worker.connection: worker for worker in started
+                     if worker.connection is not None}
+        if not open_ends:
+            break
+        for connection in wait(list(open_ends), timeout=1.0):
+            worker = open_ends[connection]  # type: ignore[index]
+            try:
+                message = connection.recv()  # type: ignore[union-attr]
+            except (EOFError, OSError):  # it ended: whatever it had not finished failed
+                worker.connection = None
+                connection.close()  # type: ignore[union-attr]
+                if worker.keys & left:
+                    worker.process.join(EXIT_GRACE_S)
+                    errors.append(f"seeds {sorted(worker.keys & left)} failed: their process "
+                                  f"ended with exit code {worker.process.exitcode}")
+                    left -= worker.keys
+                    stop_event.set()
+                continue
+            handle(message)
+            if message[0] in ("done", "error"):
+                left.discard(message[1])
+                if message[0] == "error":
+                    stop_event.set()
 
 
-def _end(processes: list[tuple[Any, set[object]]]) -> None:
-    """Workers still running after an error here (a full disk, a second Ctrl-C) are
-    stopped: nobody would write what they send."""
-    for process, _ in processes:
-        if process.is_alive():
-            process.terminate()
-        process.join()
+def _end(started: list[_Worker], grace_s: float) -> None:
+    """Close every pipe (a worker blocked sending then fails at once and ends), wait at most
+    ``grace_s`` for the workers to end, then kill (SIGKILL) those still running: they ignore
+    SIGINT and SIGTERM."""
+    for worker in started:
+        if worker.connection is not None:
+            worker.connection.close()
+            worker.connection = None
+    deadline = time.monotonic() + grace_s
+    try:
+        for worker in started:
+            if worker.process.pid is not None:
+                worker.process.join(max(0.0, deadline - time.monotonic()))
+    finally:
+        for worker in started:
+            if worker.process.pid is not None and worker.process.is_alive():
+                worker.process.kill()
+                worker.process.join(EXIT_GRACE_S)
