@@ -1,42 +1,53 @@
-"""adaptsky's public Python API (``import adaptsky``); also registers
-``adaptsky/NomaUav-v0`` with Gymnasium.
+"""adaptsky: a simulator and deep-reinforcement-learning framework for NOMA-UAV networks.
 
-The code lives in ``adaptsky_cli`` (the package of the ``adaptsky`` command); this module
-re-exports what a library user needs, each name loaded on first use, so that ``import
-adaptsky`` does not import torch. Plugin authors import ``adaptsky_cli.channels``
-(docs/plugins.md).
+This package is the library: scenarios, channel models (plugin authors import
+``adaptsky.channels``), the simulation, environments, algorithms, training, run files,
+evaluation, experiments and reports (``docs/architecture.md``). The ``adaptsky`` command lives
+in ``adaptsky_cli``. The public names below are loaded on first use, so ``import adaptsky``
+imports no torch; it registers ``adaptsky/NomaUav-v0`` with Gymnasium.
 """
 
 from importlib import import_module
 from typing import Any
 
-from adaptsky_cli import __version__
-from adaptsky_cli.env.registration import ENV_ID, register_envs
+from adaptsky.envs.registration import ENV_ID, register_envs
 
 register_envs()
 
 # public name -> module that defines it
 _EXPORTS = {
-    "AdaptskyError": "adaptsky_cli.errors",
-    "Scenario": "adaptsky_cli.scenario",
-    "load_scenario": "adaptsky_cli.scenario",
-    "NomaUavBatch": "adaptsky_cli.env.batch",
-    "NomaUavEnv": "adaptsky_cli.env.gym_env",
-    "NomaUavVectorEnv": "adaptsky_cli.env.gym_env",
-    "train": "adaptsky_cli.train.api",
-    "resume": "adaptsky_cli.train.api",
-    "evaluate": "adaptsky_cli.evaluate.api",
-    "baseline": "adaptsky_cli.evaluate.api",
+    "AdaptskyError": "adaptsky.errors",
+    "Scenario": "adaptsky.scenario",
+    "load_scenario": "adaptsky.scenario",
+    "NomaUavBatch": "adaptsky.sim.batch",
+    "NomaUavEnv": "adaptsky.envs.gym_env",
+    "NomaUavVectorEnv": "adaptsky.envs.gym_env",
+    "train": "adaptsky.training.api",
+    "resume": "adaptsky.training.api",
+    "evaluate": "adaptsky.evaluation.api",
+    "baseline": "adaptsky.evaluation.api",
 }
 
 __all__ = ["ENV_ID", "__version__", *_EXPORTS]
 
 
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("adaptsky")
+    except PackageNotFoundError:  # running from a source tree that is not installed
+        return "0.0.0+unknown"
+
+
 def __getattr__(name: str) -> Any:
-    if name not in _EXPORTS:
+    if name == "__version__":
+        value: Any = _version()
+    elif name in _EXPORTS:
+        value = getattr(import_module(_EXPORTS[name]), name)
+    else:
         raise AttributeError(f"module 'adaptsky' has no attribute {name!r}; "
                              f"it exports {', '.join(__all__)}")
-    value = getattr(import_module(_EXPORTS[name]), name)
     globals()[name] = value
     return value
 

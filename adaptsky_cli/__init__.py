@@ -1,10 +1,7 @@
-"""adaptsky: NOMA-UAV network simulator and dueling-DQN framework (AdaptSky paper).
-
-This package holds the code and the ``adaptsky`` command; ``import adaptsky`` gives the
-public API (the ``adaptsky`` package re-exports it) and registers ``adaptsky/NomaUav-v0`` with
-Gymnasium, as does importing ``adaptsky_cli.env.gym_env``. This module imports nothing: the
-console script imports it before it can catch a Ctrl-C, so ``__version__`` is looked up on
-first use.
+"""The ``adaptsky`` command line: the Typer app and its commands (``adaptsky_cli.cli``) over
+the library ``adaptsky``. This module imports nothing: the console script imports it before it
+can catch a Ctrl-C. ``adaptsky_cli.channels`` is an alias of ``adaptsky.channels`` for plugins
+written before the library moved.
 """
 
 from typing import Any
@@ -13,11 +10,8 @@ from typing import Any
 def __getattr__(name: str) -> Any:
     if name != "__version__":
         raise AttributeError(f"module 'adaptsky_cli' has no attribute {name!r}")
-    from importlib.metadata import PackageNotFoundError, version
+    import adaptsky
 
-    try:
-        value = version("adaptsky")
-    except PackageNotFoundError:  # running from a source tree that is not installed
-        value = "0.0.0+unknown"
+    value = adaptsky.__version__
     globals()["__version__"] = value
     return value

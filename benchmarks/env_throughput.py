@@ -17,8 +17,8 @@ import numpy as np  # noqa: E402
 from rich.console import Console  # noqa: E402
 from rich.table import Table  # noqa: E402
 
-from adaptsky_cli.env.batch import NomaUavBatch  # noqa: E402
-from adaptsky_cli.scenario import load_scenario  # noqa: E402
+from adaptsky.scenario import load_scenario  # noqa: E402
+from adaptsky.sim.batch import NomaUavBatch  # noqa: E402
 
 
 def measure(scenario, num_envs: int, seconds: float) -> float:

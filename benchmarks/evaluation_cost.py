@@ -9,10 +9,10 @@ import time
 
 import numpy as np
 
-from adaptsky_cli.scenario import load_scenario, parse_scenario
-from adaptsky_cli.train.evaluation import GreedyEvaluator, evaluation_set
-from adaptsky_cli.train.runner import pin_threads
-from adaptsky_cli.train.stack_run import Member, StackRun
+from adaptsky.scenario import load_scenario, parse_scenario
+from adaptsky.training.evaluation import GreedyEvaluator, evaluation_set
+from adaptsky.training.runner import pin_threads
+from adaptsky.training.stack_run import Member, StackRun
 
 pin_threads()
 for layouts in (0, 16):

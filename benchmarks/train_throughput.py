@@ -23,10 +23,10 @@ import torch
 from rich.console import Console
 from rich.table import Table
 
-from adaptsky_cli.agent.device_step import describe, resolve_device
-from adaptsky_cli.scenario import Scenario, load_scenario
-from adaptsky_cli.train.runner import pin_threads
-from adaptsky_cli.train.stack_run import Member, StackRun
+from adaptsky.algos.device_step import describe, resolve_device
+from adaptsky.scenario import Scenario, load_scenario
+from adaptsky.training.runner import pin_threads
+from adaptsky.training.stack_run import Member, StackRun
 
 
 def warm_stack(scenario: Scenario, seeds: int, device: torch.device) -> StackRun:

@@ -18,17 +18,17 @@ from pathlib import Path
 
 import numpy as np
 
-from adaptsky_cli.evaluate.api import (
+from adaptsky.evaluation.api import (
     Method,
     eval_layouts,
     eval_scenario,
     run_baseline,
     with_policy,
 )
-from adaptsky_cli.evaluate.metrics import compare, percent_of
-from adaptsky_cli.evaluate.rollout import greedy_policy, rollout
-from adaptsky_cli.store.run_file import RunReader
-from adaptsky_cli.train.runner import pin_threads
+from adaptsky.evaluation.metrics import compare, percent_of
+from adaptsky.evaluation.rollout import greedy_policy, rollout
+from adaptsky.store.run_file import RunReader
+from adaptsky.training.runner import pin_threads
 
 
 def main() -> None:

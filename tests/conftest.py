@@ -7,7 +7,7 @@ from typing import Any
 
 import pytest
 
-from adaptsky_cli.scenario import Scenario, parse_scenario
+from adaptsky.scenario import Scenario, parse_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = ROOT / "scenarios"

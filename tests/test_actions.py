@@ -5,7 +5,7 @@ import itertools
 import numpy as np
 import pytest
 
-from adaptsky_cli.env.actions import ActionSet
+from adaptsky.sim.actions import ActionSet
 
 
 def test_paper_action_set_has_32_distinct_actions_for_four_users():

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 import torch
 
-from adaptsky_cli.agent.network import QNetwork
-from adaptsky_cli.agent.replay import StackedReplay
-from adaptsky_cli.agent.schedule import epsilon
-from adaptsky_cli.agent.stacked import StackedDqn
-from adaptsky_cli.scenario.models import Agent
+from adaptsky.algos.network import QNetwork
+from adaptsky.algos.replay import StackedReplay
+from adaptsky.algos.schedule import epsilon
+from adaptsky.algos.stacked import StackedDqn
+from adaptsky.scenario.models import Agent
 
 CPU = torch.device("cpu")
 

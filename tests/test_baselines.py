@@ -7,15 +7,15 @@ import math
 import numpy as np
 import pytest
 
-from adaptsky_cli.env import noma
-from adaptsky_cli.env.batch import NomaUavBatch
-from adaptsky_cli.env.layout import user_layouts
-from adaptsky_cli.evaluate.api import run_baseline
-from adaptsky_cli.evaluate.objective import constrained_sum_rate
-from adaptsky_cli.evaluate.oracle import lattice, oracle
-from adaptsky_cli.evaluate.rollout import hold, random_policy, rollout
-from adaptsky_cli.evaluate.soa import soa_configuration
-from adaptsky_cli.scenario import load_scenario
+from adaptsky.evaluation.api import run_baseline
+from adaptsky.evaluation.objective import constrained_sum_rate
+from adaptsky.evaluation.oracle import lattice, oracle
+from adaptsky.evaluation.rollout import hold, random_policy, rollout
+from adaptsky.evaluation.soa import soa_configuration
+from adaptsky.scenario import load_scenario
+from adaptsky.sim import noma
+from adaptsky.sim.batch import NomaUavBatch
+from adaptsky.sim.layout import user_layouts
 from tests.conftest import SCENARIOS, SUB6_RADIO, make_scenario
 
 
@@ -124,7 +124,7 @@ def test_oracle_is_never_below_any_other_method(layout_seed, min_se):
 
 
 def test_oracle_refuses_sampled_los():
-    from adaptsky_cli.errors import AdaptskyError
+    from adaptsky.errors import AdaptskyError
     scenario = make_scenario(channel={"los": "sampled"})
     with pytest.raises(AdaptskyError, match="deterministic gains"):
         oracle(scenario, user_layouts(scenario, 1))

@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from adaptsky_cli.channels import LinkGeometry
-from adaptsky_cli.channels.registry import discover, get_model_class
+from adaptsky.channels import LinkGeometry
+from adaptsky.channels.registry import discover, get_model_class
 
 C_LIGHT = 299_792_458.0
 POINTS = [(0.0, 0.0, 10.0), (30.0, 40.0, 50.0), (-44.0, -49.0, 50.0), (70.0, -70.0, 12.0),

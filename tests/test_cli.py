@@ -13,9 +13,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from adaptsky.scenario import load_scenario
+from adaptsky.sim.batch import NomaUavBatch
 from adaptsky_cli.cli.main import main
-from adaptsky_cli.env.batch import NomaUavBatch
-from adaptsky_cli.scenario import load_scenario
 from tests.conftest import SCENARIOS
 
 ADAPTSKY = Path(sys.executable).with_name("adaptsky")

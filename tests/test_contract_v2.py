@@ -10,14 +10,14 @@ from typing import ClassVar
 import numpy as np
 import pytest
 
-from adaptsky_cli.channels import ChannelModel, LinkGeometry, db_to_linear
-from adaptsky_cli.channels.checker import check_channel_model, structural_problems
-from adaptsky_cli.channels.registry import PluginInfo, discover
-from adaptsky_cli.env.batch import NomaUavBatch
-from adaptsky_cli.errors import AdaptskyError, ScenarioError
-from adaptsky_cli.evaluate.oracle import has_oracle, require_deterministic_gains
-from adaptsky_cli.scenario import parse_scenario
-from adaptsky_cli.scenario.models import PAPER_TRAINING_LAYOUT_M
+from adaptsky.channels import ChannelModel, LinkGeometry, db_to_linear
+from adaptsky.channels.checker import check_channel_model, structural_problems
+from adaptsky.channels.registry import PluginInfo, discover
+from adaptsky.errors import AdaptskyError, ScenarioError
+from adaptsky.evaluation.oracle import has_oracle, require_deterministic_gains
+from adaptsky.scenario import parse_scenario
+from adaptsky.scenario.models import PAPER_TRAINING_LAYOUT_M
+from adaptsky.sim.batch import NomaUavBatch
 
 C_LIGHT = 299_792_458.0
 

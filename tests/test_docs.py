@@ -6,7 +6,7 @@ import re
 import pytest
 from pydantic import BaseModel
 
-from adaptsky_cli.scenario.models import Scenario
+from adaptsky.scenario.models import Scenario
 from tests.conftest import ROOT
 
 PAGE = (ROOT / "docs" / "scenario-format.md").read_text()
@@ -31,7 +31,7 @@ EXPERIMENT_PAGE = (ROOT / "docs" / "reproduce.md").read_text()
 
 
 def _experiment_keys():
-    from adaptsky_cli.experiment.models import Experiment
+    from adaptsky.experiment.models import Experiment
 
     def walk(model: type[BaseModel]):
         for name, field in model.model_fields.items():
@@ -91,8 +91,8 @@ def test_python_examples_run_as_written(page, index, monkeypatch):
 
 
 def test_adaptsky_debug_is_documented_and_shows_the_traceback(monkeypatch, capsys):
+    from adaptsky.errors import AdaptskyError
     from adaptsky_cli.cli.main import main
-    from adaptsky_cli.errors import AdaptskyError
 
     for page in ("README.md", "docs/install.md"):
         assert "ADAPTSKY_DEBUG=1 adaptsky " in (ROOT / page).read_text(), page

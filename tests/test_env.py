@@ -4,8 +4,8 @@ observation scaling, seeding."""
 import numpy as np
 import pytest
 
-from adaptsky_cli.env.batch import NomaUavBatch
-from adaptsky_cli.env.layout import pair_users, user_layouts
+from adaptsky.sim.batch import NomaUavBatch
+from adaptsky.sim.layout import pair_users, user_layouts
 from tests.conftest import SUB6_RADIO, TRAINING_LAYOUT_M, make_scenario
 
 LAYOUT = [list(p) for p in TRAINING_LAYOUT_M]

@@ -8,11 +8,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from adaptsky_cli.channels.contract import LinkGeometry
-from adaptsky_cli.env import noma
-from adaptsky_cli.env.batch import NomaUavBatch, build_channel, deterministic_gain, reward_weights
-from adaptsky_cli.env.layout import pair_users, user_layouts
-from adaptsky_cli.env.observation import GAIN_DB_CENTER, GAIN_DB_SCALE
+from adaptsky.channels.contract import LinkGeometry
+from adaptsky.sim import noma
+from adaptsky.sim.batch import NomaUavBatch, build_channel, deterministic_gain, reward_weights
+from adaptsky.sim.layout import pair_users, user_layouts
+from adaptsky.sim.observation import GAIN_DB_CENTER, GAIN_DB_SCALE
 from tests.conftest import SCENARIOS, SUB6_RADIO, TRAINING_LAYOUT_M, make_scenario
 
 FIELDS = ("uav_m", "alpha", "gain", "los", "p_los", "rate_bps", "sum_rate_bps", "fairness",
@@ -174,7 +174,7 @@ def _scenario(case):
 
 
 def _from_file(name):
-    from adaptsky_cli.scenario import load_scenario
+    from adaptsky.scenario import load_scenario
     return load_scenario(SCENARIOS / name)
 
 

@@ -9,10 +9,10 @@ import h5py
 import numpy as np
 import pytest
 
+from adaptsky.scenario import load_scenario
+from adaptsky.scenario.toml_writer import dumps
+from adaptsky.training import api
 from adaptsky_cli.cli.main import main
-from adaptsky_cli.scenario import load_scenario
-from adaptsky_cli.scenario.toml_writer import dumps
-from adaptsky_cli.train import api
 from tests.conftest import SCENARIOS
 
 

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from adaptsky.experiment.plan import load_experiment, plan_experiment, shipped_experiments
 from adaptsky_cli.cli.main import main
-from adaptsky_cli.experiment.plan import load_experiment, plan_experiment, shipped_experiments
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -16,14 +16,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from adaptsky.scenario import Scenario
+from adaptsky.store import atomic
+from adaptsky.store.atomic import error_code, storage_error
+from adaptsky.store.lock import lock_path, run_lock
+from adaptsky.store.run_file import RunReader
+from adaptsky.training import api
+from adaptsky.training.runner import RunFileWriter, SeedTask, train_stack
 from adaptsky_cli.cli.main import main
-from adaptsky_cli.scenario import Scenario
-from adaptsky_cli.store import atomic
-from adaptsky_cli.store.atomic import error_code, storage_error
-from adaptsky_cli.store.lock import lock_path, run_lock
-from adaptsky_cli.store.run_file import RunReader
-from adaptsky_cli.train import api
-from adaptsky_cli.train.runner import RunFileWriter, SeedTask, train_stack
 from tests.test_train import assert_same_curves, curves, small_scenario
 
 ADAPTSKY = Path(sys.executable).with_name("adaptsky")
@@ -138,7 +138,7 @@ def test_lock_of_a_killed_writer_is_released(tmp_path):
     # an OS lock dies with its process: kill -9 never leaves a stale lock
     path = tmp_path / "killed.h5"
     holder = subprocess.Popen([sys.executable, "-c", (
-        "import sys, time; from pathlib import Path; from adaptsky_cli.store.lock import "
+        "import sys, time; from pathlib import Path; from adaptsky.store.lock import "
         "run_lock\nwith run_lock(Path(sys.argv[1])):\n print('held', flush=True); "
         "time.sleep(60)"), str(path)], stdout=subprocess.PIPE, text=True)
     assert holder.stdout.readline().strip() == "held"
@@ -337,7 +337,7 @@ def test_commands_that_do_not_train_start_without_torch():
 def test_pin_threads_limits_blas_after_numpy_is_imported():
     from threadpoolctl import threadpool_info
 
-    from adaptsky_cli.train.runner import pin_threads
+    from adaptsky.training.runner import pin_threads
 
     pin_threads()
     assert {pool["num_threads"] for pool in threadpool_info()} == {1}

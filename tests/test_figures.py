@@ -11,23 +11,23 @@ import matplotlib.image
 import numpy as np
 import pytest
 
-from adaptsky_cli.cli.main import main
-from adaptsky_cli.errors import AdaptskyError
-from adaptsky_cli.report.curves import band, curve_window, gain_stats, trailing_mean
-from adaptsky_cli.report.figures import (
+from adaptsky.errors import AdaptskyError
+from adaptsky.report.curves import band, curve_window, gain_stats, trailing_mean
+from adaptsky.report.figures import (
     Level,
     Series,
     layout_gains,
     learning_curves,
     min_se_sweep,
 )
-from adaptsky_cli.report.plot_runs import default_figure_path, plot_runs
-from adaptsky_cli.store.run_file import (
+from adaptsky.report.plot_runs import default_figure_path, plot_runs
+from adaptsky.store.run_file import (
     EPISODE_METRICS,
     PER_USER_METRICS,
     append_checkpoint,
     create_run,
 )
+from adaptsky_cli.cli.main import main
 from tests.conftest import make_scenario
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 import torch
 
+from adaptsky.evaluation.rollout import greedy_policy
+from adaptsky.scenario import parse_scenario
+from adaptsky.store.run_file import RunReader
+from adaptsky.training import api
+from adaptsky.training.stack_run import Member, StackRun
 from adaptsky_cli.cli.main import main
-from adaptsky_cli.evaluate.rollout import greedy_policy
-from adaptsky_cli.scenario import parse_scenario
-from adaptsky_cli.store.run_file import RunReader
-from adaptsky_cli.train import api
-from adaptsky_cli.train.stack_run import Member, StackRun
 from tests.test_stack import assert_same_results, scenario
 from tests.test_train import small_scenario
 

@@ -9,10 +9,10 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import adaptsky  # noqa: F401  (registers adaptsky/NomaUav-v0)
-from adaptsky_cli import shipped_files
-from adaptsky_cli.env.gym_env import NomaUavEnv, NomaUavVectorEnv
-from adaptsky_cli.errors import ScenarioError
-from adaptsky_cli.scenario import load_scenario
+from adaptsky import shipped_files
+from adaptsky.envs.gym_env import NomaUavEnv, NomaUavVectorEnv
+from adaptsky.errors import ScenarioError
+from adaptsky.scenario import load_scenario
 from tests.conftest import SCENARIOS, SUB6_RADIO, TRAINING_LAYOUT_M, make_scenario
 
 ENV_ID = "adaptsky/NomaUav-v0"
@@ -118,8 +118,8 @@ def test_make_without_a_scenario_uses_the_shipped_default():
 
 
 def test_the_default_scenario_is_found_inside_an_installed_wheel(tmp_path, monkeypatch):
-    # a wheel has no source checkout around it: its scenarios are in adaptsky_cli/shipped/
-    package = tmp_path / "site-packages" / "adaptsky_cli"
+    # a wheel has no source checkout around it: its scenarios are in adaptsky/shipped/
+    package = tmp_path / "site-packages" / "adaptsky"
     (package / "shipped" / "scenarios").mkdir(parents=True)
     inside = package / "shipped" / "scenarios" / "nyc_mmwave.toml"
     inside.write_text((SCENARIOS / "nyc_mmwave.toml").read_text())

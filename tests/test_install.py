@@ -107,8 +107,8 @@ def test_a_python_older_than_3_11_is_refused_in_one_line():
 
 def test_import_adaptsky_reexports_the_public_api():
     # `import adaptsky` failed: the distribution is adaptsky, the code is in adaptsky_cli
-    from adaptsky_cli.env.gym_env import NomaUavEnv
-    from adaptsky_cli.train.api import train
+    from adaptsky.envs.gym_env import NomaUavEnv
+    from adaptsky.training.api import train
 
     assert adaptsky.NomaUavEnv is NomaUavEnv and adaptsky.train is train
     assert adaptsky.__version__ == adaptsky_cli.__version__
@@ -130,5 +130,5 @@ def test_the_wheel_ships_both_packages_and_the_default_scenario():
     wheel = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["hatch"]["build"][
         "targets"]["wheel"]
     assert {"adaptsky_cli", "adaptsky"} <= set(wheel["packages"])
-    assert wheel["force-include"]["scenarios"] == "adaptsky_cli/shipped/scenarios"
+    assert wheel["force-include"]["scenarios"] == "adaptsky/shipped/scenarios"
     assert (ROOT / "scenarios" / "nyc_mmwave.toml").is_file()

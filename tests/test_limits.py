@@ -16,15 +16,15 @@ import h5py
 import numpy as np
 import pytest
 
-from adaptsky_cli.channels.registry import get_model_class
+from adaptsky.channels.registry import get_model_class
+from adaptsky.errors import NonFiniteError, ResourceError, ScenarioError
+from adaptsky.experiment.plan import load_experiment
+from adaptsky.scenario import load_scenario, parse_scenario
+from adaptsky.scenario.models import max_users
+from adaptsky.scenario.resources import check_fits, estimate, format_bytes
+from adaptsky.scenario.toml_writer import dumps
+from adaptsky.training.stack_run import Member, StackRun
 from adaptsky_cli.cli.main import main
-from adaptsky_cli.errors import NonFiniteError, ResourceError, ScenarioError
-from adaptsky_cli.experiment.plan import load_experiment
-from adaptsky_cli.scenario import load_scenario, parse_scenario
-from adaptsky_cli.scenario.models import max_users
-from adaptsky_cli.scenario.resources import check_fits, estimate, format_bytes
-from adaptsky_cli.scenario.toml_writer import dumps
-from adaptsky_cli.train.stack_run import Member, StackRun
 from tests.conftest import SCENARIOS
 
 MMWAVE = load_scenario(SCENARIOS / "nyc_mmwave.toml").model_dump(mode="json")

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from adaptsky_cli.env import noma
+from adaptsky.sim import noma
 
 
 def test_strong_and_weak_sinr_by_hand():

@@ -17,14 +17,14 @@ import h5py
 import pytest
 from rich.console import Console
 
+from adaptsky.evaluation.labels import distinct_labels
+from adaptsky.report import progress as work_progress
+from adaptsky.report.eval_table import methods_table
+from adaptsky.scenario import load_scenario
+from adaptsky.scenario.toml_writer import dumps
+from adaptsky.store.eval_file import read_eval_metrics
+from adaptsky.training.progress import TrainingProgress
 from adaptsky_cli.cli.main import main
-from adaptsky_cli.evaluate.labels import distinct_labels
-from adaptsky_cli.report import progress as work_progress
-from adaptsky_cli.report.eval_table import methods_table
-from adaptsky_cli.scenario import load_scenario
-from adaptsky_cli.scenario.toml_writer import dumps
-from adaptsky_cli.store.eval_file import read_eval_metrics
-from adaptsky_cli.train.progress import TrainingProgress
 from tests.conftest import ROOT, SCENARIOS
 
 STAMP = r"\d{4}-\d\d-\d\d \d\d:\d\d:\d\d "

@@ -8,9 +8,9 @@ import json
 import h5py
 import pytest
 
+from adaptsky.errors import ScenarioError
+from adaptsky.scenario.overrides import apply_overrides, parse_value
 from adaptsky_cli.cli.main import main
-from adaptsky_cli.errors import ScenarioError
-from adaptsky_cli.scenario.overrides import apply_overrides, parse_value
 from tests.conftest import SCENARIOS
 
 

@@ -15,9 +15,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from adaptsky_cli.channels import ChannelModel, ChannelParams
-from adaptsky_cli.channels.checker import check_channel_model, structural_problems
-from adaptsky_cli.channels.registry import discover
+from adaptsky.channels import ChannelModel, ChannelParams
+from adaptsky.channels.checker import check_channel_model, structural_problems
+from adaptsky.channels.registry import discover
 from tests.test_cli import ADAPTSKY, _fake_distribution
 
 
@@ -105,7 +105,7 @@ def test_structure_alone_calls_nothing():
 
 MISSING = """\
     import numpy as np
-    from adaptsky_cli.channels import ChannelModel
+    from adaptsky.channels import ChannelModel
 
     class Model(ChannelModel):
         description = "forgets gain_nlos"
@@ -182,7 +182,7 @@ GUIDE = Path(__file__).parent.parent / "docs" / "plugins.md"
 # by the tests below, and a block that none of these names fails the first test
 GUIDE_BLOCKS = {
     "entry point": lambda lang, text: lang == "toml" and text.startswith("[project.entry"),
-    "imports": lambda lang, text: lang == "python" and text.startswith("from adaptsky_cli"),
+    "imports": lambda lang, text: lang == "python" and text.startswith("from adaptsky.channels"),
     "fading": lambda lang, text: lang == "python" and "class FreeSpaceFading" in text,
     "layout": lambda lang, text: lang == "" and text.startswith("adaptsky-free-space/"),
     "module": lambda lang, text: lang == "python" and text.startswith('"""Free-space channel'),
@@ -210,24 +210,28 @@ def test_every_block_of_the_guide_is_one_the_tests_run():
     exec(_guide_block("imports"), {})  # the contract's names import as the guide lists them
 
 
-def _guide_package(root: Path) -> Path:
+def _guide_package(root: Path, imports: str = "adaptsky.channels") -> Path:
     """The guide's free-space package as section 5 lays it out, installed on ``root`` as pip
     would leave it (a dist-info folder; ``pip install -e`` would need the network for
-    hatchling), with the fading model of section 3 registered beside it."""
+    hatchling), with the fading model of section 3 registered beside it; its code imports the
+    contract from ``imports``."""
+    def block(kind: str) -> str:
+        return _guide_block(kind).replace("adaptsky.channels", imports)
+
     project = root / "adaptsky-free-space"
     package = project / "adaptsky_free_space"
     package.mkdir(parents=True)
-    layout = [line.split()[0] for line in _guide_block("layout").splitlines()[1:]]
+    layout = [line.split()[0] for line in block("layout").splitlines()[1:]]
     assert layout == ["pyproject.toml", "README.md", "adaptsky_free_space/__init__.py",
                       "adaptsky_free_space/free_space.py", "tests/test_free_space.py"]
-    (project / "pyproject.toml").write_text(_guide_block("pyproject"))
+    (project / "pyproject.toml").write_text(block("pyproject"))
     (project / "README.md").write_text("# adaptsky-free-space\n\nFriis free space.\n")
     (package / "__init__.py").write_text("")
-    (package / "free_space.py").write_text(_guide_block("module"))
-    (package / "fading.py").write_text(_guide_block("fading"))
+    (package / "free_space.py").write_text(block("module"))
+    (package / "fading.py").write_text(block("fading"))
     (project / "tests").mkdir()
-    (project / "tests" / "test_free_space.py").write_text(_guide_block("tests"))
-    pyproject = tomllib.loads(_guide_block("pyproject"))
+    (project / "tests" / "test_free_space.py").write_text(block("tests"))
+    pyproject = tomllib.loads(block("pyproject"))
     info = root / "adaptsky_free_space-0.1.0.dist-info"
     info.mkdir()
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: adaptsky-free-space\n"
@@ -237,6 +241,24 @@ def _guide_package(root: Path) -> Path:
     (info / "entry_points.txt").write_text(
         "[adaptsky.channel_models]\n" + "".join(f"{k} = {v}\n" for k, v in points.items()))
     return project
+
+
+def test_a_plugin_written_against_adaptsky_cli_channels_works_unchanged(tmp_path):
+    # the guide before the library moved to adaptsky/ told plugins to import adaptsky_cli.channels
+    project = _guide_package(tmp_path, imports="adaptsky_cli.channels")
+    assert "from adaptsky_cli.channels import" in (
+        project / "adaptsky_free_space" / "free_space.py").read_text()
+    pythonpath = f"{tmp_path}{os.pathsep}{project}"
+    listed = {p["name"]: p for p in json.loads(_run(tmp_path, "plugins", "list", "--json",
+                                                    pythonpath=pythonpath).stdout)}
+    assert listed["free-space"]["status"] == "ok", listed["free-space"]
+    checked = _run(tmp_path, "plugins", "check", "free-space", pythonpath=pythonpath)
+    assert checked.returncode == 0, checked.stderr
+    assert checked.stdout.startswith("ok  free-space: follows plugin contract 2"), checked.stdout
+    result = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider"],
+                            capture_output=True, text=True, cwd=project, check=False,
+                            env={**os.environ, "PYTHONPATH": pythonpath})
+    assert result.returncode == 0 and "4 passed" in result.stdout, result.stdout[-2000:]
 
 
 def test_the_guides_free_space_plugin_works_as_written(tmp_path):

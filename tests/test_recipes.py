@@ -11,15 +11,15 @@ import numpy as np
 import pytest
 import torch
 
-from adaptsky_cli.agent.returns import NStepWindow
-from adaptsky_cli.agent.stacked import StackedDqn
+from adaptsky.algos.returns import NStepWindow
+from adaptsky.algos.stacked import StackedDqn
+from adaptsky.scenario.toml_writer import dumps
+from adaptsky.sim.layout import episode_layouts
+from adaptsky.store.layout import Sizes
+from adaptsky.store.run_file import RunReader
+from adaptsky.training import api
+from adaptsky.training.stack_run import Member, StackRun
 from adaptsky_cli.cli.main import main
-from adaptsky_cli.env.layout import episode_layouts
-from adaptsky_cli.scenario.toml_writer import dumps
-from adaptsky_cli.store.layout import Sizes
-from adaptsky_cli.store.run_file import RunReader
-from adaptsky_cli.train import api
-from adaptsky_cli.train.stack_run import Member, StackRun
 from tests.conftest import make_scenario
 
 OBS = 17  # 4 users: 4 features each and the height
@@ -366,7 +366,7 @@ ORDER_LAYOUT_M = [[20.0, 0.0], [-45.0, 40.0], [0.0, 5.0], [30.0, -30.0]]
 
 
 def test_clusters_order_lists_each_clusters_first_then_second_user():
-    from adaptsky_cli.env.batch import NomaUavBatch
+    from adaptsky.sim.batch import NomaUavBatch
 
     users = {"positions_m": ORDER_LAYOUT_M, "pairing": "near-far"}
     listed = NomaUavBatch(scenario(users=users))

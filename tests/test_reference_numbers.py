@@ -4,7 +4,7 @@ alpha = 0.5 in both clusters, spectral efficiency per user in bit/s/Hz, listed o
 import numpy as np
 import pytest
 
-from adaptsky_cli.env.batch import NomaUavBatch
+from adaptsky.sim.batch import NomaUavBatch
 from tests.conftest import SUB6_RADIO, make_scenario
 
 

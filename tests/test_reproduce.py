@@ -17,10 +17,10 @@ import h5py
 import numpy as np
 import pytest
 
+from adaptsky.experiment.plan import load_experiment, plan_experiment
+from adaptsky.experiment.runs import execute_run
+from adaptsky.store.run_file import RunReader
 from adaptsky_cli.cli.main import main
-from adaptsky_cli.experiment.plan import load_experiment, plan_experiment
-from adaptsky_cli.experiment.runs import execute_run
-from adaptsky_cli.store.run_file import RunReader
 
 ROOT = Path(__file__).resolve().parents[1]
 ADAPTSKY = Path(sys.executable).with_name("adaptsky")

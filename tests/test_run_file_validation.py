@@ -18,9 +18,9 @@ import h5py
 import numpy as np
 import pytest
 
+from adaptsky.store import run_file
+from adaptsky.store.run_file import RunFileError, RunReader
 from adaptsky_cli.cli.main import main
-from adaptsky_cli.store import run_file
-from adaptsky_cli.store.run_file import RunFileError, RunReader
 from tests.conftest import SCENARIOS
 
 POLICY = "seeds/0/checkpoint/agent/policy"

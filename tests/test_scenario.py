@@ -4,9 +4,9 @@ import tomllib
 
 import pytest
 
-from adaptsky_cli.errors import ScenarioError
-from adaptsky_cli.scenario import load_scenario, parse_scenario
-from adaptsky_cli.scenario.toml_writer import dumps
+from adaptsky.errors import ScenarioError
+from adaptsky.scenario import load_scenario, parse_scenario
+from adaptsky.scenario.toml_writer import dumps
 from tests.conftest import SCENARIOS, TRAINING_LAYOUT_M
 
 SHIPPED = sorted(SCENARIOS.glob("*.toml"))

@@ -20,13 +20,13 @@ from pathlib import Path
 
 import pytest
 
+from adaptsky.store import atomic
+from adaptsky.store.atomic import FileGoneError, rewrite
+from adaptsky.store.lock import lock_path, run_lock, writer_of
+from adaptsky.store.run_file import RunReader
+from adaptsky.training import runner
 from adaptsky_cli.cli import entry
 from adaptsky_cli.cli.main import main
-from adaptsky_cli.store import atomic
-from adaptsky_cli.store.atomic import FileGoneError, rewrite
-from adaptsky_cli.store.lock import lock_path, run_lock, writer_of
-from adaptsky_cli.store.run_file import RunReader
-from adaptsky_cli.train import runner
 from tests.test_faults import assert_same_run, leftovers, stub
 from tests.test_train import small_scenario
 

@@ -2,11 +2,11 @@
 
 import pytest
 
-from adaptsky_cli.env.layout import user_layouts
-from adaptsky_cli.evaluate.oracle import oracle
-from adaptsky_cli.report.summary import summarize
-from adaptsky_cli.scenario import load_scenario
-from adaptsky_cli.train import api
+from adaptsky.evaluation.oracle import oracle
+from adaptsky.report.summary import summarize
+from adaptsky.scenario import load_scenario
+from adaptsky.sim.layout import user_layouts
+from adaptsky.training import api
 from tests.conftest import SCENARIOS
 
 

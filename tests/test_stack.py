@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 import torch
 
-from adaptsky_cli.experiment.executors import LocalExecutor, stacks
-from adaptsky_cli.experiment.plan import load_experiment, plan_experiment
-from adaptsky_cli.experiment.runs import execute_run
-from adaptsky_cli.store.run_file import RunReader
-from adaptsky_cli.train.runner import SeedTask, train_stack
-from adaptsky_cli.train.stack_run import Member, StackRun, stack_key
+from adaptsky.experiment.executors import LocalExecutor, stacks
+from adaptsky.experiment.plan import load_experiment, plan_experiment
+from adaptsky.experiment.runs import execute_run
+from adaptsky.store.run_file import RunReader
+from adaptsky.training.runner import SeedTask, train_stack
+from adaptsky.training.stack_run import Member, StackRun, stack_key
 from tests.conftest import TRAINING_LAYOUT_M, make_scenario
 
 AGENT = {"hidden_sizes": [16, 16], "batch_size": 16, "memory_size": 300,

@@ -16,13 +16,13 @@ import h5py
 import numpy as np
 import pytest
 
+from adaptsky.evaluation.rollout import greedy_policy, random_policy, rollout
+from adaptsky.scenario import load_scenario
+from adaptsky.scenario.toml_writer import dumps
+from adaptsky.sim.layout import user_layouts
+from adaptsky.store.run_file import RunReader
+from adaptsky.training import api
 from adaptsky_cli.cli.main import main
-from adaptsky_cli.env.layout import user_layouts
-from adaptsky_cli.evaluate.rollout import greedy_policy, random_policy, rollout
-from adaptsky_cli.scenario import load_scenario
-from adaptsky_cli.scenario.toml_writer import dumps
-from adaptsky_cli.store.run_file import RunReader
-from adaptsky_cli.train import api
 from tests.conftest import SCENARIOS
 
 ADAPTSKY = Path(sys.executable).with_name("adaptsky")

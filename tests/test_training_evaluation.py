@@ -13,19 +13,19 @@ import h5py
 import numpy as np
 import pytest
 
-from adaptsky_cli.cli.main import main
-from adaptsky_cli.env.batch import NomaUavBatch
-from adaptsky_cli.scenario.toml_writer import dumps
-from adaptsky_cli.store.run_file import RunFileError, RunReader
-from adaptsky_cli.train import api
-from adaptsky_cli.train.evaluation import (
+from adaptsky.scenario.toml_writer import dumps
+from adaptsky.sim.batch import NomaUavBatch
+from adaptsky.store.run_file import RunFileError, RunReader
+from adaptsky.training import api
+from adaptsky.training.evaluation import (
     EVALUATION_KEYS,
     GreedyEvaluator,
     evaluation_set,
     percent_of,
     score,
 )
-from adaptsky_cli.train.stack_run import Member, StackRun
+from adaptsky.training.stack_run import Member, StackRun
+from adaptsky_cli.cli.main import main
 from tests.conftest import TRAINING_LAYOUT_M, make_scenario
 
 SEEDS = (0, 1)

@@ -1,11 +1,13 @@
-"""Channel models: the plugin contract, geometry helpers and entry-point discovery."""
+"""Alias of :mod:`adaptsky.channels` for channel-model plugins written against
+``adaptsky_cli.channels`` (before the library moved to ``adaptsky``): the same modules, so the
+same classes, under the old names. New plugins import ``adaptsky.channels`` (docs/plugins.md).
+"""
 
-from adaptsky_cli.channels.contract import (
-    ChannelModel,
-    ChannelParams,
-    LinkGeometry,
-    db_to_linear,
-    free_space_gain,
-)
+import sys
 
-__all__ = ["ChannelModel", "ChannelParams", "LinkGeometry", "db_to_linear", "free_space_gain"]
+import adaptsky.channels
+from adaptsky.channels import checker, contract, registry
+
+for _module in (checker, contract, registry):
+    sys.modules[f"{__name__}.{_module.__name__.rsplit('.', 1)[1]}"] = _module
+sys.modules[__name__] = adaptsky.channels

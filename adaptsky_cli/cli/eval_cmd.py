@@ -10,15 +10,15 @@ from typing import Annotated, Any
 
 import typer
 
+from adaptsky.errors import AdaptskyError
+from adaptsky.evaluation import api
+from adaptsky.report.eval_table import methods_table, oracle_line
+from adaptsky.report.progress import WorkProgress
+from adaptsky.report.units import format_rate
+from adaptsky.store.atomic import fresh_path
+from adaptsky.store.eval_file import write_eval
 from adaptsky_cli.cli.console import err, out
 from adaptsky_cli.cli.options import Json, ScenarioFile, command_line
-from adaptsky_cli.errors import AdaptskyError
-from adaptsky_cli.evaluate import api
-from adaptsky_cli.report.eval_table import methods_table, oracle_line
-from adaptsky_cli.report.progress import WorkProgress
-from adaptsky_cli.report.units import format_rate
-from adaptsky_cli.store.atomic import fresh_path
-from adaptsky_cli.store.eval_file import write_eval
 
 Layouts = Annotated[int | None, typer.Option(min=1, help="evaluate on this many uniform "
                                              "layouts (default: the scenario's layout)")]
@@ -92,7 +92,7 @@ def evaluate(
 
 def _show_training(results: dict[str, Any]) -> None:
     """Which policy was evaluated, and the greedy evaluations during training."""
-    from adaptsky_cli.report.evaluations import curve_arrays, curve_table, policy_line
+    from adaptsky.report.evaluations import curve_arrays, curve_table, policy_line
 
     used = results["policy"]
     out.print(policy_line(used, used["score_kind"]), markup=False)

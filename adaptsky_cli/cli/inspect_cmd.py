@@ -6,9 +6,9 @@ from typing import Annotated
 
 import typer
 
+from adaptsky.report.summary import curve_tables, summarize, summary_table
 from adaptsky_cli.cli.console import out
 from adaptsky_cli.cli.options import Json
-from adaptsky_cli.report.summary import curve_tables, summarize, summary_table
 
 
 def inspect(

@@ -10,7 +10,9 @@ import os
 
 import typer
 
-from adaptsky_cli import __version__
+from adaptsky import __version__
+from adaptsky.errors import AdaptskyError
+from adaptsky.store.atomic import error_path, storage_error
 from adaptsky_cli.cli import (
     eval_cmd,
     inspect_cmd,
@@ -21,8 +23,6 @@ from adaptsky_cli.cli import (
     train_cmd,
 )
 from adaptsky_cli.cli.console import err
-from adaptsky_cli.errors import AdaptskyError
-from adaptsky_cli.store.atomic import error_path, storage_error
 
 app = typer.Typer(name="adaptsky", no_args_is_help=True, pretty_exceptions_enable=False,
                   help="NOMA-UAV network simulator and dueling-DQN framework (AdaptSky).")

@@ -12,7 +12,7 @@ from adaptsky_cli.cli.console import err
 
 
 class Band(StrEnum):
-    """The --band choices (adaptsky_cli.report.curves.BAND_KINDS)."""
+    """The --band choices (adaptsky.report.curves.BAND_KINDS)."""
 
     std = "std"
     bootstrap = "bootstrap"
@@ -28,7 +28,7 @@ def plot(
     title: Annotated[str | None, typer.Option(help="figure title", show_default=False)] = None,
 ) -> None:
     """Draw the learning curves (R_e^tot, a trailing mean) of every seed of the run files."""
-    from adaptsky_cli.report.plot_runs import default_figure_path, plot_runs  # matplotlib
+    from adaptsky.report.plot_runs import default_figure_path, plot_runs  # matplotlib
 
     path = plot_runs(run_paths=runs, out=out_file or default_figure_path(runs[0]),
                      band=band.value, title=title)

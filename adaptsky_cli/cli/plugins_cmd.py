@@ -9,11 +9,11 @@ from rich.padding import Padding
 from rich.table import Table
 from rich.text import Text
 
-from adaptsky_cli.channels.contract import ChannelParams
-from adaptsky_cli.channels.registry import PluginInfo, discover, get_model_class, load_class
+from adaptsky.channels.contract import ChannelParams
+from adaptsky.channels.registry import PluginInfo, discover, get_model_class, load_class
+from adaptsky.errors import PluginError
 from adaptsky_cli.cli.console import err, out
 from adaptsky_cli.cli.options import Json, PluginName
-from adaptsky_cli.errors import PluginError
 
 app = typer.Typer(help="Channel-model plugins (entry-point group adaptsky.channel_models).",
                   no_args_is_help=True)
@@ -91,7 +91,7 @@ def _params(name: str, model: Any, items: list[str]) -> Any:
         return None
     from pydantic import ValidationError
 
-    from adaptsky_cli.scenario.overrides import parse_value
+    from adaptsky.scenario.overrides import parse_value
 
     values = {}
     for item in items:
@@ -144,7 +144,7 @@ Params = Annotated[list[str] | None, typer.Option(
 def check(name: PluginName, carrier_hz: CarrierHz = None, param: Params = None) -> None:
     """Check a channel model against every rule of the plugin contract (docs/plugins.md):
     one line per failure, exit 1 if any."""
-    from adaptsky_cli.channels.checker import check_channel_model, checked_conditions
+    from adaptsky.channels.checker import check_channel_model, checked_conditions
 
     model = load_class(name)
     params = _params(name, model, param or [])

@@ -5,9 +5,9 @@ from typing import Annotated
 
 import typer
 
+from adaptsky.errors import AdaptskyError
 from adaptsky_cli.cli.console import err
 from adaptsky_cli.cli.options import Device
-from adaptsky_cli.errors import AdaptskyError
 
 
 def reproduce(
@@ -42,8 +42,8 @@ def reproduce(
     if runs_only and report_only:
         raise AdaptskyError("--runs-only and --report-only exclude each other")
     # training and evaluation import torch: only when the command runs, not for --help
-    from adaptsky_cli.experiment.plan import shipped_experiments
-    from adaptsky_cli.experiment.reproduce import reproduce_many
+    from adaptsky.experiment.plan import shipped_experiments
+    from adaptsky.experiment.reproduce import reproduce_many
 
     if experiment == "all":
         names = list(shipped_experiments())

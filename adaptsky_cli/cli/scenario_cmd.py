@@ -2,12 +2,12 @@
 
 import typer
 
+from adaptsky.errors import ScenarioError
+from adaptsky.scenario import load_scenario
+from adaptsky.scenario.resources import check_fits, format_bytes
+from adaptsky.scenario.toml_writer import dumps
 from adaptsky_cli.cli.console import err, out
 from adaptsky_cli.cli.options import ScenarioFile, ScenarioFiles
-from adaptsky_cli.errors import ScenarioError
-from adaptsky_cli.scenario import load_scenario
-from adaptsky_cli.scenario.resources import check_fits, format_bytes
-from adaptsky_cli.scenario.toml_writer import dumps
 
 app = typer.Typer(help="Check and print scenario files.", no_args_is_help=True)
 

@@ -5,11 +5,11 @@ from typing import Annotated
 
 import typer
 
+from adaptsky.errors import AdaptskyError
+from adaptsky.report.summary import summarize, summary_table
+from adaptsky.training import api
 from adaptsky_cli.cli.console import err, out
 from adaptsky_cli.cli.options import Device
-from adaptsky_cli.errors import AdaptskyError
-from adaptsky_cli.report.summary import summarize, summary_table
-from adaptsky_cli.train import api
 
 
 def _seeds(value: str | None) -> list[int] | None:

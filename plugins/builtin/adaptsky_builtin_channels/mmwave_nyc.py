@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from pydantic import Field
 
-from adaptsky_cli.channels import ChannelModel, ChannelParams, LinkGeometry, db_to_linear
+from adaptsky.channels import ChannelModel, ChannelParams, LinkGeometry, db_to_linear
 
 _ONE = np.array(1.0)
 

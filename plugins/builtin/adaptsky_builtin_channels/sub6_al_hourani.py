@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 from pydantic import Field
 
-from adaptsky_cli.channels import ChannelModel, ChannelParams, LinkGeometry, db_to_linear
-from adaptsky_cli.channels.contract import SPEED_OF_LIGHT_M_PER_S
+from adaptsky.channels import ChannelModel, ChannelParams, LinkGeometry, db_to_linear
+from adaptsky.channels.contract import SPEED_OF_LIGHT_M_PER_S
 
 _ZERO = np.array(0.0)
 _ONE = np.array(1.0)

@@ -49,7 +49,7 @@ from __future__ import annotations
 import numpy as np
 from pydantic import Field
 
-from adaptsky_cli.channels import ChannelModel, ChannelParams, LinkGeometry, db_to_linear
+from adaptsky.channels import ChannelModel, ChannelParams, LinkGeometry, db_to_linear
 
 TERRESTRIAL_MAX_HEIGHT_M = 22.5
 """Table B-1: at or below this height the TR 38.901 UMa LoS probability applies, m."""

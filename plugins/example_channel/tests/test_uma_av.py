@@ -17,9 +17,9 @@ import pytest
 from adaptsky_example_channel.uma_av import UmaAv
 from pydantic import ValidationError
 
-from adaptsky_cli.channels import LinkGeometry
-from adaptsky_cli.channels.checker import check_channel_model
-from adaptsky_cli.channels.registry import discover
+from adaptsky.channels import LinkGeometry
+from adaptsky.channels.checker import check_channel_model
+from adaptsky.channels.registry import discover
 
 HEIGHTS_M = (12.0, 20.0, 50.0, 150.0)  # C' = 0, C' > 0 (TR 38.901), UMa-AV, always LoS
 HORIZONTALS_M = (0.0, 10.0, 30.0, 300.0)

@@ -1,0 +1,344 @@
+"""The DQN of algorithm 1 for a stack of S independent members (seeds) at once.
+
+Every member has its own weights, target weights and Adam moments; they live in flat buffers
+with a leading member axis, (S, P), so one batched matmul serves every member and Adam
+(elementwise) updates each member exactly as if it were alone. Members are in lockstep, so
+Adam's step count is one number. The TD update of eq. 12 is written out by hand (forward,
+backward, Adam, per-member gradient clipping): no autograd graph per step, a few dozen kernels,
+the same code on a CPU and on a GPU, where :class:`adaptsky.algos.device_step.Graphed`
+records it once and replays it.
+
+Network (sec. IV-A): ReLU layers ``hidden_sizes``, then a dueling head Q = V + A - mean_a A
+(the mean per sample, docs/model.md §4; computed as [V | A] times a fixed matrix) or a plain
+linear head. Per-member checkpoints use the
+names of :class:`adaptsky.algos.network.QNetwork` (``torso.0.weight`` ...), so run files
+from every device and every stack size read alike.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from itertools import pairwise
+from typing import Any
+
+import numpy as np
+import torch
+
+from adaptsky.algos.network import QNetwork
+from adaptsky.scenario.models import Agent
+
+ADAM_BETAS = (0.9, 0.999)
+ADAM_EPS = 1e-8
+CLIP_EPS = 1e-6  # as torch.nn.utils.clip_grad_norm_
+ROW_MULTIPLE = 64
+
+
+@dataclass(frozen=True)
+class Layer:
+    """Offsets of one linear layer's weight (in, out) and bias (out) in a flat parameter row."""
+
+    size_in: int
+    size_out: int
+    weight_at: int
+
+    @property
+    def bias_at(self) -> int:
+        return self.weight_at + self.size_in * self.size_out
+
+    @property
+    def end(self) -> int:
+        return self.bias_at + self.size_out
+
+
+def layer_plan(observation_size: int, num_actions: int, config: Agent) -> list[Layer]:
+    """The layers of the network, the head last (width 1 + A when dueling)."""
+    head = num_actions + 1 if config.dueling else num_actions
+    sizes = [observation_size, *config.hidden_sizes, head]
+    layers, offset = [], 0
+    for size_in, size_out in pairwise(sizes):
+        layers.append(Layer(size_in, size_out, offset))
+        offset = layers[-1].end
+    return layers
+
+
+def _views(flat: torch.Tensor, layers: list[Layer]) -> list[tuple[torch.Tensor, torch.Tensor]]:
+    """(weight (S, in, out), bias (S, 1, out)) views into a flat (S, P) buffer."""
+    stack = flat.shape[0]
+    return [(flat[:, layer.weight_at:layer.bias_at].view(stack, layer.size_in, layer.size_out),
+             flat[:, layer.bias_at:layer.end].view(stack, 1, layer.size_out))
+            for layer in layers]
+
+
+def _torch_names(layers: list[Layer], dueling: bool) -> list[str]:
+    """QNetwork parameter names in its parameters() order; the head splits in two if dueling."""
+    names = []
+    for index in range(len(layers) - 1):
+        names += [f"torso.{2 * index}.weight", f"torso.{2 * index}.bias"]
+    heads = ("value", "advantage") if dueling else ("q",)
+    for head in heads:
+        names += [f"{head}.weight", f"{head}.bias"]
+    return names
+
+
+class StackedDqn:
+    """Policy and target networks and Adam for S members on ``device``.
+
+    Members share the network shape and ``config`` (gamma, lr, loss, options); each keeps its
+    own numbers. Arguments: ``seeds`` (one per member; initial weights are those of
+    ``QNetwork`` under ``torch.manual_seed(seed)``), ``observation_size``, ``num_actions``.
+    """
+
+    def __init__(self, config: Agent, observation_size: int, num_actions: int,
+                 seeds: list[int], device: str | torch.device = "cpu") -> None:
+        self.config = config
+        self.num_actions = num_actions
+        self.observation_size = observation_size
+        self.size = len(seeds)
+        self.device = torch.device(device)
+        self.layers = layer_plan(observation_size, num_actions, config)
+        self.names = _torch_names(self.layers, config.dueling)
+        # rows padded to whole vectors: elementwise kernels then treat every element alike,
+        # whatever the stack size (no scalar tail loop that rounds differently)
+        used = self.layers[-1].end
+        width = -(-used // ROW_MULTIPLE) * ROW_MULTIPLE
+        rows = [self._initial_row(seed, width) for seed in seeds]
+        self.params = torch.from_numpy(np.stack(rows)).to(self.device)
+        self.target = self.params.clone()
+        self.grads = torch.zeros_like(self.params)
+        self.exp_avg = torch.zeros_like(self.params)
+        self.exp_avg_sq = torch.zeros_like(self.params)
+        self._grad_padding = torch.zeros(self.size, width - used, device=self.device)
+        self.step = torch.zeros((), device=self.device)  # Adam's step: members are in lockstep
+        # a decaying learning rate lives in a tensor (a CUDA graph reads it at every replay)
+        self._lr: float | torch.Tensor = (config.lr if config.lr_end is None else
+                                          torch.tensor(config.lr, device=self.device))
+        self._discount = config.gamma ** config.n_step  # an n-step row bootstraps after n
+        self.loss_sum = torch.zeros(self.size, dtype=torch.float64, device=self.device)
+        self.updates = 0  # updates since the last take_mean_loss(), the same for every member
+        assert self.params.shape == (self.size, width)
+        self._policy = _views(self.params, self.layers)
+        self._target = _views(self.target, self.layers)
+        # Q = [V | A] @ M: M[0, j] = 1, M[1 + k, j] = [k = j] - 1 / A (the dueling head as one
+        # small matmul; its transpose carries the gradient back)
+        self._dueling = torch.cat([torch.ones(1, num_actions),
+                                   torch.eye(num_actions) - 1.0 / num_actions]).to(self.device)
+        self._dueling_stack = self._dueling.expand(self.size, -1, -1)
+        self._dueling_back = self._dueling.T.expand(self.size, -1, -1)
+        self._host = ([(weight.numpy(), bias.numpy()) for weight, bias in self._policy]
+                      if self.device.type == "cpu" else None)
+
+    def _initial_row(self, seed: int, width: int) -> np.ndarray:
+        torch.manual_seed(seed)
+        net = QNetwork(self.observation_size, self.num_actions, self.config.hidden_sizes,
+                       self.config.dueling)
+        row = np.zeros(width, dtype=np.float32)
+        row[:self.layers[-1].end] = self.row_from_state(
+            {k: v.numpy() for k, v in net.state_dict().items()})
+        return row
+
+    # ---- forward and greedy action ------------------------------------------------------
+
+    def _forward(self, views: list[tuple[torch.Tensor, torch.Tensor]], x: torch.Tensor,
+                 keep: list[torch.Tensor] | None = None) -> torch.Tensor:
+        """Q (S, n, A) for observations x (S, n, obs); ``keep`` collects each layer's input."""
+        for weight, bias in views[:-1]:
+            if keep is not None:
+                keep.append(x)
+            x = torch.baddbmm(bias, x, weight).clamp_(min=0.0)
+        if keep is not None:
+            keep.append(x)
+        weight, bias = views[-1]
+        return self._head(torch.baddbmm(bias, x, weight))
+
+    def _head(self, out: torch.Tensor) -> torch.Tensor:
+        """Q from the head's output: itself, or V + A - mean_a A (per sample) if dueling."""
+        return torch.bmm(out, self._dueling_stack) if self.config.dueling else out
+
+    def q_values(self, observations: torch.Tensor) -> torch.Tensor:
+        """Q (S, n, A) of the policy network for observations (S, n, obs) on the device."""
+        with torch.no_grad():
+            return self._forward(self._policy, observations)
+
+    def greedy(self, observations: np.ndarray) -> np.ndarray:
+        """argmax_a Q(s, a) per member for host observations (S, n, obs) -> (S, n).
+
+        On a CPU this is numpy over the weights' memory (no torch dispatch for a handful of
+        rows); elsewhere a forward on the device.
+        """
+        if self._host is None:
+            x = torch.from_numpy(observations).to(self.device)
+            return self.q_values(x).argmax(dim=-1).cpu().numpy()
+        x = observations
+        for weight, bias in self._host[:-1]:
+            x = np.matmul(x, weight)
+            x += bias
+            np.maximum(x, 0.0, out=x)
+        weight, bias = self._host[-1]
+        out = np.matmul(x, weight)
+        out += bias
+        if self.config.dueling:  # the constant V and mean(A) do not change the argmax
+            out = out[..., 1:]
+        return out.argmax(axis=-1)
+
+    # ---- the TD update of eq. 12 ----------------------------------------------------------
+
+    def update(self, observations: torch.Tensor, actions: torch.Tensor, rewards: torch.Tensor,
+               next_observations: torch.Tensor, not_terminal: torch.Tensor) -> None:
+        """One Adam step per member on its batch: observations (S, B, obs), actions (S, B)
+        int64, rewards and not_terminal (S, B). Adds each member's loss to ``loss_sum``.
+
+        Every operation has a fixed shape and no host synchronisation, so it can be recorded
+        as one CUDA graph.
+        """
+        config = self.config
+        with torch.no_grad():
+            next_q = self._forward(self._target, next_observations)
+            if config.double_dqn:
+                best = self._forward(self._policy, next_observations).argmax(dim=-1,
+                                                                            keepdim=True)
+                next_value = next_q.gather(-1, best).squeeze(-1)
+            else:
+                next_value = next_q.amax(dim=-1)
+            target = rewards + self._discount * not_terminal * next_value
+            inputs: list[torch.Tensor] = []
+            q = self._forward(self._policy, observations, inputs)
+            chosen = actions.unsqueeze(-1)
+            error = q.gather(-1, chosen).squeeze(-1) - target
+            batch = error.shape[1]
+            if config.loss == "mse":
+                loss = error.square().mean(dim=1)
+                d_chosen = error * (2.0 / batch)
+            else:  # Huber with delta 1 (torch's SmoothL1Loss)
+                magnitude = error.abs()
+                loss = torch.where(magnitude < 1.0, 0.5 * error.square(),
+                                   magnitude - 0.5).mean(dim=1)
+                d_chosen = error.clamp(-1.0, 1.0) * (1.0 / batch)
+            self.loss_sum += loss
+            self._backward(inputs, self._d_head(chosen, d_chosen))
+            self._adam()
+            if config.target_tau > 0:  # soft target update (extension)
+                self.target.lerp_(self.params, config.target_tau)
+
+    def _d_head(self, chosen: torch.Tensor, d_chosen: torch.Tensor) -> torch.Tensor:
+        """dLoss / d(head output) (S, B, width) from dLoss / dQ(s, a) of the chosen actions."""
+        d_q = torch.zeros(*chosen.shape[:2], self.num_actions, device=self.device,
+                          dtype=d_chosen.dtype).scatter_(-1, chosen, d_chosen.unsqueeze(-1))
+        return torch.bmm(d_q, self._dueling_back) if self.config.dueling else d_q
+
+    def _backward(self, inputs: list[torch.Tensor], d_out: torch.Tensor) -> None:
+        """Gradients of every layer into the flat ``grads``; ``inputs[i]`` is layer i's input."""
+        pieces: list[torch.Tensor] = []
+        stack = d_out.shape[0]
+        for index in range(len(self.layers) - 1, -1, -1):
+            x = inputs[index]
+            pieces += [d_out.sum(dim=1), torch.bmm(x.transpose(1, 2), d_out).view(stack, -1)]
+            if index:
+                weight, _ = self._policy[index]
+                d_in = torch.bmm(d_out, weight.transpose(1, 2))
+                d_out = torch.ops.aten.threshold_backward(d_in, x, 0.0)  # ReLU'
+        torch.cat([*reversed(pieces), self._grad_padding], dim=1, out=self.grads)
+
+    def _adam(self) -> None:
+        """Adam (torch's fused kernel, elementwise: each member's step is its own), after
+        per-member gradient-norm clipping."""
+        config, grads = self.config, self.grads
+        if config.grad_clip_norm > 0:
+            norm = grads.norm(dim=1, keepdim=True)
+            grads.mul_((config.grad_clip_norm / (norm + CLIP_EPS)).clamp_(max=1.0))
+        self.step += 1
+        torch._fused_adam_([self.params], [grads], [self.exp_avg], [self.exp_avg_sq], [],
+                           [self.step], lr=self._lr, beta1=ADAM_BETAS[0],
+                           beta2=ADAM_BETAS[1], weight_decay=0.0, eps=ADAM_EPS,
+                           amsgrad=False, maximize=False)
+
+    def set_learning_rate(self, global_step: int) -> None:
+        """lr at ``global_step``: linear from ``lr`` to ``lr_end`` over ``lr_decay_steps``,
+        then ``lr_end`` (nothing to do without ``lr_end``)."""
+        config = self.config
+        if config.lr_end is None:
+            return
+        done = min(1.0, global_step / config.lr_decay_steps)
+        assert isinstance(self._lr, torch.Tensor)
+        self._lr.fill_(config.lr + (config.lr_end - config.lr) * done)
+
+    def sync_target(self, members: np.ndarray | None = None) -> None:
+        """Hard copy theta' <- theta (alg. 1), for every member or those flagged in a bool (S,)."""
+        if members is None:
+            self.target.copy_(self.params)
+        elif members.any():
+            index = torch.from_numpy(np.flatnonzero(members)).to(self.device)
+            self.target.index_copy_(0, index, self.params.index_select(0, index))
+
+    def take_mean_loss(self) -> np.ndarray:
+        """Each member's mean loss since the last call (NaN without updates), then reset."""
+        updates, self.updates = self.updates, 0
+        if not updates:
+            return np.full(self.size, np.nan)
+        mean = (self.loss_sum / updates).cpu().numpy()
+        self.loss_sum.zero_()
+        return mean
+
+    # ---- per-member state as plain arrays ------------------------------------------------
+
+    def row_from_state(self, state: dict[str, Any]) -> np.ndarray:
+        """A flat row from QNetwork-named arrays ((out, in) weights)."""
+        row = np.empty(self.layers[-1].end, dtype=np.float32)
+        for layer, (weight, bias) in zip(self.layers, self._named_pairs(state), strict=True):
+            row[layer.weight_at:layer.bias_at] = np.asarray(weight, np.float32).T.ravel()
+            row[layer.bias_at:layer.end] = np.asarray(bias, np.float32)
+        return row
+
+    def _named_pairs(self, state: dict[str, Any]) -> list[tuple[np.ndarray, np.ndarray]]:
+        pairs = [(state[w], state[b]) for w, b in zip(self.names[0::2], self.names[1::2],
+                                                      strict=True)]
+        if self.config.dueling:  # value and advantage are one head here, V first
+            (value_w, value_b), (adv_w, adv_b) = pairs[-2:]
+            pairs[-2:] = [(np.concatenate([value_w, adv_w]), np.concatenate([value_b, adv_b]))]
+        return pairs
+
+    def state_from_row(self, row: np.ndarray) -> dict[str, np.ndarray]:
+        """QNetwork-named arrays from a flat row (inverse of :meth:`row_from_state`)."""
+        arrays = []
+        for layer in self.layers:
+            weight = row[layer.weight_at:layer.bias_at].reshape(layer.size_in, layer.size_out)
+            arrays += [weight.T.copy(), row[layer.bias_at:layer.end].copy()]
+        if self.config.dueling:
+            head_w, head_b = arrays[-2:]
+            arrays[-2:] = [head_w[:1], head_b[:1], head_w[1:], head_b[1:]]
+        return dict(zip(self.names, arrays, strict=True))
+
+    def state_arrays(self, member: int) -> dict[str, Any]:
+        """One member's weights and Adam state, named as ``QNetwork`` and ``torch.optim.Adam``
+        name them, as numpy arrays and JSON text (no pickle)."""
+        rows = [buffer[member, :self.layers[-1].end].cpu().numpy() for buffer in
+                (self.params, self.target, self.exp_avg, self.exp_avg_sq)]
+        step = np.float32(self.step.item())
+        moments = [self.state_from_row(row) for row in rows[2:]]
+        return {
+            "policy": self.state_from_row(rows[0]),
+            "target": self.state_from_row(rows[1]),
+            "optimizer": {
+                "param_groups_json": json.dumps([{"lr": self.config.lr, "betas": ADAM_BETAS,
+                                                  "eps": ADAM_EPS}]),
+                "state": {str(i): {"step": np.array(step), "exp_avg": moments[0][name],
+                                   "exp_avg_sq": moments[1][name]}
+                          for i, name in enumerate(self.names)},
+            },
+        }
+
+    def load_state_arrays(self, member: int, state: dict[str, Any]) -> None:
+        """Inverse of :meth:`state_arrays` for one member."""
+        optimizer = state["optimizer"]["state"]
+        moments = [{name: optimizer[str(i)][key] for i, name in enumerate(self.names)}
+                   for key in ("exp_avg", "exp_avg_sq")] if optimizer else None
+        buffers = [(self.params, state["policy"]), (self.target, state["target"])]
+        if moments is not None:
+            buffers += [(self.exp_avg, moments[0]), (self.exp_avg_sq, moments[1])]
+        used = self.layers[-1].end
+        for buffer, named in buffers:
+            buffer[member, :used] = torch.from_numpy(self.row_from_state(named))
+        self.step.fill_(float(np.asarray(optimizer["0"]["step"])) if optimizer else 0.0)
+        if moments is None:
+            self.exp_avg[member] = 0.0
+            self.exp_avg_sq[member] = 0.0

@@ -1,0 +1,118 @@
+"""Discovery of channel-model plugins through the entry-point group ``adaptsky.channel_models``.
+
+Each entry point is loaded on its own: one that fails to import, whose class does not
+declare what the contract asks (``checker.structural_problems``: a subclass of
+ChannelModel with every method, Params with defaults and descriptions, a known contract
+version), or whose methods raise or return arrays of the wrong shape, dtype or with NaN in one
+call on a few links (``checker.call_problems``), is recorded as broken with its error and fails
+only the run that asks for it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cache
+from importlib.metadata import EntryPoint, entry_points
+
+from adaptsky.channels.checker import call_problems, structural_problems
+from adaptsky.channels.contract import ChannelModel, contract_version_of
+from adaptsky.errors import PluginError
+
+ENTRY_POINT_GROUP = "adaptsky.channel_models"
+
+
+@dataclass(frozen=True)
+class PluginInfo:
+    """One discovered channel model; ``model`` is None when the plugin is broken."""
+
+    name: str
+    package: str
+    version: str
+    target: str
+    model: type[ChannelModel] | None
+    error: str = ""
+
+    @property
+    def status(self) -> str:
+        return "ok" if self.model is not None else "broken"
+
+    @property
+    def description(self) -> str:
+        return self.model.description if self.model is not None else ""
+
+    @property
+    def contract_version(self) -> int | None:
+        """The plugin contract the model follows (1 where it declares none); None if broken."""
+        return contract_version_of(self.model) if self.model is not None else None
+
+    @property
+    def contract_declared(self) -> bool:
+        return self.model is not None and self.model.contract_version is not None
+
+
+def _load(entry_point: EntryPoint) -> PluginInfo:
+    dist = entry_point.dist
+    package = dist.name if dist is not None else "?"
+    version = dist.version if dist is not None else "?"
+    info = dict(name=entry_point.name, package=package, version=version,
+                target=entry_point.value)
+    try:
+        model = entry_point.load()
+    except Exception as error:  # any import failure of third-party code
+        return PluginInfo(**info, model=None, error=f"{type(error).__name__}: {error}")
+    # the cheap part of the contract's checks: the declarations, then one call of each method
+    problems = structural_problems(model) or call_problems(model)
+    if problems:
+        return PluginInfo(**info, model=None, error=f"{entry_point.value}: {problems[0]}"
+                          + (f" (and {len(problems) - 1} more: adaptsky plugins check "
+                             f"{entry_point.name})" if len(problems) > 1 else ""))
+    return PluginInfo(**info, model=model)
+
+
+def load_class(name: str) -> type[ChannelModel] | object:
+    """What the entry point ``name`` names, loaded even when it breaks the contract (for
+    ``plugins check``); PluginError if it is unknown or cannot be imported."""
+    for entry_point in entry_points(group=ENTRY_POINT_GROUP):
+        if entry_point.name == name:
+            try:
+                return entry_point.load()
+            except Exception as error:
+                raise PluginError(f"channel model '{name}' cannot be imported: "
+                                  f"{type(error).__name__}: {error}") from None
+    raise unknown_model(name)
+
+
+@cache
+def discover() -> dict[str, PluginInfo]:
+    """All registered channel models by name (a name registered twice is broken)."""
+    found: dict[str, PluginInfo] = {}
+    seen: set[tuple[str, str]] = set()
+    for entry_point in entry_points(group=ENTRY_POINT_GROUP):
+        info = _load(entry_point)
+        key = (info.name, info.target)
+        if key in seen:  # the same distribution seen twice on sys.path
+            continue
+        seen.add(key)
+        if info.name in found:
+            other = found[info.name]
+            error = f"name '{info.name}' is registered by both {other.package} and {info.package}"
+            info = PluginInfo(info.name, info.package, info.version, info.target, None, error)
+        found[info.name] = info
+    return dict(sorted(found.items()))
+
+
+def unknown_model(name: str) -> PluginError:
+    """The error for a name no installed plugin registers, naming those that are."""
+    installed = ", ".join(discover()) or "none"
+    return PluginError(f"unknown channel model '{name}'; installed: {installed}")
+
+
+def get_model_class(name: str) -> type[ChannelModel]:
+    """The channel-model class registered as ``name``; PluginError if unknown or broken."""
+    plugins = discover()
+    if name not in plugins:
+        raise unknown_model(name)
+    info = plugins[name]
+    if info.model is None:
+        raise PluginError(f"channel model '{name}' ({info.package}) is broken: {info.error}")
+    return info.model

@@ -1,0 +1,348 @@
+"""``evaluate`` and ``baseline`` as keyword-only library functions (the CLI only forwards).
+
+Every method is rolled out on the same layouts with the same seed of LoS draws. A policy sees
+positions relative to the UAV, so a policy trained on one layout means the same on others
+(docs/environment.md).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from adaptsky.errors import AdaptskyError
+from adaptsky.evaluation.labels import distinct_labels
+from adaptsky.evaluation.metrics import compare, layout_metrics, percent_of, summary_row
+from adaptsky.evaluation.oracle import oracle, require_deterministic_gains
+from adaptsky.evaluation.rollout import (
+    Policy,
+    Tick,
+    Trace,
+    greedy_policy,
+    hold,
+    random_policy,
+    rollout,
+)
+from adaptsky.evaluation.soa import soa_configuration
+from adaptsky.report.evaluations import curve_json, score_kind
+from adaptsky.report.progress import SilentProgress, WorkProgress
+from adaptsky.scenario import Scenario, load_scenario, parse_scenario
+from adaptsky.scenario.toml_writer import dumps
+from adaptsky.sim.actions import ActionSet
+from adaptsky.sim.batch import NomaUavBatch
+from adaptsky.sim.layout import user_layouts
+from adaptsky.sim.observation import observation_size
+from adaptsky.store.run_file import RunReader
+from adaptsky.store.tree import Tree
+
+BASELINES = ("soa", "oracle", "random")
+POLICY = "policy"
+# what a policy's inputs are scaled by: they must match between training and evaluation
+OBSERVATION_SCALING = ("agent.observation", "agent.user_order", "area.side_m",
+                       "uav.max_height_m")
+
+
+class EvaluationError(AdaptskyError):
+    pass
+
+
+@dataclass
+class Method:
+    """One evaluated method: its trace and per-layout metrics."""
+
+    name: str
+    trace: Trace
+    metrics: dict[str, np.ndarray]
+    details: dict[str, Any]
+
+    @classmethod
+    def of(cls, name: str, scenario: Scenario, trace: Trace,
+           details: dict[str, Any] | None = None) -> Method:
+        metrics = layout_metrics(trace, scenario.radio.bandwidth_hz, scenario.min_rate_bps)
+        return cls(name, trace, metrics, details or {})
+
+
+def eval_scenario(scenario: Scenario, layouts: int | None, layout_seed: int) -> Scenario:
+    """The scenario on ``layouts`` uniform layouts (near-far pairing), or as it is."""
+    if layouts is None:
+        return scenario
+    data = scenario.model_dump(mode="json")
+    data["users"] = {"count": scenario.num_users, "placement": "uniform",
+                     "layout_seed": layout_seed, "pairing": "near-far",
+                     "speed_m_per_step": scenario.users.speed_m_per_step}
+    return parse_scenario(data, "evaluation layouts")
+
+
+def eval_layouts(scenario: Scenario, layouts: int | None) -> np.ndarray:
+    """User positions (L, N, 2) of an evaluation: ``layouts`` uniform ones, or the one
+    scenario layout."""
+    return user_layouts(scenario, layouts or 1)
+
+
+# float64 numbers a rollout keeps per step, layout and user (the states it records: gains,
+# rates, shares, LoS, positions...), and per step and layout; measured shapes, rounded up
+STATE_FLOATS_PER_USER, STATE_FLOATS_PER_LAYOUT = 12, 16
+
+
+def check_rollout_memory(scenario: Scenario, steps: int, layouts: int, methods: int,
+                         source: str) -> None:
+    """Refuse, before any work, rollouts whose recorded states this machine cannot hold."""
+    from adaptsky.scenario.resources import available_bytes, format_bytes
+
+    per_step = layouts * (STATE_FLOATS_PER_USER * scenario.num_users + STATE_FLOATS_PER_LAYOUT)
+    needed = 8 * per_step * steps * methods
+    available = available_bytes()
+    if available is not None and needed > available:
+        raise AdaptskyError(f"{source}: {methods} rollout(s) of {steps} steps on {layouts} "
+                            f"layouts need about {format_bytes(needed)} of memory, this machine "
+                            f"has {format_bytes(available)} available; lower --steps or "
+                            "--layouts")
+
+
+def baseline_work(method: str, steps: int, users_m: np.ndarray) -> tuple[int, str]:
+    """How much work a baseline is, for progress: (count, unit)."""
+    return (len(users_m), "layout") if method == "oracle" else (steps, "step")
+
+
+def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarray,
+                 seed: int = 0, on_progress: Tick | None = None) -> Method:
+    """SoA, the oracle or the random policy on ``users_m`` (L, N, 2); ``on_progress`` hears
+    the units of :func:`baseline_work` done."""
+    details: dict[str, Any] = {}
+    if method == "soa":
+        env = NomaUavBatch(scenario, num_envs=len(users_m), users_m=users_m)
+        uav_m, alpha_first = soa_configuration(env)
+        trace = hold(scenario, uav_m, alpha_first, steps, users_m, seed, on_progress)
+    elif method == "oracle":
+        start = time.process_time()
+        best = oracle(scenario, users_m, on_progress)
+        details["seconds_per_layout"] = (time.process_time() - start) / len(users_m)
+        details["objective_bps"] = best.objective_bps
+        trace = hold(scenario, best.uav_m, best.alpha_first, 1, users_m, seed)
+    elif method == "random":
+        count = ActionSet(scenario.num_clusters, scenario.uav.actions).count
+        trace = rollout(scenario, random_policy(count, seed), steps, users_m, seed, on_progress)
+    else:
+        raise EvaluationError(f"unknown method '{method}'; choose from {', '.join(BASELINES)}")
+    return Method.of(method, scenario, trace, details)
+
+
+@dataclass(frozen=True)
+class Compared:
+    """One ``--compare`` item: a baseline, or another run file (its first seed's policy)."""
+
+    label: str
+    baseline: str | None = None
+    run: Path | None = None
+
+
+def compared_methods(items: list[str]) -> list[Compared]:
+    """The ``--compare`` items with unique labels: baselines by name, run files by their
+    shortest distinguishing path. Unknown names and items given twice are refused in one
+    line (the run files themselves are opened, and checked, before any work too)."""
+    seen: dict[str, str] = {}
+    for item in items:
+        if item in BASELINES:
+            key = item
+        else:
+            path = Path(item)
+            if not path.exists() and path.suffix == "" and len(path.parts) == 1:
+                raise EvaluationError(f"--compare: unknown method '{item}'; choose from "
+                                      f"{', '.join(BASELINES)} or a run file (.h5)")
+            key = str(path.resolve())
+        if key in seen:
+            same = "" if seen[key] == item else f" (as '{seen[key]}')"
+            raise EvaluationError(f"--compare: '{item}' is given twice{same}; name each method "
+                                  "once")
+        seen[key] = item
+    runs = [Path(item) for item in items if item not in BASELINES]
+    labels = iter(distinct_labels(runs, taken={POLICY, *BASELINES}))
+    return [Compared(item, baseline=item) if item in BASELINES else
+            Compared(next(labels), run=Path(item)) for item in items]
+
+
+POLICIES = ("best", "last")
+
+
+class TrainedPolicy(NamedTuple):
+    """What an evaluation reads of a run: the training scenario, the checkpoint with the
+    policy asked for, the seed, which policy that is (:func:`policy_record`), and the seed's
+    greedy evaluations during training."""
+
+    scenario: Scenario
+    checkpoint: Tree
+    seed: int
+    record: dict[str, Any]
+    evaluations: dict[str, np.ndarray]
+
+
+def _read_run(run_path: Path, seed: int | None, policy: str = "best") -> TrainedPolicy:
+    """:class:`TrainedPolicy` of ``seed`` (default: the run's first) in one reading."""
+    if policy not in POLICIES:
+        raise EvaluationError(f"--policy: unknown policy '{policy}'; choose best or last")
+    with RunReader(run_path) as run:
+        seeds = run.seeds
+        chosen = seeds[0] if seed is None else seed
+        if chosen not in seeds:
+            raise EvaluationError(f"{run_path}: has no seed {chosen}; it has "
+                                  f"{', '.join(map(str, seeds))}")
+        checkpoint = run.checkpoint(chosen)  # (validated on opening)
+        best = run.best(chosen) if policy == "best" else None
+        return TrainedPolicy(run.scenario, with_policy(checkpoint, best), chosen,
+                             policy_record(run_path, chosen, checkpoint, policy, best),
+                             run.evaluations(chosen))
+
+
+def with_policy(checkpoint: Tree, best: Tree | None) -> Tree:
+    """The checkpoint with the best policy's weights in place of the last ones (as is
+    without a best policy)."""
+    if best is None:
+        return checkpoint
+    return {**checkpoint, "agent": {**checkpoint["agent"], "policy": best["policy"]}}
+
+
+def policy_record(run_path: Path, seed: int, checkpoint: Tree, asked: str,
+                  best: Tree | None) -> dict[str, Any]:
+    """Which policy an evaluation used: the run file's absolute path, the seed, the policy
+    asked for and the one used (``best`` falls back to ``last`` in a run with no greedy
+    evaluation yet), the episode whose weights they are, and the last checkpoint's episode."""
+    last = int(checkpoint.get("episode", -1))
+    record = {"path": str(run_path.resolve()), "seed": seed, "policy_asked": asked,
+              "policy": "best" if best is not None else "last",
+              "episode": int(best["episode"]) if best is not None else last,
+              "last_episode": last,
+              "global_step": int(checkpoint.get("global_step", -1))}
+    if best is not None:
+        record["best_score"] = float(best["score"])
+    return record
+
+
+def load_policy(run_path: Path, seed: int | None, scenario: Scenario, policy: str = "best"
+                ) -> tuple[Policy, dict[str, Any]]:
+    """The greedy policy (``best`` or ``last``) of a run's seed, checked to fit the
+    evaluation ``scenario``, and which policy it is."""
+    trained, checkpoint, _, record, _ = _read_run(run_path, seed, policy)
+    _check_compatible(run_path, trained, scenario)
+    return greedy_policy(trained, checkpoint), record
+
+
+def _setting(scenario: Scenario, key: str) -> Any:
+    value: Any = scenario
+    for part in key.split("."):
+        value = getattr(value, part)
+    return value
+
+
+def _check_compatible(run_path: Path, trained: Scenario, scenario: Scenario) -> None:
+    if trained.num_users != scenario.num_users:
+        raise EvaluationError(
+            f"{run_path}: the policy was trained for {trained.num_users} users "
+            f"({observation_size(trained.num_users)} inputs) but the evaluation scenario "
+            f"'{scenario.name}' has {scenario.num_users}")
+    if trained.uav.actions != scenario.uav.actions:
+        raise EvaluationError(f"{run_path}: the policy's actions are '{trained.uav.actions}' "
+                              f"but the evaluation scenario's are '{scenario.uav.actions}'")
+    for key in OBSERVATION_SCALING:
+        was, now = _setting(trained, key), _setting(scenario, key)
+        if was != now:
+            raise EvaluationError(
+                f"{run_path}: the evaluation scenario scales observations differently: {key} "
+                f"is {now!r}, the policy was trained with {was!r}; evaluate on a scenario "
+                f"with the same {', '.join(OBSERVATION_SCALING)}")
+
+
+def _policy_method(name: str, scenario: Scenario, policy: Policy, steps: int,
+                   users_m: np.ndarray, progress: WorkProgress) -> Method:
+    with progress.stage(name, steps, "step") as tick:
+        return Method.of(name, scenario, rollout(scenario, policy, steps, users_m,
+                                                 on_step=tick))
+
+
+def _baseline_method(scenario: Scenario, name: str, steps: int, users_m: np.ndarray,
+                     progress: WorkProgress) -> Method:
+    with progress.stage(name, *baseline_work(name, steps, users_m)) as tick:
+        return run_baseline(scenario, name, steps, users_m, on_progress=tick)
+
+
+def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path | None = None,
+             layouts: int | None = None, layout_seed: int = 0, steps: int = 1000,
+             compare_with: list[str] | None = None, progress: WorkProgress | None = None,
+             policy: str = "best") -> tuple[dict[str, Any], list[Method]]:
+    """Greedy rollouts of a checkpoint's ``policy`` (``best``: the best greedy evaluation
+    during training, ``last``: the last checkpoint) next to baselines and other runs (their
+    policy alike); results as JSON-able values and the methods (policy first) with their
+    traces. Every input is checked before the first rollout; ``progress`` shows the rollouts
+    and the oracle's search."""
+    progress = progress or SilentProgress()
+    compared = compared_methods(compare_with or [])
+    trained, state, chosen, used, curve = _read_run(checkpoint, seed, policy)
+    base = load_scenario(scenario_path) if scenario_path else trained
+    scenario = eval_scenario(base, layouts, layout_seed)
+    _check_compatible(checkpoint, trained, scenario)
+    if any(item.baseline == "oracle" for item in compared):
+        require_deterministic_gains(scenario)
+    others = {item.label: load_policy(item.run, None, scenario, policy)
+              for item in compared if item.run is not None}
+    check_rollout_memory(scenario, steps, layouts or 1, 1 + len(compared), str(checkpoint))
+    users_m = eval_layouts(scenario, layouts)
+    policy = greedy_policy(trained, state)
+    methods = [_policy_method(POLICY, scenario, policy, steps, users_m, progress)]
+    for item in compared:
+        if item.baseline is not None:
+            methods.append(_baseline_method(scenario, item.baseline, steps, users_m, progress))
+        else:
+            methods.append(_policy_method(item.label, scenario, others[item.label][0], steps,
+                                          users_m, progress))
+    results = results_json(methods, scenario, steps, layouts, layout_seed, users_m)
+    used["score_kind"] = score_kind(trained)
+    results |= {"checkpoint": used["path"], "seed": chosen, "checkpoint_episode":
+                used["episode"], "policy": used, "training_evaluations": curve_json(curve),
+                "dueling": trained.agent.dueling,
+                "scenario_file": str(scenario_path.resolve()) if scenario_path else None,
+                "scenario_toml": dumps(scenario.model_dump(mode="json")),
+                "compared_runs": {label: record for label, (_, record) in others.items()}}
+    return results, methods
+
+
+def baseline(*, scenario_path: Path, method: str, layouts: int | None = None,
+             layout_seed: int = 0, steps: int = 1000, progress: WorkProgress | None = None
+             ) -> tuple[dict[str, Any], list[Method]]:
+    """One baseline on the scenario's layout or on uniform layouts."""
+    scenario = eval_scenario(load_scenario(scenario_path), layouts, layout_seed)
+    if method == "oracle":
+        require_deterministic_gains(scenario)
+    check_rollout_memory(scenario, steps, layouts or 1, 1, str(scenario_path))
+    users_m = eval_layouts(scenario, layouts)
+    result = _baseline_method(scenario, method, steps, users_m, progress or SilentProgress())
+    return results_json([result], scenario, steps, layouts, layout_seed, users_m), [result]
+
+
+def results_json(methods: list[Method], scenario: Scenario, steps: int, layouts: int | None,
+                 layout_seed: int, users_m: np.ndarray) -> dict[str, Any]:
+    """Summaries, per-layout metrics and comparisons of ``methods`` as JSON-able values."""
+    results: dict[str, Any] = {
+        "scenario": scenario.name, "channel_model": scenario.channel.model,
+        "los": scenario.channel.los, "min_se": scenario.reward.min_se, "steps": steps,
+        "layouts": layouts or 1, "layout_seed": layout_seed if layouts else None,
+        "layouts_m": users_m.tolist(), "methods": {}}
+    for method in methods:
+        entry = {"summary": summary_row(method.metrics),
+                 "layouts": {k: v.tolist() for k, v in method.metrics.items()}}
+        if "seconds_per_layout" in method.details:
+            entry["seconds_per_layout"] = method.details["seconds_per_layout"]
+        results["methods"][method.name] = entry
+    first, others = methods[0], methods[1:]
+    if first.name == POLICY:
+        results["comparison"] = {m.name: compare(first.metrics, m.metrics) for m in others}
+        oracle_method = next((m for m in others if m.name == "oracle"), None)
+        if oracle_method is not None:
+            pct = percent_of(first.metrics["steady_sum_rate_bps"],
+                             oracle_method.metrics["mean_sum_rate_bps"])
+            results["policy_steady_pct_of_oracle"] = {
+                "mean": float(np.nanmean(pct)), "median": float(np.nanmedian(pct)),
+                "layouts": pct.tolist()}
+    return results

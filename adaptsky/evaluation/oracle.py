@@ -1,0 +1,155 @@
+"""The oracle ceiling (our addition, docs/model.md §6): the best per-step objective over the
+reachable lattice, for ``los = "always"`` or ``"expected"`` (deterministic gains).
+
+Objective: the constrained sum rate (sum of rates if every user meets R_min, else 0).
+Lattice: x, y = start + k delta inside the area, h = start + k delta_h in [h_min, h_max],
+alpha of each cluster's first user = start_alpha + k delta_alpha in [delta_alpha,
+1 - delta_alpha] -- every point the UAV can reach.
+
+Structure used (exact, no search over alpha): clusters have their own power and bandwidth, so
+the objective is a sum over clusters. In a cluster with strong-user SNR a = s g_s and weak-user
+SNR b = s g_w (a >= b, s = P_T G / sigma^2), the sum rate as a function of the strong share x is
+
+    f(x) = W [log2(1 + x a) + log2(1 + b) - log2(1 + x b)],
+    f'(x) = W (a - b) / ((1 + x a) (1 + x b) ln 2) >= 0,
+
+so it is largest at the largest x the weak user's constraint allows,
+x <= ((1 + b) / 2^m - 1) / b (m = min_se), taken on the alpha grid; the strong user's
+constraint x >= (2^m - 1) / a then decides feasibility. Positions are searched exhaustively,
+vectorised over the whole lattice in chunks of heights. ``tests/test_oracle.py`` checks the
+result against brute force over positions and every alpha combination on a reduced lattice.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from adaptsky.errors import AdaptskyError
+from adaptsky.scenario.models import Scenario
+from adaptsky.sim import noma
+from adaptsky.sim.batch import NomaUavBatch, build_channel, deterministic_gain, fading_active
+
+FloatArray = NDArray[np.float64]
+POINTS_PER_CHUNK = 200_000
+
+
+@dataclass(frozen=True)
+class OracleResult:
+    """Best lattice point of each layout: objective (L,), UAV (L, 3), alpha_first (L, K),
+    rates (L, N); objective 0 and the start point where no point meets R_min."""
+
+    objective_bps: FloatArray
+    uav_m: FloatArray
+    alpha_first: FloatArray
+    rate_bps: FloatArray
+
+
+def axis_lattice(start: float, step: float, low: float, high: float) -> FloatArray:
+    """start + k step for every integer k with low <= value <= high (1e-9 tolerance)."""
+    k_low = int(np.ceil((low - start) / step - 1e-9))
+    k_high = int(np.floor((high - start) / step + 1e-9))
+    return start + step * np.arange(k_low, k_high + 1)
+
+
+def lattice(scenario: Scenario) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """The reachable x, y, h values and the alpha_first grid."""
+    uav, half_m = scenario.uav, scenario.area.side_m / 2
+    xs = axis_lattice(uav.start_m[0], uav.step_m[0], -half_m, half_m)
+    ys = axis_lattice(uav.start_m[1], uav.step_m[1], -half_m, half_m)
+    hs = axis_lattice(uav.start_m[2], uav.step_m[2], uav.min_height_m, uav.max_height_m)
+    alphas = axis_lattice(uav.start_alpha, uav.power_step, uav.power_step, 1 - uav.power_step)
+    return xs, ys, hs, alphas
+
+
+def _best_alpha_first(gain_first: FloatArray, gain_second: FloatArray, alphas: FloatArray,
+                      scenario: Scenario, snr_scale: float) -> tuple[FloatArray, FloatArray]:
+    """Per point and cluster: the grid alpha_first maximising the cluster's sum rate under
+    R_min, and that sum rate (-inf where no grid alpha meets R_min)."""
+    first_strong = gain_first >= gain_second
+    weak_snr = snr_scale * np.minimum(gain_first, gain_second)
+    threshold = 2.0 ** scenario.reward.min_se
+    strong_share_max = ((1 + weak_snr) / threshold - 1) / weak_snr
+    # largest strong share on the grid: alpha_first itself, or 1 - alpha_first
+    index_first = np.searchsorted(alphas, strong_share_max * (1 + 1e-12), side="right") - 1
+    index_second = np.searchsorted(alphas, (1 - strong_share_max) * (1 - 1e-12), side="left")
+    index = np.where(first_strong, index_first, index_second)
+    best_rate = np.full(gain_first.shape, -np.inf)
+    best_alpha = np.full(gain_first.shape, np.nan)
+    # the closed form's neighbour guards against rounding at the constraint's edge
+    for shift in (0, -1, 1):
+        candidate = np.where(first_strong, index + shift, index - shift)
+        valid = (candidate >= 0) & (candidate < len(alphas))
+        alpha = alphas[np.clip(candidate, 0, len(alphas) - 1)]
+        sinr_first, sinr_second = noma.cluster_sinr(alpha, gain_first, gain_second, snr_scale)
+        rate_first = noma.rate_bps(sinr_first, scenario.radio.bandwidth_hz)
+        rate_second = noma.rate_bps(sinr_second, scenario.radio.bandwidth_hz)
+        feasible = valid & (rate_first >= scenario.min_rate_bps) & (
+            rate_second >= scenario.min_rate_bps)
+        total = np.where(feasible, rate_first + rate_second, -np.inf)
+        better = total > best_rate
+        best_rate = np.where(better, total, best_rate)
+        best_alpha = np.where(better, alpha, best_alpha)
+    return best_alpha, best_rate
+
+
+def has_oracle(scenario: Scenario) -> bool:
+    """Whether the oracle applies: deterministic gains (LoS not drawn at random, no fading)."""
+    return _random_gains(scenario) is None
+
+
+def _random_gains(scenario: Scenario) -> str | None:
+    """What makes the scenario's gains random, or None."""
+    if scenario.channel.los == "sampled":
+        return "channel.los is 'sampled'"
+    if fading_active(build_channel(scenario)):
+        return f"channel model '{scenario.channel.model}' draws per-step fading"
+    return None
+
+
+def require_deterministic_gains(scenario: Scenario) -> None:
+    """Refuse a scenario whose gains are drawn at random: the oracle needs fixed gains."""
+    reason = _random_gains(scenario)
+    if reason is not None:
+        raise AdaptskyError(f"scenario '{scenario.name}': {reason}; the oracle needs "
+                            "deterministic gains: los = 'always' or 'expected', without "
+                            "fading")
+
+
+def oracle(scenario: Scenario, users_m: FloatArray,
+           on_layout: Callable[[int], None] | None = None) -> OracleResult:
+    """The oracle for every layout in ``users_m`` (L, N, 2), paired as the environment pairs
+    them; ``on_layout`` hears the number of layouts searched after each."""
+    require_deterministic_gains(scenario)
+    num_layouts = len(users_m)
+    env = NomaUavBatch(scenario, num_envs=num_layouts, users_m=users_m)
+    channel = env.channel
+    xs, ys, hs, alphas = lattice(scenario)
+    grid = np.stack(np.meshgrid(xs, ys, hs, indexing="ij"), axis=-1).reshape(-1, 3)
+    k = scenario.num_clusters
+    objective = np.zeros(num_layouts)
+    best_uav = np.broadcast_to(np.array(scenario.uav.start_m), (num_layouts, 3)).copy()
+    best_alpha = np.full((num_layouts, k), scenario.uav.start_alpha)
+    for layout in range(num_layouts):
+        for start in range(0, len(grid), POINTS_PER_CHUNK):
+            points = grid[start:start + POINTS_PER_CHUNK]
+            users = np.broadcast_to(users_m[layout], (len(points), *users_m.shape[1:]))
+            geometry = env.geometry(points, users)
+            gain = deterministic_gain(channel, scenario.channel.los, geometry)
+            gain_first = gain[:, env.first_user[layout]]
+            gain_second = gain[:, env.second_user[layout]]
+            alpha, rate = _best_alpha_first(gain_first, gain_second, alphas, scenario,
+                                            env.snr_scale)
+            total = rate.sum(axis=1)
+            best = int(np.argmax(total))
+            if total[best] > objective[layout]:
+                objective[layout] = total[best]
+                best_uav[layout] = points[best]
+                best_alpha[layout] = alpha[best]
+        if on_layout is not None:
+            on_layout(layout + 1)
+    state = env.evaluate_at(best_uav, best_alpha)
+    return OracleResult(objective, best_uav, best_alpha, state.rate_bps)

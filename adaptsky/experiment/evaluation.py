@@ -1,0 +1,139 @@
+"""Evaluating a plan: greedy rollouts of every run of the evaluated groups and the baselines
+on the same layouts, one eval file each in ``DIR/evals/``.
+
+An eval file records what it evaluated (scenario, layouts, steps and, for a policy, the
+episodes its run had done); a later call reuses it when that record matches, so a finished
+folder is not evaluated twice.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from rich.console import Console
+
+from adaptsky.errors import AdaptskyError
+from adaptsky.evaluation.api import (
+    Method,
+    baseline_work,
+    eval_layouts,
+    eval_scenario,
+    results_json,
+    run_baseline,
+)
+from adaptsky.evaluation.rollout import greedy_policy, rollout
+from adaptsky.experiment.plan import Plan, RunSpec
+from adaptsky.report.progress import WorkProgress
+from adaptsky.report.units import plural
+from adaptsky.scenario import Scenario, parse_scenario
+from adaptsky.store.eval_file import read_eval_metrics, write_eval
+from adaptsky.store.run_file import RunReader
+
+Metrics = dict[str, np.ndarray]
+
+
+@dataclass
+class Evaluations:
+    """Per-layout metrics of every evaluated run (by run name) and baseline (by method and
+    sweep value); ``missing`` says what could not be evaluated and why."""
+
+    runs: dict[str, Metrics] = field(default_factory=dict)
+    baselines: dict[tuple[str, Any], Metrics] = field(default_factory=dict)
+    missing: dict[str, str] = field(default_factory=dict)
+
+
+def _cached(path: Path, record: dict[str, Any]) -> Metrics | None:
+    if not path.exists():
+        return None
+    try:
+        stored, methods = read_eval_metrics(path)
+    except AdaptskyError:
+        return None  # damaged: evaluate again
+    if stored != json.loads(json.dumps(record)) or len(methods) != 1:
+        return None
+    return next(iter(methods.values()))
+
+
+def _store(path: Path, scenario: Scenario, method: Method, record: dict[str, Any],
+           steps: int, layouts: int | None, layout_seed: int, users_m: np.ndarray) -> Metrics:
+    results = results_json([method], scenario, steps, layouts, layout_seed, users_m)
+    results["record"] = record
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_eval(path, results, [method])
+    return method.metrics
+
+
+def _label(value: Any) -> str:
+    return "" if value is None else f"-{value:g}" if isinstance(value, float) else f"-{value}"
+
+
+def evaluate_plan(plan: Plan, console: Console, quiet: bool) -> Evaluations:
+    """Evaluate every finished run of the evaluated groups and every baseline, with progress
+    (a bar on a terminal, timestamped lines elsewhere, nothing with ``quiet``)."""
+    with WorkProgress(console, quiet=quiet) as progress:
+        return _evaluate_plan(plan, progress)
+
+
+def _evaluate_plan(plan: Plan, progress: WorkProgress) -> Evaluations:
+    from adaptsky.experiment.runs import run_state  # imports torch: only when evaluating
+
+    spec = plan.experiment.evaluation
+    evaluations = Evaluations()
+    folder = plan.out / "evals"
+    points: dict[Any, RunSpec] = {}
+    for group in (spec.policy, *spec.compare_groups):
+        for run in plan.group_runs(group):
+            state = run_state(run)
+            if state.status != "done":
+                evaluations.missing[run.name] = (f"{state.episodes_done}/{run.episodes} "
+                                                 "episodes")
+                continue
+            trained = parse_scenario(run.config, run.name)
+            scenario = eval_scenario(trained, spec.layouts, spec.layout_seed)
+            users_m = eval_layouts(scenario, spec.layouts)
+            record = {"kind": "policy", "run": run.name, "episodes_done": state.episodes_done,
+                      "scenario": scenario.model_dump(mode="json"), "steps": spec.steps,
+                      "layouts": spec.layouts, "layout_seed": spec.layout_seed}
+            path = folder / f"{run.name}.h5"
+            metrics = _cached(path, record)
+            if metrics is None:
+                with RunReader(run.path) as reader:
+                    policy = greedy_policy(trained, reader.checkpoint(run.seed))
+                stage = f"evaluating {run.name} on {plural(len(users_m), 'layout')}"
+                with progress.stage(stage, spec.steps, "step") as tick:
+                    method = Method.of("policy", scenario, rollout(
+                        scenario, policy, spec.steps, users_m, on_step=tick))
+                metrics = _store(path, scenario, method, record, spec.steps, spec.layouts,
+                                 spec.layout_seed, users_m)
+            evaluations.runs[run.name] = metrics
+            if group == spec.policy:
+                points.setdefault(run.sweep_value, run)
+    for value, run in points.items():
+        scenario = eval_scenario(parse_scenario(run.config, run.name), spec.layouts,
+                                 spec.layout_seed)
+        users_m = eval_layouts(scenario, spec.layouts)
+        for name in spec.baselines:
+            record = {"kind": name, "scenario": scenario.model_dump(mode="json"),
+                      "steps": spec.steps, "layouts": spec.layouts,
+                      "layout_seed": spec.layout_seed}
+            path = folder / f"{name}{_label(value)}.h5"
+            metrics = _cached(path, record)
+            if metrics is None:
+                total, unit = baseline_work(name, spec.steps, users_m)
+                stage = f"evaluating {name}{_label(value)}" + (
+                    "" if unit == "layout" else f" on {plural(len(users_m), 'layout')}")
+                try:
+                    with progress.stage(stage, total, unit) as tick:
+                        method = run_baseline(scenario, name, spec.steps, users_m,
+                                              on_progress=tick)
+                except AdaptskyError as error:
+                    evaluations.missing[f"{name}{_label(value)}"] = str(error)
+                    continue
+                metrics = _store(path, scenario, method, record, spec.steps, spec.layouts,
+                                 spec.layout_seed, users_m)
+            evaluations.baselines[(name, value)] = metrics
+    return evaluations

@@ -1,0 +1,61 @@
+"""Rich tables of evaluation and baseline results."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from rich import box
+from rich.table import Table
+
+from adaptsky.report.units import rate_unit
+
+
+def _pct(value: float | None) -> str:
+    return "-" if value is None or value != value else f"{value:+.1f}"
+
+
+def methods_table(results: dict[str, Any]) -> Table:
+    """One row per method: rates over the layouts and, against the policy, who wins."""
+    layouts, seed = results["layouts"], results["layout_seed"]
+    where = "the scenario's layout" if layouts == 1 and seed is None else (
+        f"{layouts} uniform layouts (layout seed {seed})")
+    title = (f"{results['scenario']} on {where}: {results['steps']} steps, "
+             f"LoS {results['los']}, min SE {results['min_se']} bit/s/Hz")
+    comparison = results.get("comparison")
+    summaries = {name: entry["summary"] for name, entry in results["methods"].items()}
+    scale, unit = rate_unit([s["mean_sum_rate_bps"] for s in summaries.values()])
+    columns = ["method", "mean", "median", "steady", "Jain", "sat."]
+    caption = ("sum rates in {unit}: mean and median over layouts of the mean over steps; "
+               "steady: the last 100 steps; sat.: steps with every user at min SE or above")
+    if comparison is not None:
+        columns += ["wins", "gain%", "med%", "max%"]
+        caption += ("; wins: layouts where the policy's mean sum rate is higher; gain%: the "
+                    "policy's improvement over the method, mean, median and max over layouts")
+    table = Table(*columns, title=title, caption=caption.format(unit=unit), box=box.SIMPLE_HEAD,
+                  pad_edge=False, collapse_padding=True)
+    # numbers are never cut; a long label (a run file's path) folds onto more lines instead
+    # of being cut to an ellipsis, where two runs' labels would read the same
+    table.columns[0].overflow = "fold"
+    for column in table.columns[1:]:
+        column.no_wrap = True
+    for name, s in summaries.items():
+        row = [name] + [f"{s[key] / scale:.2f}" for key in (
+            "mean_sum_rate_bps", "median_sum_rate_bps", "steady_sum_rate_bps")] + [
+            f"{s['fairness']:.3f}", f"{100 * s['satisfied_share']:.0f}%"]
+        if comparison is not None:
+            versus = comparison.get(name)
+            row += ["-"] * 4 if versus is None else [
+                f"{100 * versus['beats_share']:.0f}%",
+                *(_pct(versus[f"{k}_improvement_pct"]) for k in ("mean", "median", "max"))]
+        table.add_row(*row)
+    return table
+
+
+def oracle_line(results: dict[str, Any]) -> str | None:
+    """The policy's steady-state sum rate as a share of the oracle's, if it was compared."""
+    share = results.get("policy_steady_pct_of_oracle")
+    if share is None:
+        return None
+    seconds = results["methods"]["oracle"].get("seconds_per_layout", float("nan"))
+    return (f"policy steady state: {share['mean']:.1f}% of the oracle on average "
+            f"(median {share['median']:.1f}%); oracle search {seconds:.2f} s per layout")

@@ -1,0 +1,110 @@
+"""Summary of a run file: per seed R_e^tot and J_e (sec. V-C: means over the last 100
+episodes, or over every episode of a shorter run), and their mean and population standard
+deviation (ddof = 0) over seeds."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from rich.table import Table
+
+from adaptsky.report.evaluations import (
+    curve_arrays,
+    curve_json,
+    curve_table,
+    format_score,
+    score_kind,
+)
+from adaptsky.report.units import format_rate, format_rate_spread, plural
+from adaptsky.store.run_file import RunReader
+
+LAST_EPISODES = 100
+
+
+def summarize(path: Path) -> dict[str, Any]:
+    """Everything ``adaptsky inspect`` shows, as JSON-able values."""
+    with RunReader(path) as run:
+        attrs, config, plugins, overrides = run.attrs, run.config, run.plugins, run.overrides
+        seeds = []
+        kind = score_kind(run.scenario)
+        for seed in run.seeds:
+            curves = run.episodes(seed)
+            sizes = run.seed_attrs(seed)
+            rates = curves["sum_rate_bps"][-LAST_EPISODES:]
+            fairness = curves["fairness"][-LAST_EPISODES:]
+            best = run.best(seed) if run.has_checkpoint(seed) else None
+            seeds.append({
+                "seed": seed, "episodes_done": sizes["episodes_done"],
+                "episodes_planned": sizes["episodes_planned"],
+                "sum_rate_bps": float(rates.mean()) if len(rates) else None,
+                "fairness": float(fairness.mean()) if len(fairness) else None,
+                "episodes_averaged": len(rates),
+                "best": None if best is None else {"episode": int(best["episode"]),
+                                                   "score": float(best["score"])},
+                "evaluations": curve_json(run.evaluations(seed))})
+    summary: dict[str, Any] = {
+        "file": str(path), "scenario": config["name"], "format_version": attrs["format_version"],
+        "adaptsky_version": attrs["adaptsky_version"], "created_utc": attrs["created_utc"],
+        "channel_model": config["channel"]["model"], "plugins": plugins, "overrides": overrides,
+        "steps_per_episode": config["train"]["steps"], "score_kind": kind, "seeds": seeds}
+    for key in ("sum_rate_bps", "fairness"):
+        values = [s[key] for s in seeds if s[key] is not None]
+        summary[key] = ({"mean": float(np.mean(values)), "std": float(np.std(values)),
+                         "std_ddof": 0, "seeds": len(values)} if values else None)
+    return summary
+
+
+def _window(seeds: list[dict[str, Any]]) -> str:
+    """Which episodes the per-seed means are over: 'last 100', 'last 7', 'last 7-100'."""
+    counts = sorted({s["episodes_averaged"] for s in seeds if s["episodes_averaged"]})
+    if not counts:
+        return f"last {LAST_EPISODES}"
+    return f"last {counts[0]}" if len(counts) == 1 else f"last {counts[0]}-{counts[-1]}"
+
+
+def summary_table(summary: dict[str, Any]) -> Table:
+    """A Rich table of :func:`summarize`'s result."""
+    rate, fairness = summary["sum_rate_bps"], summary["fairness"]
+    window = _window(summary["seeds"])
+    caption = None
+    if rate is not None and fairness is not None:
+        caption = (f"per seed: means over its {window} episodes; all: mean ± population "
+                   f"standard deviation over {plural(rate['seeds'], 'seed')}")
+    greedy = any(s["best"] is not None for s in summary["seeds"])
+    columns = ["seed", "episodes", f"R_e^tot ({window})", f"J_e ({window})"]
+    if greedy:
+        columns.append("best greedy (episode)")
+        caption = (caption or "") + ("; best greedy: the best greedy evaluation during "
+                                     "training, the policy eval uses by default")
+    table = Table(*columns, title=f"{summary['scenario']} ({summary['channel_model']}, "
+                                  f"{summary['steps_per_episode']} steps/episode)",
+                  caption=caption)
+    for s in summary["seeds"]:
+        row = [str(s["seed"]), f"{s['episodes_done']}/{s['episodes_planned']}",
+               format_rate(s["sum_rate_bps"]) if s["sum_rate_bps"] is not None else "-",
+               f"{s['fairness']:.3f}" if s["fairness"] is not None else "-"]
+        if greedy:
+            best = s["best"]
+            row.append("-" if best is None else
+                       f"{format_score(best['score'], summary['score_kind'])} "
+                       f"({best['episode']})")
+        table.add_row(*row)
+    if rate is not None and fairness is not None:
+        table.add_section()
+        table.add_row("all", plural(rate["seeds"], "seed"),
+                      format_rate_spread(rate["mean"], rate["std"]),
+                      f"{fairness['mean']:.3f} ± {fairness['std']:.3f}")
+    return table
+
+
+def curve_tables(summary: dict[str, Any], limit: int = 8) -> list[Table]:
+    """Each seed's greedy evaluations during training (seeds without any: none)."""
+    tables = []
+    for s in summary["seeds"]:
+        curve = curve_arrays(s["evaluations"])
+        if len(curve["episode"]):
+            best = s["best"]["episode"] if s["best"] is not None else None
+            tables.append(curve_table(s["seed"], curve, best, limit))
+    return tables

@@ -1,0 +1,53 @@
+"""User layouts and NOMA cluster pairing (sec. II-A, docs/model.md §1)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from adaptsky.scenario.models import Scenario
+
+
+def user_layouts(scenario: Scenario, num_layouts: int, layout_seed: int | None = None
+                 ) -> NDArray[np.float64]:
+    """User positions of shape (num_layouts, N, 2), m.
+
+    ``listed`` repeats the scenario's positions; ``uniform`` (and ``fresh``, whose fixed
+    layouts are those of ``uniform``) draws every user uniformly over the area from
+    ``layout_seed`` (default: the scenario's), layout after layout, so the first k of n
+    layouts are the k layouts drawn for n = k.
+    """
+    users = scenario.users
+    if users.placement == "listed":
+        listed = np.asarray(users.positions_m, dtype=np.float64)
+        return np.broadcast_to(listed, (num_layouts, *listed.shape)).copy()
+    seed = users.layout_seed if layout_seed is None else layout_seed
+    half_m = scenario.area.side_m / 2
+    rng = np.random.default_rng(seed)
+    return rng.uniform(-half_m, half_m, size=(num_layouts, scenario.num_users, 2))
+
+
+def pair_users(gains: NDArray[np.float64], pairing: str) -> tuple[NDArray[np.int64],
+                                                                   NDArray[np.int64]]:
+    """Indices (B, K) of each cluster's first and second user.
+
+    ``listed``: users (1, 2), (3, 4), ... ``near-far``: users sorted by ``gains`` (B, N); the
+    k-th strongest is the first user of cluster k, the k-th weakest its second.
+    """
+    num_layouts, num_users = gains.shape
+    if pairing == "listed":
+        first = np.broadcast_to(np.arange(0, num_users, 2), (num_layouts, num_users // 2))
+        return first.copy(), first + 1
+    order = np.argsort(-gains, axis=1, kind="stable")
+    half = num_users // 2
+    return order[:, :half].copy(), order[:, ::-1][:, :half].copy()
+
+
+def episode_layouts(scenario: Scenario, seeds: list[int], episode: int) -> NDArray[np.float64]:
+    """The layouts (S, N, 2) of training episode ``episode`` (0-based) for ``users.placement
+    = "fresh"``: every user uniform over the area, from a generator of its own per seed and
+    episode, ([seed, 2, episode]): a run's layouts do not depend on how it was stopped,
+    resumed or stacked."""
+    half_m = scenario.area.side_m / 2
+    return np.stack([np.random.default_rng([seed, 2, episode]).uniform(
+        -half_m, half_m, size=(scenario.num_users, 2)) for seed in seeds])

@@ -1,0 +1,111 @@
+"""Observation of sec. IV-B.1: per user [dx_i, dy_i, alpha_i, g_i], then h (size 4 N + 1).
+
+dx_i = x_UAV - x_i, dy_i = y_UAV - y_i. The raw values span 12 orders of magnitude, so by
+default they are scaled (``observation = "scaled"``):
+
+- dx_i, dy_i divided by L/2 (in [-2, 2]);
+- alpha_i as is (in (0, 1));
+- g_i as (10 log10 g_i - GAIN_DB_CENTER) / GAIN_DB_SCALE, i.e. (g_dB + 100) / 20;
+- h divided by h_max (in (0, 1]).
+
+``observation = "raw"`` gives the paper's values: m, 1, linear gain, m.
+Relative positions make the features mean the same on every layout, so a policy trained on
+one layout can be evaluated on another.
+
+Users come in the order the layout lists them (``agent.user_order = "listed"``, the paper's),
+or cluster by cluster (``"clusters"``: cluster 1's first and second user, then cluster 2's...,
+the order of the actions' power components), so that a user's place in the observation tells
+its cluster and role on every layout (docs/agent.md).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from adaptsky.scenario.models import Scenario
+
+GAIN_DB_CENTER = -100.0
+GAIN_DB_SCALE = 20.0
+FEATURES_PER_USER = 4
+
+
+def observation_size(num_users: int) -> int:
+    return FEATURES_PER_USER * num_users + 1
+
+
+def observe(scenario: Scenario, uav_m: NDArray[np.float64], users_m: NDArray[np.float64],
+            alpha: NDArray[np.float64], gain: NDArray[np.float64],
+            order: NDArray[np.intp] | None = None) -> NDArray[np.float32]:
+    """Observations (B, 4 N + 1), float32.
+
+    From UAV (B, 3), users (B, N, 2), alpha and gain (B, N); ``order`` (B, N) lists the users
+    in observation order (``user_order = "clusters"``; None: as listed).
+    """
+    features = np.empty((FEATURES_PER_USER, *gain.shape))
+    features[:2] = np.moveaxis(uav_m[:, None, :2] - users_m, -1, 0)
+    features[2] = alpha
+    flat = None if order is None else (np.arange(len(order))[:, None] * order.shape[1]
+                                       + order).ravel()
+    return Observer(scenario, gain.shape)(features, gain, uav_m[:, 2], flat)
+
+
+class Observer:
+    """:func:`observe` for one scenario and B environments of N users, with its constants
+    prepared once."""
+
+    def __init__(self, scenario: Scenario, shape: tuple[int, int]) -> None:
+        self.scaled = scenario.agent.observation == "scaled"
+        # 0-d arrays: numpy combines them with an array faster than Python floats
+        self._ten = np.array(10.0)
+        self._center = np.array(GAIN_DB_CENTER)
+        self._max_height_m = np.array(scenario.uav.max_height_m)
+        # every feature's divisor: L/2 for dx and dy, 1 for alpha (x / 1 is x), the dB scale
+        divisor = [scenario.area.side_m / 2, scenario.area.side_m / 2, 1.0, GAIN_DB_SCALE]
+        self._divisor = np.repeat(divisor, shape[0] * shape[1]).reshape(
+            FEATURES_PER_USER, *shape)
+
+    def __call__(self, features: NDArray[np.float64], gain: NDArray[np.float64],
+                 height_m: NDArray[np.float64], order_flat: NDArray[np.intp] | None = None
+                 ) -> NDArray[np.float32]:
+        """Observations (B, 4 N + 1) from ``features`` (4, B, N) whose first three rows hold
+        x_UAV - x_i, y_UAV - y_i and alpha_i (the fourth is overwritten with g_i, then every
+        row scaled in place), the gains g_i (B, N) and the UAV heights (B,); ``order_flat``
+        (B N,) puts the users in observation order (flat positions b N + i; None: as listed).
+
+        The features are computed in float64, then rounded to float32 in one copy.
+        """
+        if self.scaled:
+            gain_db = np.log10(gain, out=features[3])
+            np.multiply(self._ten, gain_db, out=gain_db)
+            np.subtract(gain_db, self._center, out=gain_db)
+            np.divide(features, self._divisor, out=features)
+            height_m = height_m / self._max_height_m
+        else:
+            features[3] = gain
+        _, num_envs, num_users = features.shape
+        if order_flat is not None:
+            features = features.reshape(FEATURES_PER_USER, -1).take(order_flat, axis=1).reshape(
+                FEATURES_PER_USER, num_envs, num_users)
+        obs = np.empty((num_envs, observation_size(num_users)), dtype=np.float32)
+        obs[:, :-1].reshape(num_envs, num_users, FEATURES_PER_USER)[...] = features.transpose(
+            1, 2, 0)
+        obs[:, -1] = height_m
+        return obs
+
+
+def observation_bounds(scenario: Scenario) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """Lower and upper bounds of every observation component (gains unbounded when scaled)."""
+    side_m = scenario.area.side_m
+    if scenario.agent.observation == "scaled":
+        delta, gain_low, gain_high = 2.0, -np.inf, np.inf
+        height = (scenario.uav.min_height_m / scenario.uav.max_height_m, 1.0)
+    else:
+        delta, gain_low, gain_high = side_m, 0.0, np.inf
+        height = (scenario.uav.min_height_m, scenario.uav.max_height_m)
+    low_user = [-delta, -delta, 0.0, gain_low]
+    high_user = [delta, delta, 1.0, gain_high]
+    n_users = scenario.num_users
+    low = np.array(low_user * n_users + [height[0]], dtype=np.float32)
+    high = np.array(high_user * n_users + [height[1]], dtype=np.float32)
+    return low, high

@@ -1,0 +1,100 @@
+"""Eval files: HDF5 holding an evaluation's results and trajectories, what was evaluated and
+with what software (docs/evaluation.md#eval-files)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import h5py
+import numpy as np
+
+from adaptsky import __version__
+from adaptsky.errors import AdaptskyError
+from adaptsky.store.atomic import rewrite, string_dataset, utc_timestamp
+from adaptsky.store.run_file import environment
+from adaptsky.store.tree import read_tree, write_tree
+
+if TYPE_CHECKING:
+    from adaptsky.evaluation.api import Method
+
+FORMAT_VERSION = 1
+KIND = "adaptsky-eval"
+TEXT = "text"
+"""The ``units`` attribute of datasets that hold text (JSON, TOML)."""
+UNITS = {"mean_sum_rate_bps": "bit/s", "steady_sum_rate_bps": "bit/s", "sum_rate_bps": "bit/s",
+         "rate_bps": "bit/s", "min_user_se": "bit/s/Hz", "fairness": "1",
+         "satisfied_share": "1", "steady_satisfied_share": "1", "alpha": "1",
+         "final_uav_m": "m", "uav_m": "m", "layouts_m": "m"}
+"""The ``units`` attribute of every numeric dataset, by name ("1": dimensionless)."""
+
+
+def group_name(label: str) -> str:
+    """An HDF5 name for a method label: '/' (a run file's folder) becomes '%2F'."""
+    return label.replace("%", "%25").replace("/", "%2F")
+
+
+def _with_units(group: h5py.Group) -> None:
+    """Set ``units`` on every dataset below ``group``."""
+    def visit(name: str, item: Any) -> None:
+        if isinstance(item, h5py.Dataset):
+            item.attrs["units"] = UNITS.get(name.rsplit("/", 1)[-1], TEXT)
+    group.visititems(visit)
+
+
+def write_eval(path: Path, results: dict[str, Any], methods: list[Method],
+               provenance: dict[str, Any] | None = None) -> None:
+    """Write a new eval file at ``path`` in one atomic step (replacing any file there).
+
+    ``provenance``: more root attributes (the command line, the wall time); the versions of
+    Python, numpy, torch, h5py and the platform are added here, and the evaluation scenario
+    (``results["scenario_toml"]``) goes to ``/scenario``."""
+    labels = [method.name for method in methods]
+    if len(set(map(group_name, labels))) != len(labels):
+        raise AdaptskyError(f"{path}: two methods share a label ({', '.join(labels)}); "
+                            "every method needs its own")
+    with rewrite(path, fresh=True) as file:
+        file.attrs.update(format_version=FORMAT_VERSION, kind=KIND, adaptsky_version=__version__,
+                          created_utc=utc_timestamp(),
+                          scenario_name=results["scenario"], steps=results["steps"],
+                          layouts=results["layouts"], **environment())
+        for key in ("checkpoint", "seed", "checkpoint_episode", "scenario_file"):
+            if results.get(key) is not None:
+                file.attrs[key] = results[key]
+        file.attrs.update(provenance or {})
+        string_dataset(file, "results_json", json.dumps(results))
+        if results.get("scenario_toml") is not None:
+            string_dataset(file, "scenario", results["scenario_toml"])
+        file.create_dataset("layouts_m", data=np.array(results["layouts_m"]))
+        for method in methods:
+            group = file.create_group(f"methods/{group_name(method.name)}")
+            group.attrs["label"] = method.name
+            write_tree(group, {key: np.asarray(value) for key, value in method.metrics.items()})
+            trace = method.trace
+            write_tree(group.create_group("trajectory"), {
+                "sum_rate_bps": trace.sum_rate_bps, "rate_bps": trace.rate_bps,
+                "uav_m": trace.uav_m, "alpha": trace.alpha}, compress=True)
+        for name, comparison in results.get("comparison", {}).items():
+            group = file.require_group("comparison").create_group(group_name(name))
+            group.attrs.update(comparison, label=name)
+        _with_units(file)
+
+
+def read_eval_metrics(path: Path) -> tuple[dict[str, Any] | None, dict[str, dict[str, np.ndarray]]]:
+    """An eval file's ``record`` (what it evaluated, if written by ``reproduce``) and the
+    per-layout metrics of each method, by label."""
+    try:
+        with h5py.File(path, "r") as file:
+            if file.attrs.get("kind") != KIND:
+                raise AdaptskyError(f"{path}: not an adaptsky eval file")
+            results = json.loads(file["results_json"][()].decode())
+            methods = {}
+            for name, group in file["methods"].items():
+                tree = read_tree(group)
+                tree.pop("trajectory", None)
+                label = str(tree.pop("label", name))
+                methods[label] = {key: np.asarray(value) for key, value in tree.items()}
+    except (OSError, KeyError, ValueError) as error:
+        raise AdaptskyError(f"{path}: damaged eval file ({str(error).splitlines()[0]})") from None
+    return results.get("record"), methods

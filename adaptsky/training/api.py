@@ -1,0 +1,240 @@
+"""``train`` and ``resume`` as keyword-only library functions (the CLI only forwards)."""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+from rich.console import Console
+
+from adaptsky.channels.registry import discover
+from adaptsky.errors import AdaptskyError
+from adaptsky.scenario import Scenario, parse_scenario
+from adaptsky.scenario.loading import parse_toml, read_scenario_text
+from adaptsky.scenario.overrides import apply_overrides
+from adaptsky.scenario.resources import check_fits
+from adaptsky.store import run_file
+from adaptsky.store.atomic import (
+    FileGoneError,
+    StorageError,
+    fresh_path,
+    make_parent,
+    utc_timestamp,
+)
+from adaptsky.store.lock import run_lock
+from adaptsky.store.run_file import RunReader
+from adaptsky.store.tree import Tree
+from adaptsky.training.evaluation import EvaluationSet, evaluation_set
+from adaptsky.training.progress import TrainingProgress
+from adaptsky.training.runner import RunOutcome, SeedTask, run_tasks
+
+if TYPE_CHECKING:  # imported where training starts: commands start without torch
+    import torch
+
+
+class OutputExistsError(AdaptskyError):
+    pass
+
+
+class RunFileGoneError(AdaptskyError):
+    """The run file was removed or replaced by another file while training: adaptsky stops
+    and never writes it again (the same for any number of seeds)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        if path.exists():
+            text = ("was replaced by another file during training; training stopped without "
+                    "writing over it (if that file is a copy of this run, continue it with "
+                    f"adaptsky train --resume {path})")
+        else:
+            text = ("was removed during training; training stopped and wrote nothing in its "
+                    "place (a copy of the run continues with adaptsky train --resume COPY)")
+        super().__init__(f"{path}: the run file {text}")
+
+
+def default_output(scenario: Scenario, directory: Path = Path("runs")) -> Path:
+    """runs/<scenario name>-<time>.h5, never an existing file."""
+    return fresh_path(directory, scenario.name)
+
+
+def _with_train(scenario: Scenario, **overrides: object) -> Scenario:
+    """The scenario with ``[train]`` overrides, validated again."""
+    changes = {key: value for key, value in overrides.items() if value is not None}
+    if not changes:
+        return scenario
+    data = scenario.model_dump(mode="json")
+    data["train"] |= changes
+    return parse_scenario(data, "command line")
+
+
+def _plugins_used(scenario: Scenario) -> dict[str, dict[str, str]]:
+    info = discover()[scenario.channel.model]
+    return {info.name: {"package": info.package, "version": info.version,
+                        "target": info.target}}
+
+
+def load_with_overrides(scenario_path: Path, set_values: list[str] | None = None
+                        ) -> tuple[Scenario, str]:
+    """The scenario file with ``--set`` overrides applied, validated as one file; its text."""
+    text = read_scenario_text(scenario_path)
+    data = parse_toml(text, str(scenario_path))
+    source = str(scenario_path)
+    if set_values:
+        data = apply_overrides(data, set_values, source)
+        source = f"{scenario_path} with --set"
+    return parse_scenario(data, source), text
+
+
+def prepare_output(path: Path) -> None:
+    """Make ``path``'s folder; refuse a folder or an existing file at ``path`` (call it again
+    under the run's lock: another writer may have made it meanwhile)."""
+    if path.is_dir():
+        raise OutputExistsError(f"{path}: is a folder; give a run file name, e.g. "
+                                f"--out {path / 'run.h5'}")
+    if path.exists():
+        raise OutputExistsError(f"{path}: exists; choose another --out, or continue it with "
+                                f"--resume {path}")
+    make_parent(path)
+
+
+def create_run_file(path: Path, scenario: Scenario, text: str,
+                    set_values: list[str] | None = None) -> EvaluationSet | None:
+    """A new run file for every seed of ``scenario`` (refuses an existing ``path``), with the
+    layouts and oracle of its greedy evaluations (returned); the caller holds its lock
+    (:func:`adaptsky.store.lock.run_lock`)."""
+    prepare_output(path)
+    evaluation = evaluation_set(scenario)
+    t = scenario.train
+    run_file.create_run(path, text, scenario.model_dump(mode="json"), _plugins_used(scenario),
+                        t.seeds, t.episodes, scenario.num_users, set_values or [],
+                        evaluation=evaluation)
+    return evaluation
+
+
+def train(*, scenario_path: Path, out: Path | None = None, seeds: list[int] | None = None,
+          episodes: int | None = None, steps: int | None = None, workers: int | None = None,
+          checkpoint_every: int | None = None, set_values: list[str] | None = None,
+          device: str = "cpu", quiet: bool = False, console: Console | None = None
+          ) -> tuple[Path, RunOutcome]:
+    """Train every seed of the scenario into a new run file; returns its path.
+
+    ``set_values`` are ``section.key=value`` overrides, applied before the options above and
+    recorded in the run file. ``device``: cpu, cuda or auto (cuda when available).
+    """
+    started_utc, start_s = utc_timestamp(), time.monotonic()
+    torch_device = training_device(device)
+    scenario, text = load_with_overrides(scenario_path, set_values)
+    scenario = _with_train(scenario, seeds=seeds, episodes=episodes, steps=steps,
+                           checkpoint_every=checkpoint_every)
+    check_fits(scenario, str(scenario_path), workers=workers)
+    path = out if out is not None else default_output(scenario)
+    prepare_output(path)
+    with run_lock(path):
+        evaluation = create_run_file(path, scenario, text, set_values)
+        t = scenario.train
+        tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every,
+                          evaluation=evaluation) for seed in t.seeds]
+        outcome = _run(path, tasks, workers, torch_device, quiet, console)
+        _record_session(path, "train", started_utc, start_s, dict.fromkeys(t.seeds, 0),
+                        console)
+        return path, outcome
+
+
+def read_progress(run_path: Path) -> tuple[Scenario, dict[int, Tree | None],
+                                           list[np.ndarray] | None]:
+    """A run file's scenario (validated on opening), each seed's last checkpoint (None for
+    a seed stopped before its first: it starts from zero) and the stored oracle of its
+    evaluations (None where the file has none)."""
+    with RunReader(run_path) as run:
+        scenario = run.scenario
+        checkpoints: dict[int, Tree | None] = {}
+        for seed in run.seeds:  # (the reader refuses a seed with episodes but no checkpoint)
+            checkpoints[seed] = run.checkpoint(seed) if run.has_checkpoint(seed) else None
+            run.episodes(seed)  # the curves it appends to must read back (no damaged index)
+        return scenario, checkpoints, run.evaluation_oracle()
+
+
+def resume(*, run_path: Path, episodes: int | None = None, workers: int | None = None,
+           device: str = "cpu", quiet: bool = False, console: Console | None = None
+           ) -> tuple[Path, RunOutcome]:
+    """Continue every seed of a run file from its last checkpoint, a seed without one from
+    zero (on any device: only the same device continues bit for bit)."""
+    started_utc, start_s = utc_timestamp(), time.monotonic()
+    torch_device = training_device(device)
+    with RunReader(run_path, needs="curves"):
+        pass  # a missing or damaged file: its own line, before a lock file is made beside it
+    with run_lock(run_path):
+        scenario, checkpoints, stored_oracle = read_progress(run_path)
+        done = max(int(c["episode"]) if c is not None else 0 for c in checkpoints.values())
+        if episodes is not None and episodes < done:
+            raise AdaptskyError(f"--episodes {episodes} is fewer than the {done} episodes "
+                                f"{run_path} has done")
+        if episodes is not None:
+            scenario = _with_train(scenario, episodes=episodes)
+        check_fits(scenario, str(run_path), workers=workers)  # before anything is written
+        if episodes is not None:
+            run_file.set_planned_episodes(run_path, scenario.model_dump(mode="json"))
+        t = scenario.train
+        tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every,
+                          checkpoint) for seed, checkpoint in checkpoints.items()]
+        tasks = [task for task in tasks if task.episodes_done < t.episodes]
+        if not tasks:
+            return run_path, RunOutcome({seed: t.episodes for seed in checkpoints}, False,
+                                        complete=True)
+        evaluation = evaluation_set(scenario, stored_oracle)  # computed only if it must run
+        tasks = [replace(task, evaluation=evaluation) for task in tasks]
+        before = {seed: int(c["episode"]) if c is not None else 0
+                  for seed, c in checkpoints.items()}
+        outcome = _run(run_path, tasks, workers, torch_device, quiet, console)
+        _record_session(run_path, "resume", started_utc, start_s, before, console)
+        return run_path, outcome
+
+
+def _record_session(path: Path, kind: str, started_utc: str, start_s: float,
+                    episodes_before: dict[int, int], console: Console | None) -> None:
+    """Append this session to the run's history; the training it describes is stored
+    already, so a failure to write it (a full disk) is a warning, not a failed run."""
+    try:
+        run_file.record_session(path, kind, sys.argv, started_utc, time.monotonic() - start_s,
+                                episodes_before)
+    except FileGoneError:
+        raise RunFileGoneError(path) from None
+    except StorageError as error:
+        (console or Console(stderr=True)).print(
+            f"warning: the session history was not recorded: {error}", markup=False,
+            highlight=False)
+
+
+def training_device(name: str) -> torch.device:
+    """The torch device for ``--device`` (cpu, cuda, cuda:N or auto), or one clear error."""
+    from adaptsky.algos.device_step import resolve_device
+
+    try:
+        return resolve_device(name)
+    except (ValueError, RuntimeError) as error:
+        raise AdaptskyError(str(error)) from None
+
+
+def _run(path: Path, tasks: list[SeedTask], workers: int | None, device: torch.device,
+         quiet: bool, console: Console | None) -> RunOutcome:
+    console = console or Console(stderr=True)
+    try:
+        with TrainingProgress(console, quiet) as view:
+            for task in tasks:
+                view.add_seed(task.seed, task.episodes_done, task.episodes)
+            return run_tasks(path, tasks, workers or len(tasks), view, device)
+    except StorageError as error:
+        if error.path != path or not path.exists():
+            raise
+        failure = error.with_advice(f"{error.advice}; {path} keeps its last checkpoints: "
+                                    f"continue it with adaptsky train --resume {path}")
+    except FileGoneError as error:
+        if error.path != path:
+            raise
+        failure = RunFileGoneError(path)
+    raise failure
+

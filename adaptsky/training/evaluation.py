@@ -1,0 +1,159 @@
+"""Greedy evaluation during training, and the best policy so far (docs/training.md).
+
+Every ``train.eval_every`` episodes each member of a stack runs its greedy policy (no
+exploration, no learning) for ``train.eval_steps`` steps from the episode start, on the
+evaluation layouts: the training layout (unless ``users.placement = "fresh"``, where there is
+none) and ``train.eval_layouts`` held-out uniform layouts drawn from ``train.eval_layout_seed``
+and paired near-far. Its steady state is the mean over the last 100 steps (as ``adaptsky
+eval`` measures it), compared with the oracle of each layout where the scenario allows one
+(``channel.los`` not ``"sampled"``).
+
+The evaluation has environments and generators of its own (LoS draws from seed 0, as
+``eval``): it changes nothing of training, which gives the same numbers with or without it.
+
+The score that chooses the best policy: percent of the oracle on the training layout, or, for
+``fresh`` placement, the mean percent of the oracle over the held-out layouts; without an
+oracle, the same sum rates in bit/s.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from adaptsky.evaluation.api import eval_scenario
+from adaptsky.evaluation.metrics import STEADY_STEPS, percent_of
+from adaptsky.evaluation.oracle import has_oracle, oracle
+from adaptsky.scenario import Scenario
+from adaptsky.sim.batch import NomaUavBatch
+from adaptsky.sim.layout import user_layouts
+from adaptsky.sim.noma import jain_fairness
+from adaptsky.store.layout import EVALUATIONS
+
+FloatArray = NDArray[np.float64]
+# the [train] keys of the evaluation: they change nothing of training
+EVALUATION_KEYS = ("eval_every", "eval_steps", "eval_layouts", "eval_layout_seed")
+# the columns of /seeds/<S>/evaluations (docs/file-format.md); NaN where a column does not apply
+COLUMNS = tuple(field.name for field in EVALUATIONS)
+
+
+@dataclass(frozen=True)
+class LayoutGroup:
+    """Layouts evaluated under one pairing: the scenario they run in, their positions
+    (L, N, 2) and each one's oracle sum rate (L,), NaN where there is none."""
+
+    scenario: Scenario
+    layouts_m: FloatArray
+    oracle_bps: FloatArray
+
+
+@dataclass(frozen=True)
+class EvaluationSet:
+    """What a run evaluates on: the training layout (or None) and the held-out layouts (or
+    None). Computed once when the run file is made, and stored in it."""
+
+    training: LayoutGroup | None
+    held_out: LayoutGroup | None
+
+    @property
+    def groups(self) -> list[LayoutGroup]:
+        return [group for group in (self.training, self.held_out) if group is not None]
+
+
+def evaluation_set(scenario: Scenario, oracle_bps: list[FloatArray] | None = None
+                   ) -> EvaluationSet | None:
+    """The scenario's evaluation layouts (None when it evaluates nothing, also when its run
+    is shorter than ``eval_every``), with their oracle: ``oracle_bps`` as stored (one array
+    per group, training layout first), else computed (about 2 s per layout for the paper's
+    lattice). The held-out layouts are those of ``eval --layouts`` (uniform, near-far)."""
+    train = scenario.train
+    if train.eval_every == 0 or train.episodes < train.eval_every:
+        return None  # nothing to evaluate (a longer --resume computes it then)
+    stored = iter(oracle_bps or [])
+
+    def group(variant: Scenario, count: int) -> LayoutGroup:
+        layouts_m = user_layouts(variant, count)
+        ceiling = next(stored, None)
+        if ceiling is None:
+            ceiling = (oracle(variant, layouts_m).objective_bps if has_oracle(variant)
+                       else np.full(count, np.nan))
+        return LayoutGroup(variant, layouts_m, np.asarray(ceiling, dtype=np.float64))
+
+    training = None if scenario.users.placement == "fresh" else group(scenario, 1)
+    held_out = (group(eval_scenario(scenario, train.eval_layouts, train.eval_layout_seed),
+                      train.eval_layouts) if train.eval_layouts else None)
+    if training is None and held_out is None:
+        return None
+    return EvaluationSet(training, held_out)
+
+
+def _nan_reduce(reduce: object, values: FloatArray) -> float:
+    """np.nanmean or np.nanmedian of ``values``; NaN, quietly, when every value is NaN."""
+    if np.isnan(values).all():
+        return float("nan")
+    return float(reduce(values))  # type: ignore[operator]
+
+
+class GreedyEvaluator:
+    """Greedy rollouts of a stack on the members' :class:`EvaluationSet` s, which share their
+    layouts (a stack's members share everything but ``reward`` and ``train``) and may differ
+    in their oracles (``reward.min_se``); ``greedy`` maps observations (S, n, obs) to
+    actions (S, n)."""
+
+    def __init__(self, evaluations: list[EvaluationSet], steps: int) -> None:
+        self.evaluations, self.members, self.steps = evaluations, len(evaluations), steps
+        self.envs = [NomaUavBatch(group.scenario, num_envs=self.members * len(group.layouts_m),
+                                  seed=0, users_m=np.concatenate([group.layouts_m] * self.members))
+                     for group in evaluations[0].groups]
+
+    def run(self, greedy: object) -> list[dict[str, float]]:
+        """One evaluation: per member its row of :data:`COLUMNS` (without ``episode``)."""
+        results: list[dict[str, float]] = [{} for _ in range(self.members)]
+        for index, env in enumerate(self.envs):
+            rates = self._rollout(env, greedy)  # (steady steps, S, L, N)
+            steady = rates.sum(axis=-1).mean(axis=0)  # (S, L)
+            fairness = jain_fairness(rates).mean(axis=0)
+            for member, (row, evaluation) in enumerate(zip(results, self.evaluations,
+                                                           strict=True)):
+                group = evaluation.groups[index]
+                pct = percent_of(steady[member], group.oracle_bps)
+                if group is evaluation.training:
+                    row.update(sum_rate_bps=float(steady[member, 0]),
+                               fairness=float(fairness[member, 0]), pct_oracle=float(pct[0]))
+                else:
+                    row.update(heldout_sum_rate_bps=float(steady[member].mean()),
+                               heldout_fairness=float(fairness[member].mean()),
+                               heldout_pct_oracle=_nan_reduce(np.nanmean, pct),
+                               heldout_pct_oracle_median=_nan_reduce(np.nanmedian, pct))
+        for row, evaluation in zip(results, self.evaluations, strict=True):
+            for column in COLUMNS[1:-1]:
+                row.setdefault(column, float("nan"))
+            row["score"] = score(row, evaluation)
+        return results
+
+    def _rollout(self, env: NomaUavBatch, greedy: object) -> FloatArray:
+        """Rates (K, S, L, N) of the last K = min(100, steps) steps of a greedy rollout."""
+        members = self.members
+        layouts = env.num_envs // members
+        obs, _ = env.reset()
+        kept = min(STEADY_STEPS, self.steps)
+        rates = np.empty((kept, members, layouts, env.num_users))
+        with np.errstate(all="ignore"):
+            for step in range(self.steps):
+                actions = greedy(obs.reshape(members, layouts, -1))  # type: ignore[operator]
+                obs, _, _, state = env.step(np.asarray(actions).reshape(-1))
+                if step >= self.steps - kept:
+                    rates[step - self.steps + kept] = state.rate_bps.reshape(
+                        members, layouts, -1)
+        return rates
+
+
+def score(row: dict[str, float], evaluation: EvaluationSet) -> float:
+    """What chooses the best policy (module docstring); higher is better."""
+    if evaluation.training is not None:
+        oracle = has_oracle(evaluation.training.scenario)
+        return row["pct_oracle"] if oracle else row["sum_rate_bps"]
+    oracle = evaluation.held_out is not None and has_oracle(evaluation.held_out.scenario)
+    return row["heldout_pct_oracle"] if oracle else row["heldout_sum_rate_bps"]

@@ -1,0 +1,109 @@
+"""Live display of training: one Rich progress row per seed on a terminal; elsewhere (a pipe,
+nohup, a batch job, CI) one timestamped log line per seed at its first and last episode and
+at most one every ``log_every_s`` in between."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import deque
+
+from rich.console import Console
+from rich.progress import MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+from adaptsky.report import progress as work_progress
+from adaptsky.report.progress import pace, stamp
+from adaptsky.report.units import format_rate
+
+MOVING_WINDOW = 100
+
+
+class _SeedLog:
+    """When a seed last logged, and its pace since the display started."""
+
+    def __init__(self, done: int) -> None:
+        self.start_episode, self.start = done, time.monotonic()
+        self.last_log: float | None = None
+
+
+class TrainingProgress:
+    """Episode, moving-average sum rate (last 100 episodes), fairness and epsilon per seed."""
+
+    def __init__(self, console: Console, quiet: bool, log_every_s: float | None = None) -> None:
+        self.quiet = quiet
+        self.log_every_s = work_progress.LOG_EVERY_S if log_every_s is None else log_every_s
+        self.live = console.is_terminal and not quiet
+        self.progress = Progress(
+            TextColumn("seed {task.fields[seed]:>3}"), MofNCompleteColumn(),
+            TextColumn("R {task.fields[rate]} J {task.fields[fairness]} "
+                       "eps {task.fields[epsilon]} greedy {task.fields[greedy]}"),
+            TimeRemainingColumn(), console=console, disable=not self.live, transient=False)
+        self.tasks: dict[int, int] = {}
+        self.totals: dict[int, int] = {}
+        self.logs: dict[int, _SeedLog] = {}
+        self.rates: dict[int, deque[float]] = {}
+        self.fairness: dict[int, deque[float]] = {}
+        self.greedy: dict[int, dict[str, float]] = {}  # each seed's last greedy evaluation
+
+    def __enter__(self) -> TrainingProgress:
+        self.progress.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.progress.stop()
+
+    def add_seed(self, seed: int, done: int, total: int) -> None:
+        self.rates[seed] = deque(maxlen=MOVING_WINDOW)
+        self.fairness[seed] = deque(maxlen=MOVING_WINDOW)
+        self.totals[seed], self.logs[seed] = total, _SeedLog(done)
+        self.tasks[seed] = self.progress.add_task("", total=total, completed=done, seed=seed,
+                                                  rate="-", fairness="-", epsilon="-",
+                                                  greedy="-")
+
+    def episode(self, seed: int, episode: int, metrics: dict[str, float]) -> None:
+        """Seed ``seed`` has done ``episode`` episodes, the last with ``metrics``."""
+        self.rates[seed].append(metrics["sum_rate_bps"])
+        self.fairness[seed].append(metrics["fairness"])
+        rates, fairness = self.rates[seed], self.fairness[seed]
+        rate = format_rate(sum(rates) / len(rates))
+        mean_fairness = sum(fairness) / len(fairness)
+        if "greedy" in metrics:
+            self.greedy[seed] = metrics["greedy"]  # type: ignore[assignment]
+        greedy = greedy_text(self.greedy[seed], short=True) if seed in self.greedy else "-"
+        self.progress.update(self.tasks[seed], completed=episode, rate=rate,
+                             fairness=f"{mean_fairness:.3f}",
+                             epsilon=f"{metrics['epsilon']:.3f}", greedy=greedy)
+        if not self.live and not self.quiet:
+            self._log(seed, episode, rate, mean_fairness, metrics["epsilon"])
+
+    def _log(self, seed: int, episode: int, rate: str, fairness: float, epsilon: float) -> None:
+        log, total, now = self.logs[seed], self.totals[seed], time.monotonic()
+        due = (log.last_log is None or episode >= total
+               or now - log.last_log >= self.log_every_s)
+        if not due:
+            return
+        log.last_log = now
+        speed = pace(now - log.start, episode - log.start_episode, total - log.start_episode,
+                     "episode")
+        averaged = len(self.rates[seed])
+        greedy = f"; greedy {greedy_text(self.greedy[seed])}" if seed in self.greedy else ""
+        self.message(f"seed {seed}: episode {episode}/{total}, mean of the last {averaged}: "
+                     f"sum rate {rate}, J {fairness:.3f}; eps {epsilon:.3f}{greedy}, {speed}")
+
+    def message(self, text: str) -> None:
+        """A line above the live rows; timestamped where there are none (a log)."""
+        self.progress.console.print(text if self.live else stamp(text), markup=False,
+                                    highlight=False, soft_wrap=True)
+
+
+def greedy_text(row: dict[str, float], short: bool = False) -> str:
+    """The last greedy evaluation in a few characters: percent of the oracle on the training
+    layout, else on the held-out layouts (mean), else the training layout's sum rate;
+    ``short`` (the live row, 80 columns) leaves out what it is measured against."""
+    name = next((name for name in ("pct_oracle", "heldout_pct_oracle", "sum_rate_bps")
+                 if math.isfinite(row[name])), "heldout_sum_rate_bps")
+    value = format_rate(row[name]) if name.endswith("bps") else f"{row[name]:.1f}%"
+    if short:
+        return value
+    return (value + (" of oracle" if name.endswith("oracle") else "")
+            + (" (held-out)" if name.startswith("heldout") else ""))

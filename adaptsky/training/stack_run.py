@@ -1,0 +1,298 @@
+"""Algorithm 1 for a stack of members (seeds) in lockstep: collect, update, log, checkpoint.
+
+Every member is a whole independent run: its own environment generator (LoS draws, user
+moves; seeded with (seed, 0)), its own agent generator (exploration, replay sampling; (seed,
+1)), its own initial weights (torch seeded with the seed), memory and Adam state, and its own
+reward weights, and with ``users.placement = "fresh"`` its own layout every episode (from
+(seed, 2, episode)). Nothing a member computes reads another member's numbers, so a seed
+trained in a stack of four gives the numbers it gives alone (on a CPU, bit for bit;
+docs/training.md says what holds on a GPU). Members of one stack are at the same episode; every
+checkpoint is per member and holds everything needed to continue bit for bit, its best policy
+of the greedy evaluations (``train.evaluation``) included.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import torch
+
+from adaptsky.algos.device_step import DeviceStep, describe
+from adaptsky.algos.replay import StackedReplay
+from adaptsky.algos.returns import NStepWindow
+from adaptsky.algos.schedule import epsilon
+from adaptsky.algos.stacked import StackedDqn
+from adaptsky.errors import NonFiniteError
+from adaptsky.scenario.models import Scenario
+from adaptsky.sim.batch import NomaUavBatch, reward_weights
+from adaptsky.sim.layout import episode_layouts
+from adaptsky.sim.noma import jain_fairness
+from adaptsky.sim.observation import observation_size
+from adaptsky.store.tree import Tree
+from adaptsky.training.evaluation import EVALUATION_KEYS, EvaluationSet, GreedyEvaluator
+
+STATE_FIELDS = ("uav_m", "alpha", "gain", "los", "rate_bps")
+# what members of one stack may differ in; everything else must be equal
+PER_MEMBER = {"name", "description", "reward", "train"}
+# the scenario keys each checked quantity depends on (named when it is not finite)
+_GAIN_KEYS = "channel.model, channel.params, uav.*, users.*, area.side_m"
+DEPENDS_ON = {
+    "gain": _GAIN_KEYS,
+    "rate_bps": f"radio.*, {_GAIN_KEYS}",
+    "reward": f"reward.*, radio.*, {_GAIN_KEYS}",
+    "loss": "agent.lr, agent.gamma, agent.hidden_sizes, agent.loss, agent.grad_clip_norm, "
+            "agent.observation, reward.*",
+}
+
+
+@dataclass(frozen=True)
+class Member:
+    """One run of a stack: a scenario, a seed, and what it evaluates on during training
+    (None: no evaluation)."""
+
+    scenario: Scenario
+    seed: int
+    evaluation: EvaluationSet | None = None
+
+
+@dataclass
+class EpisodeResult:
+    """Learning-curve values of one episode of one member, and its trajectory (time-major)."""
+
+    episode: int  # 1-based count of episodes done after this one
+    metrics: dict[str, Any]
+    trajectory: dict[str, np.ndarray]
+    evaluation: dict[str, float] | None = None  # a greedy evaluation after this episode
+
+
+def stack_key(scenario: Scenario) -> str:
+    """Scenarios with equal keys can train in one stack (they differ at most in PER_MEMBER
+    sections, and share the number of steps per episode)."""
+    data = {k: v for k, v in scenario.model_dump(mode="json").items() if k not in PER_MEMBER}
+    data["steps"] = scenario.train.steps
+    return json.dumps(data, sort_keys=True)
+
+
+def _evaluators(members: list[Member]) -> list[tuple[int, list[int], GreedyEvaluator]]:
+    """(eval_every, member indices, evaluator) for each set of members that evaluate alike;
+    members without an evaluation are in none."""
+    groups: dict[tuple[object, ...], list[int]] = {}
+    for index, member in enumerate(members):
+        if member.evaluation is not None:
+            settings = tuple(getattr(member.scenario.train, key) for key in EVALUATION_KEYS)
+            groups.setdefault(settings, []).append(index)
+    evaluators = []
+    for indices in groups.values():
+        train = members[indices[0]].scenario.train
+        evaluations = [members[i].evaluation for i in indices]
+        evaluators.append((train.eval_every, indices,
+                           GreedyEvaluator(evaluations, train.eval_steps)))  # type: ignore[arg-type]
+    return evaluators
+
+
+class StackRun:
+    """Environments, agent, memories and generators of a stack of members on ``device``."""
+
+    def __init__(self, members: list[Member], device: str | torch.device = "cpu",
+                 graphs: bool | None = None) -> None:
+        keys = {stack_key(member.scenario) for member in members}
+        if len(keys) != 1:
+            raise ValueError("members of a stack may differ only in "
+                             f"{sorted(PER_MEMBER)}; got {len(keys)} different scenarios")
+        self.members = members
+        self.scenario = scenario = members[0].scenario
+        seeds = [member.seed for member in members]
+        self.env = NomaUavBatch(scenario, num_envs=len(members),
+                                seed=[np.random.SeedSequence([s, 0]) for s in seeds],
+                                weights=[reward_weights(m.scenario) for m in members])
+        self.rngs = [np.random.default_rng([s, 1]) for s in seeds]
+        obs_size = observation_size(scenario.num_users)
+        device = torch.device(device)
+        self.agent = StackedDqn(scenario.agent, obs_size, self.env.actions.count, seeds, device)
+        self.memory = StackedReplay(len(members), scenario.agent.memory_size, obs_size, device)
+        self.device_step = DeviceStep(self.agent, self.memory, scenario.agent.batch_size,
+                                      graphs)
+        self.window = NStepWindow(scenario.agent.n_step, scenario.agent.gamma)
+        self._reward_scale = np.array(scenario.agent.reward_scale)
+        self._seeds = seeds
+        self.episodes_done = 0
+        self.evaluators = _evaluators(members)
+        # the best policy so far of every member: its score, episode and weights
+        self.best_score = np.full(len(members), -np.inf)
+        self.best_episode = np.zeros(len(members), dtype=np.int64)
+        self.best_params = torch.zeros_like(self.agent.params)
+
+    def _actions(self, observations: np.ndarray, eps: float) -> np.ndarray:
+        """Epsilon-greedy per member (alg. 1 line 6): one uniform draw, one more to explore."""
+        explore = [rng.random() < eps for rng in self.rngs]
+        if not any(explore):
+            return self.device_step.greedy(observations)
+        greedy = None if all(explore) else self.device_step.greedy(observations)
+        count = self.env.actions.count
+        return np.array([rng.integers(count) if explores else greedy[index]  # type: ignore[index]
+                         for index, (rng, explores) in enumerate(zip(self.rngs, explore,
+                                                                     strict=True))],
+                        dtype=np.int64)
+
+    def run_episode(self) -> list[EpisodeResult]:
+        """One episode of T steps, an update per step once the memories hold a batch."""
+        config, steps = self.scenario.agent, self.scenario.train.steps
+        not_terminal = np.zeros(len(self.members), dtype=bool)  # T is a truncation
+        states, rewards, chosen = [], [], []
+        eps = config.epsilon_start
+        scale, window = self._reward_scale, self.window
+        window.restart()
+        self.agent.set_learning_rate(self.episodes_done * steps)
+        if self.scenario.users.placement == "fresh":
+            self.env.set_layouts(episode_layouts(self.scenario, self._seeds, self.episodes_done))
+        # a NaN or infinity is reported once, by _check_finite, not as numpy warnings
+        with np.errstate(all="ignore"):
+            obs, _ = self.env.reset()
+            for tau in range(steps):
+                eps = epsilon(self.episodes_done * steps + tau, config.epsilon_start,
+                              config.epsilon_end, config.epsilon_decay_steps)
+                actions = self._actions(obs, eps)
+                next_obs, reward, _, state = self.env.step(actions)
+                ready = window.push(obs, actions, reward * scale, next_obs)
+                if ready is not None:
+                    self.memory.add(*ready, not_terminal)
+                if self.memory.size >= config.batch_size:
+                    self.device_step.update(self.memory.sample_index(config.batch_size,
+                                                                     self.rngs))
+                states.append(state)
+                rewards.append(reward)
+                chosen.append(actions)
+                obs = next_obs
+        # alg. 1: a hard copy when ep is a multiple of delta (unless the target is soft)
+        if config.target_tau == 0 and self.episodes_done % config.target_update_episodes == 0:
+            self.agent.sync_target()
+        self.episodes_done += 1
+        updated = self.agent.updates > 0
+        losses = self.agent.take_mean_loss()  # NaN without updates: not an error
+        trajectory = {name: np.stack([getattr(state, name) for state in states])
+                      for name in STATE_FIELDS}  # time-major, (T, S, ...)
+        trajectory["reward"], trajectory["action"] = np.stack(rewards), np.stack(chosen)
+        self._check_finite(trajectory, losses if updated else None)
+        evaluations = self._evaluate()
+        return [self._result({name: values[:, index] for name, values in trajectory.items()},
+                             eps, losses[index], evaluations[index])
+                for index in range(len(self.members))]
+
+    def _evaluate(self) -> list[dict[str, float] | None]:
+        """A greedy evaluation of every member when one is due (``train.eval_every``), and
+        the best policies kept; None per member otherwise."""
+        found: list[dict[str, float] | None] = [None] * len(self.members)
+        for every, indices, evaluator in self.evaluators:
+            if self.episodes_done % every:
+                continue
+            for index, row in zip(indices, evaluator.run(self._greedy_of(indices)),
+                                  strict=True):
+                row["episode"] = self.episodes_done
+                found[index] = row
+                if row["score"] > self.best_score[index]:  # a NaN score is never the best
+                    self.best_score[index] = row["score"]
+                    self.best_episode[index] = self.episodes_done
+                    self.best_params[index] = self.agent.params[index]
+        return found
+
+    def _greedy_of(self, indices: list[int]) -> Callable[[np.ndarray], np.ndarray]:
+        """The greedy actions of the members ``indices`` for their observations (k, n, obs)."""
+        if len(indices) == len(self.members):
+            return self.agent.greedy
+
+        def greedy(observations: np.ndarray) -> np.ndarray:
+            every = np.zeros((len(self.members), *observations.shape[1:]), dtype=np.float32)
+            every[indices] = observations
+            return self.agent.greedy(every)[indices]
+        return greedy
+
+    def _check_finite(self, trajectory: dict[str, np.ndarray], losses: np.ndarray | None
+                      ) -> None:
+        """Raise :class:`NonFiniteError` for the first NaN or infinity among the episode's
+        gains, rates, rewards (T, S, ...) and losses (S,): nothing of the episode is stored."""
+        checked = {name: trajectory[name] for name in ("gain", "rate_bps", "reward")}
+        if losses is not None:
+            checked["loss"] = np.asarray(losses)[None]
+        for name, values in checked.items():
+            if np.isfinite(values).all():
+                continue
+            where = tuple(int(i) for i in np.argwhere(~np.isfinite(values))[0])
+            seed = self.members[where[1]].seed  # axis 1 is the member
+            value = values[where]
+            step = "" if name == "loss" else f", step {where[0] + 1}"
+            user = f" of user {where[2] + 1}" if len(where) > 2 else ""
+            raise NonFiniteError(
+                f"{self.scenario.name}: seed {seed}, episode {self.episodes_done}{step}: "
+                f"{name}{user} is {value}; it depends on {DEPENDS_ON[name]}. Training stopped; "
+                "the run file keeps its last checkpoint")
+
+    def _result(self, trajectory: dict[str, np.ndarray], eps: float, loss: float,
+                evaluation: dict[str, float] | None) -> EpisodeResult:
+        trajectory = {name: np.ascontiguousarray(values) for name, values in trajectory.items()}
+        rates = trajectory["rate_bps"]
+        metrics = {
+            "sum_rate_bps": rates.sum(axis=1).mean(),
+            "fairness": float(np.mean(jain_fairness(rates))),
+            "reward": trajectory["reward"].sum(),
+            "mean_height_m": trajectory["uav_m"][:, 2].mean(),
+            "epsilon": eps,
+            "loss": float(loss),
+            "mean_rate_bps": rates.mean(axis=0),
+            "mean_alpha": trajectory["alpha"].mean(axis=0),
+        }
+        return EpisodeResult(self.episodes_done, metrics, trajectory, evaluation)
+
+    def best(self, index: int) -> Tree | None:
+        """Member ``index``'s best policy so far (None before it has one): the episode that
+        made it, its score, and its weights named as ``QNetwork`` names them."""
+        if not self.best_episode[index]:
+            return None
+        row = self.best_params[index, :self.agent.layers[-1].end].cpu().numpy()
+        return {"episode": int(self.best_episode[index]),
+                "score": np.float64(self.best_score[index]),
+                "policy": self.agent.state_from_row(row)}
+
+    def checkpoint(self, index: int) -> Tree:
+        """Everything member ``index`` needs to continue bit for bit, as arrays and JSON (and
+        its best policy so far, when it has one)."""
+        best = self.best(index)
+        return ({"best": best} if best is not None else {}) | {
+            "episode": self.episodes_done,
+            "global_step": self.episodes_done * self.scenario.train.steps,
+            "seed": self.members[index].seed,
+            "device": describe(self.agent.device),
+            "agent": self.agent.state_arrays(index),
+            "replay": {**self.memory.arrays(index), "position": self.memory.position},
+            "rng": {"numpy_agent_json": json.dumps(self.rngs[index].bit_generator.state),
+                    "numpy_env_json": json.dumps(self._env_rng(index).bit_generator.state)},
+        }
+
+    def _env_rng(self, index: int) -> np.random.Generator:
+        assert self.env.rngs is not None
+        return self.env.rngs[index]
+
+    def restore(self, index: int, checkpoint: Tree) -> None:
+        """Inverse of :meth:`checkpoint` for member ``index``; every member of a stack must be
+        restored to the same episode."""
+        episode = int(checkpoint["episode"])
+        if index and episode != self.episodes_done:
+            raise ValueError(f"members of a stack must be at one episode: member {index} is at "
+                             f"{episode}, member 0 at {self.episodes_done}")
+        self.agent.load_state_arrays(index, checkpoint["agent"])
+        replay = dict(checkpoint["replay"])
+        position = int(replay.pop("position"))
+        self.memory.load(index, replay, position)
+        self.rngs[index].bit_generator.state = json.loads(checkpoint["rng"]["numpy_agent_json"])
+        self._env_rng(index).bit_generator.state = json.loads(
+            checkpoint["rng"]["numpy_env_json"])
+        best = checkpoint.get("best")
+        if best is not None:
+            self.best_score[index] = float(best["score"])
+            self.best_episode[index] = int(best["episode"])
+            self.best_params[index, :self.agent.layers[-1].end] = torch.from_numpy(
+                self.agent.row_from_state(best["policy"]))
+        self.episodes_done = episode

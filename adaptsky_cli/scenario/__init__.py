@@ -1,6 +1,0 @@
-"""Scenario files: Pydantic models, TOML loading and writing."""
-
-from adaptsky_cli.scenario.loading import load_scenario, parse_scenario
-from adaptsky_cli.scenario.models import Scenario
-
-__all__ = ["Scenario", "load_scenario", "parse_scenario"]
