@@ -19,14 +19,13 @@ from pathlib import Path
 import numpy as np
 
 from adaptsky.evaluation.api import (
-    Method,
     eval_layouts,
-    eval_scenario,
     run_baseline,
     with_policy,
 )
-from adaptsky.evaluation.metrics import compare, percent_of
-from adaptsky.evaluation.rollout import greedy_policy, rollout
+from adaptsky.rollouts.metrics import Method, compare, percent_of
+from adaptsky.rollouts.rollout import greedy_policy, rollout
+from adaptsky.scenario.variants import eval_scenario
 from adaptsky.store.run_file import RunReader
 from adaptsky.training.runner import pin_threads
 

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from adaptsky.evaluation.api import run_baseline
-from adaptsky.evaluation.objective import constrained_sum_rate
-from adaptsky.evaluation.oracle import lattice, oracle
-from adaptsky.evaluation.rollout import hold, random_policy, rollout
-from adaptsky.evaluation.soa import soa_configuration
+from adaptsky.rollouts.objective import constrained_sum_rate
+from adaptsky.rollouts.oracle import lattice, oracle
+from adaptsky.rollouts.rollout import hold, random_policy, rollout
+from adaptsky.rollouts.soa import soa_configuration
 from adaptsky.scenario import load_scenario
 from adaptsky.sim import noma
 from adaptsky.sim.batch import NomaUavBatch

@@ -14,7 +14,7 @@ from adaptsky.channels import ChannelModel, LinkGeometry, db_to_linear
 from adaptsky.channels.checker import check_channel_model, structural_problems
 from adaptsky.channels.registry import PluginInfo, discover
 from adaptsky.errors import AdaptskyError, ScenarioError
-from adaptsky.evaluation.oracle import has_oracle, require_deterministic_gains
+from adaptsky.rollouts.oracle import has_oracle, require_deterministic_gains
 from adaptsky.scenario import parse_scenario
 from adaptsky.scenario.models import PAPER_TRAINING_LAYOUT_M
 from adaptsky.sim.batch import NomaUavBatch

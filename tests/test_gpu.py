@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from adaptsky.evaluation.rollout import greedy_policy
+from adaptsky.rollouts.rollout import greedy_policy
 from adaptsky.scenario import parse_scenario
 from adaptsky.store.run_file import RunReader
 from adaptsky.training import api

@@ -21,8 +21,8 @@ from adaptsky.errors import NonFiniteError, ResourceError, ScenarioError
 from adaptsky.experiment.plan import load_experiment
 from adaptsky.scenario import load_scenario, parse_scenario
 from adaptsky.scenario.models import max_users
-from adaptsky.scenario.resources import check_fits, estimate, format_bytes
 from adaptsky.scenario.toml_writer import dumps
+from adaptsky.training.resources import check_fits, estimate, format_bytes
 from adaptsky.training.stack_run import Member, StackRun
 from adaptsky_cli.cli.main import main
 from tests.conftest import SCENARIOS

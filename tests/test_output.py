@@ -17,8 +17,8 @@ import h5py
 import pytest
 from rich.console import Console
 
+from adaptsky import progress as work_progress
 from adaptsky.evaluation.labels import distinct_labels
-from adaptsky.report import progress as work_progress
 from adaptsky.report.eval_table import methods_table
 from adaptsky.scenario import load_scenario
 from adaptsky.scenario.toml_writer import dumps

@@ -2,8 +2,8 @@
 
 import pytest
 
-from adaptsky.evaluation.oracle import oracle
 from adaptsky.report.summary import summarize
+from adaptsky.rollouts.oracle import oracle
 from adaptsky.scenario import load_scenario
 from adaptsky.sim.layout import user_layouts
 from adaptsky.training import api

@@ -16,7 +16,7 @@ import h5py
 import numpy as np
 import pytest
 
-from adaptsky.evaluation.rollout import greedy_policy, random_policy, rollout
+from adaptsky.rollouts.rollout import greedy_policy, random_policy, rollout
 from adaptsky.scenario import load_scenario
 from adaptsky.scenario.toml_writer import dumps
 from adaptsky.sim.layout import user_layouts

@@ -14,30 +14,30 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from adaptsky.arrays import Tree
 from adaptsky.errors import AdaptskyError
 from adaptsky.evaluation.labels import distinct_labels
-from adaptsky.evaluation.metrics import compare, layout_metrics, percent_of, summary_row
-from adaptsky.evaluation.oracle import oracle, require_deterministic_gains
-from adaptsky.evaluation.rollout import (
+from adaptsky.progress import SilentProgress, WorkProgress
+from adaptsky.report.evaluations import curve_json, score_kind
+from adaptsky.rollouts.metrics import Method, compare, percent_of, summary_row
+from adaptsky.rollouts.oracle import oracle, require_deterministic_gains
+from adaptsky.rollouts.rollout import (
     Policy,
     Tick,
-    Trace,
     greedy_policy,
     hold,
     random_policy,
     rollout,
 )
-from adaptsky.evaluation.soa import soa_configuration
-from adaptsky.report.evaluations import curve_json, score_kind
-from adaptsky.report.progress import SilentProgress, WorkProgress
-from adaptsky.scenario import Scenario, load_scenario, parse_scenario
+from adaptsky.rollouts.soa import soa_configuration
+from adaptsky.scenario import Scenario, load_scenario
 from adaptsky.scenario.toml_writer import dumps
+from adaptsky.scenario.variants import eval_scenario
 from adaptsky.sim.actions import ActionSet
 from adaptsky.sim.batch import NomaUavBatch
 from adaptsky.sim.layout import user_layouts
 from adaptsky.sim.observation import observation_size
 from adaptsky.store.run_file import RunReader
-from adaptsky.store.tree import Tree
 
 BASELINES = ("soa", "oracle", "random")
 POLICY = "policy"
@@ -48,33 +48,6 @@ OBSERVATION_SCALING = ("agent.observation", "agent.user_order", "area.side_m",
 
 class EvaluationError(AdaptskyError):
     pass
-
-
-@dataclass
-class Method:
-    """One evaluated method: its trace and per-layout metrics."""
-
-    name: str
-    trace: Trace
-    metrics: dict[str, np.ndarray]
-    details: dict[str, Any]
-
-    @classmethod
-    def of(cls, name: str, scenario: Scenario, trace: Trace,
-           details: dict[str, Any] | None = None) -> Method:
-        metrics = layout_metrics(trace, scenario.radio.bandwidth_hz, scenario.min_rate_bps)
-        return cls(name, trace, metrics, details or {})
-
-
-def eval_scenario(scenario: Scenario, layouts: int | None, layout_seed: int) -> Scenario:
-    """The scenario on ``layouts`` uniform layouts (near-far pairing), or as it is."""
-    if layouts is None:
-        return scenario
-    data = scenario.model_dump(mode="json")
-    data["users"] = {"count": scenario.num_users, "placement": "uniform",
-                     "layout_seed": layout_seed, "pairing": "near-far",
-                     "speed_m_per_step": scenario.users.speed_m_per_step}
-    return parse_scenario(data, "evaluation layouts")
 
 
 def eval_layouts(scenario: Scenario, layouts: int | None) -> np.ndarray:
@@ -91,7 +64,7 @@ STATE_FLOATS_PER_USER, STATE_FLOATS_PER_LAYOUT = 12, 16
 def check_rollout_memory(scenario: Scenario, steps: int, layouts: int, methods: int,
                          source: str) -> None:
     """Refuse, before any work, rollouts whose recorded states this machine cannot hold."""
-    from adaptsky.scenario.resources import available_bytes, format_bytes
+    from adaptsky.training.resources import available_bytes, format_bytes
 
     per_step = layouts * (STATE_FLOATS_PER_USER * scenario.num_users + STATE_FLOATS_PER_LAYOUT)
     needed = 8 * per_step * steps * methods

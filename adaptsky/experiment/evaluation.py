@@ -18,20 +18,20 @@ from rich.console import Console
 
 from adaptsky.errors import AdaptskyError
 from adaptsky.evaluation.api import (
-    Method,
     baseline_work,
     eval_layouts,
-    eval_scenario,
     results_json,
     run_baseline,
 )
-from adaptsky.evaluation.rollout import greedy_policy, rollout
 from adaptsky.experiment.plan import Plan, RunSpec
-from adaptsky.report.progress import WorkProgress
-from adaptsky.report.units import plural
+from adaptsky.progress import WorkProgress
+from adaptsky.rollouts.metrics import Method
+from adaptsky.rollouts.rollout import greedy_policy, rollout
 from adaptsky.scenario import Scenario, parse_scenario
+from adaptsky.scenario.variants import eval_scenario
 from adaptsky.store.eval_file import read_eval_metrics, write_eval
 from adaptsky.store.run_file import RunReader
+from adaptsky.units import plural
 
 Metrics = dict[str, np.ndarray]
 

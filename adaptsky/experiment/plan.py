@@ -16,10 +16,10 @@ from pydantic import ValidationError
 from adaptsky.errors import ScenarioError
 from adaptsky.experiment.models import Experiment, Group
 from adaptsky.scenario.loading import _error_lines, parse_toml, read_scenario_text
-from adaptsky.scenario.resources import check_fits
 from adaptsky.scenario.toml_writer import toml_value
 from adaptsky.shipped_files import shipped_folder
 from adaptsky.training.api import load_with_overrides
+from adaptsky.training.resources import check_fits
 
 
 def shipped_experiments() -> dict[str, Path]:

@@ -92,7 +92,7 @@ def reproduce_many(*, experiments: list[str], outs: list[Path | None],
     if runs_only:
         return [ReproduceResult(plan, sweep, None, []) for plan in plans]
     from adaptsky.experiment.evaluation import evaluate_plan
-    from adaptsky.report.reproduction import write_report
+    from adaptsky.experiment.report import write_report
 
     results = []
     for plan in plans:

@@ -16,10 +16,10 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
 from adaptsky.errors import AdaptskyError
-from adaptsky.report.progress import stamp
-from adaptsky.report.units import format_duration
+from adaptsky.progress import stamp
 from adaptsky.store.run_file import RunFileError, RunReader
 from adaptsky.training.runner import STOP_SIGNALS
+from adaptsky.units import format_duration
 
 if TYPE_CHECKING:  # the executors and runs import torch; the sweep itself needs none of it
     from adaptsky.experiment.executors import Executor

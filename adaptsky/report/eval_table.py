@@ -7,7 +7,7 @@ from typing import Any
 from rich import box
 from rich.table import Table
 
-from adaptsky.report.units import rate_unit
+from adaptsky.units import rate_unit
 
 
 def _pct(value: float | None) -> str:

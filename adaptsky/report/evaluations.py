@@ -10,9 +10,9 @@ import numpy as np
 from rich import box
 from rich.table import Table
 
-from adaptsky.evaluation.oracle import has_oracle
-from adaptsky.report.units import format_rate
+from adaptsky.rollouts.oracle import has_oracle
 from adaptsky.scenario import Scenario
+from adaptsky.units import format_rate
 
 CURVE_ROWS = 12
 

@@ -14,9 +14,9 @@ from adaptsky.errors import AdaptskyError
 from adaptsky.report.curves import BAND_KINDS, BandKind, curve_window, trailing_mean
 from adaptsky.report.curves import band as band_over_runs
 from adaptsky.report.figures import Series, learning_curves
-from adaptsky.report.units import rate_unit
 from adaptsky.store.atomic import write_text_atomic
 from adaptsky.store.run_file import RunReader
+from adaptsky.units import rate_unit
 
 BAND_NOTES = {"std": "mean ± 1 std over runs", "bootstrap": "95% bootstrap CI of the mean"}
 CSV_COLUMNS = ("mean", "low", "high", "runs")

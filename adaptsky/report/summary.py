@@ -17,8 +17,8 @@ from adaptsky.report.evaluations import (
     format_score,
     score_kind,
 )
-from adaptsky.report.units import format_rate, format_rate_spread, plural
 from adaptsky.store.run_file import RunReader
+from adaptsky.units import format_rate, format_rate_spread, plural
 
 LAST_EPISODES = 100
 

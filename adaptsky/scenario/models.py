@@ -2,7 +2,7 @@
 ``docs/scenario-format.md``; defaults are the paper's mmWave training set-up (Table I, sec. V).
 
 Every number has a documented range, physically meaningful and small enough that no step of a
-run overflows; what a run needs in memory is checked apart (``scenario.resources``).
+run overflows; what a run needs in memory is checked apart (``training.resources``).
 """
 
 from __future__ import annotations
@@ -268,7 +268,7 @@ class Agent(Section):
         """A preset's values under the keys given explicitly."""
         if not isinstance(data, dict):
             return data
-        from adaptsky.algos.presets import preset_values
+        from adaptsky.scenario.presets import preset_values
 
         name = data.get("preset", "paper")
         return {**preset_values(name), **data} if isinstance(name, str) else data

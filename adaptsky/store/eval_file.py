@@ -17,7 +17,7 @@ from adaptsky.store.run_file import environment
 from adaptsky.store.tree import read_tree, write_tree
 
 if TYPE_CHECKING:
-    from adaptsky.evaluation.api import Method
+    from adaptsky.rollouts.metrics import Method
 
 FORMAT_VERSION = 1
 KIND = "adaptsky-eval"

@@ -15,12 +15,13 @@ import stat
 import sys
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import h5py
 import numpy as np
 
 from adaptsky import __version__
+from adaptsky.arrays import Tree
 from adaptsky.scenario import Scenario
 from adaptsky.store.atomic import rewrite, string_dataset, utc_timestamp
 from adaptsky.store.layout import (
@@ -37,10 +38,7 @@ from adaptsky.store.layout import (
     validate_run,
 )
 from adaptsky.store.lock import writer_of
-from adaptsky.store.tree import Tree, read_tree, write_tree
-
-if TYPE_CHECKING:
-    from adaptsky.training.evaluation import EvaluationSet
+from adaptsky.store.tree import read_tree, write_tree
 
 __all__ = ["FORMAT_VERSION", "KIND", "RunFileError", "RunReader", "append_checkpoint",
            "create_run", "environment", "record_session", "set_planned_episodes"]
@@ -64,11 +62,11 @@ def environment() -> dict[str, str]:
 def create_run(path: Path, scenario_text: str, config: dict[str, Any],
                plugins: dict[str, dict[str, str]], seeds: list[int], episodes: int,
                num_users: int, overrides: list[str] | None = None,
-               argv: list[str] | None = None, evaluation: EvaluationSet | None = None) -> None:
+               argv: list[str] | None = None, evaluation: Tree | None = None) -> None:
     """Write a new run file with empty learning curves for every seed; ``overrides`` are the
     ``--set`` items applied to the scenario text (already part of ``config``), ``argv`` the
     command line that made it (default ``sys.argv``), ``evaluation`` the layouts and oracle of
-    the greedy evaluations during training."""
+    the greedy evaluations during training (``EvaluationSet.arrays()``: ``/evaluation``)."""
     with rewrite(path, fresh=True) as file:
         file.attrs.update(format_version=FORMAT_VERSION, kind=KIND,
                           adaptsky_version=__version__,
@@ -82,12 +80,7 @@ def create_run(path: Path, scenario_text: str, config: dict[str, Any],
         for name, info in plugins.items():
             file.create_group(f"plugins/{name}").attrs.update(info)
         if evaluation is not None:
-            stored = {f"{name}_{key}": value for name, group in
-                      (("training", evaluation.training), ("heldout", evaluation.held_out))
-                      if group is not None
-                      for key, value in (("layouts_m", group.layouts_m),
-                                         ("oracle_bps", group.oracle_bps))}
-            write_tree(file.create_group("evaluation"), stored, units=UNITS)
+            write_tree(file.create_group("evaluation"), evaluation, units=UNITS)
         for seed in seeds:
             group = file.create_group(f"seeds/{seed}")
             group.attrs.update(seed=seed, episodes_done=0, episodes_planned=episodes)

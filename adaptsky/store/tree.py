@@ -9,7 +9,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-Tree = dict[str, Any]
+from adaptsky.arrays import Tree
 
 
 def _write_array(group: h5py.Group, key: str, value: np.ndarray, compress: bool) -> None:

@@ -11,12 +11,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 from rich.console import Console
 
+from adaptsky.arrays import Tree
 from adaptsky.channels.registry import discover
 from adaptsky.errors import AdaptskyError
 from adaptsky.scenario import Scenario, parse_scenario
 from adaptsky.scenario.loading import parse_toml, read_scenario_text
 from adaptsky.scenario.overrides import apply_overrides
-from adaptsky.scenario.resources import check_fits
 from adaptsky.store import run_file
 from adaptsky.store.atomic import (
     FileGoneError,
@@ -27,9 +27,9 @@ from adaptsky.store.atomic import (
 )
 from adaptsky.store.lock import run_lock
 from adaptsky.store.run_file import RunReader
-from adaptsky.store.tree import Tree
 from adaptsky.training.evaluation import EvaluationSet, evaluation_set
 from adaptsky.training.progress import TrainingProgress
+from adaptsky.training.resources import check_fits
 from adaptsky.training.runner import RunOutcome, SeedTask, run_tasks
 
 if TYPE_CHECKING:  # imported where training starts: commands start without torch
@@ -111,7 +111,7 @@ def create_run_file(path: Path, scenario: Scenario, text: str,
     t = scenario.train
     run_file.create_run(path, text, scenario.model_dump(mode="json"), _plugins_used(scenario),
                         t.seeds, t.episodes, scenario.num_users, set_values or [],
-                        evaluation=evaluation)
+                        evaluation=evaluation.arrays() if evaluation is not None else None)
     return evaluation
 
 

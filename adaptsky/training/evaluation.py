@@ -23,10 +23,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from adaptsky.evaluation.api import eval_scenario
-from adaptsky.evaluation.metrics import STEADY_STEPS, percent_of
-from adaptsky.evaluation.oracle import has_oracle, oracle
+from adaptsky.rollouts.metrics import STEADY_STEPS, percent_of
+from adaptsky.rollouts.oracle import has_oracle, oracle
 from adaptsky.scenario import Scenario
+from adaptsky.scenario.variants import eval_scenario
 from adaptsky.sim.batch import NomaUavBatch
 from adaptsky.sim.layout import user_layouts
 from adaptsky.sim.noma import jain_fairness
@@ -60,6 +60,13 @@ class EvaluationSet:
     @property
     def groups(self) -> list[LayoutGroup]:
         return [group for group in (self.training, self.held_out) if group is not None]
+
+    def arrays(self) -> dict[str, FloatArray]:
+        """The layouts and oracle of each group, as a run file's ``/evaluation`` holds them."""
+        return {f"{name}_{key}": value for name, group in
+                (("training", self.training), ("heldout", self.held_out)) if group is not None
+                for key, value in (("layouts_m", group.layouts_m),
+                                   ("oracle_bps", group.oracle_bps))}
 
 
 def evaluation_set(scenario: Scenario, oracle_bps: list[FloatArray] | None = None

@@ -11,9 +11,9 @@ from collections import deque
 from rich.console import Console
 from rich.progress import MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
-from adaptsky.report import progress as work_progress
-from adaptsky.report.progress import pace, stamp
-from adaptsky.report.units import format_rate
+from adaptsky import progress as work_progress
+from adaptsky.progress import pace, stamp
+from adaptsky.units import format_rate
 
 MOVING_WINDOW = 100
 

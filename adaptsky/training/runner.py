@@ -24,10 +24,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from adaptsky.arrays import Tree
 from adaptsky.errors import AdaptskyError
 from adaptsky.scenario.models import Scenario
 from adaptsky.store import run_file
-from adaptsky.store.tree import Tree
 from adaptsky.training.evaluation import EvaluationSet
 from adaptsky.training.progress import TrainingProgress
 

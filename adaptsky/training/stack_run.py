@@ -26,13 +26,13 @@ from adaptsky.algos.replay import StackedReplay
 from adaptsky.algos.returns import NStepWindow
 from adaptsky.algos.schedule import epsilon
 from adaptsky.algos.stacked import StackedDqn
+from adaptsky.arrays import Tree
 from adaptsky.errors import NonFiniteError
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.batch import NomaUavBatch, reward_weights
 from adaptsky.sim.layout import episode_layouts
 from adaptsky.sim.noma import jain_fairness
 from adaptsky.sim.observation import observation_size
-from adaptsky.store.tree import Tree
 from adaptsky.training.evaluation import EVALUATION_KEYS, EvaluationSet, GreedyEvaluator
 
 STATE_FIELDS = ("uav_m", "alpha", "gain", "los", "rate_bps")

@@ -12,11 +12,11 @@ import typer
 
 from adaptsky.errors import AdaptskyError
 from adaptsky.evaluation import api
+from adaptsky.progress import WorkProgress
 from adaptsky.report.eval_table import methods_table, oracle_line
-from adaptsky.report.progress import WorkProgress
-from adaptsky.report.units import format_rate
 from adaptsky.store.atomic import fresh_path
 from adaptsky.store.eval_file import write_eval
+from adaptsky.units import format_rate
 from adaptsky_cli.cli.console import err, out
 from adaptsky_cli.cli.options import Json, ScenarioFile, command_line
 

@@ -4,8 +4,8 @@ import typer
 
 from adaptsky.errors import ScenarioError
 from adaptsky.scenario import load_scenario
-from adaptsky.scenario.resources import check_fits, format_bytes
 from adaptsky.scenario.toml_writer import dumps
+from adaptsky.training.resources import check_fits, format_bytes
 from adaptsky_cli.cli.console import err, out
 from adaptsky_cli.cli.options import ScenarioFile, ScenarioFiles
 

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from adaptsky.evaluation.rollout import Trace
+from adaptsky.rollouts.rollout import Trace
+from adaptsky.scenario.models import Scenario
 from adaptsky.sim.noma import jain_fairness
 
 STEADY_STEPS = 100
@@ -71,3 +73,19 @@ def summary_row(metrics: dict[str, NDArray]) -> dict[str, Any]:
             "fairness": float(metrics["fairness"].mean()),
             "min_user_se": float(metrics["min_user_se"].mean()),
             "satisfied_share": float(metrics["satisfied_share"].mean())}
+
+
+@dataclass
+class Method:
+    """One evaluated method: its trace and per-layout metrics."""
+
+    name: str
+    trace: Trace
+    metrics: dict[str, np.ndarray]
+    details: dict[str, Any]
+
+    @classmethod
+    def of(cls, name: str, scenario: Scenario, trace: Trace,
+           details: dict[str, Any] | None = None) -> Method:
+        metrics = layout_metrics(trace, scenario.radio.bandwidth_hz, scenario.min_rate_bps)
+        return cls(name, trace, metrics, details or {})

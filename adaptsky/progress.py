@@ -17,7 +17,7 @@ from rich.progress import (
     TimeRemainingColumn,
 )
 
-from adaptsky.report.units import format_duration, plural
+from adaptsky.units import format_duration, plural
 
 LOG_EVERY_S = 30.0
 

@@ -9,11 +9,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from adaptsky.arrays import Tree
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.actions import ActionSet
 from adaptsky.sim.batch import NetworkState, NomaUavBatch
 from adaptsky.sim.observation import observation_size
-from adaptsky.store.tree import Tree
 
 Policy = Callable[[NDArray[np.float32]], NDArray[np.int64]]
 Tick = Callable[[int], None]

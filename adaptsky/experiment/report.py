@@ -19,15 +19,15 @@ from typing import Any
 import numpy as np
 
 from adaptsky import __version__
-from adaptsky.evaluation.metrics import compare
 from adaptsky.experiment.evaluation import Evaluations
 from adaptsky.experiment.plan import Plan, RunSpec, shipped_experiments
 from adaptsky.report import figures
 from adaptsky.report.curves import LAST_EPISODES, band, curve_window
 from adaptsky.report.plot_runs import BAND_NOTES, curve_series, write_curves_csv
-from adaptsky.report.units import format_rate, rate_unit
+from adaptsky.rollouts.metrics import compare
 from adaptsky.store.atomic import utc_timestamp, write_text_atomic
 from adaptsky.store.run_file import RunReader
+from adaptsky.units import format_rate, rate_unit
 
 
 @dataclass

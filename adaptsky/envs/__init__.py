@@ -1,0 +1,1 @@
+"""The Gymnasium environment and vector environment over the batched simulation."""

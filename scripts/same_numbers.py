@@ -1,0 +1,153 @@
+"""Do two versions of adaptsky compute the same numbers? A fixed set of small trainings,
+inspections, evaluations and one reproduction, run with the code of a git revision and with
+the working tree, compared bit for bit (every array of every run and eval file, the JSON that
+inspect and eval print, the CSV and figure data of reproduce).
+
+    .venv/bin/python scripts/same_numbers.py [REV]      (default REV: HEAD)
+
+Both run in this environment on this machine; the revision's code is checked out into a
+temporary worktree and put first on PYTHONPATH (with its built-in channel models). Prints one
+line per compared output and a summary; exits 1 at the first difference it lists. Meant for
+changes that restructure: they must not change a number (floats are only comparable bit for
+bit on one machine, so this compares two versions here rather than a stored fingerprint).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+RUN = ["--seeds", "0,1", "--episodes", "4", "--steps", "30", "--checkpoint-every", "2",
+       "--workers", "1", "--quiet"]
+# (name, scenario, --set overrides): the paper's agent, the tuned preset, sampled LoS, fresh
+# layouts, the plain DQN
+TRAININGS = [
+    ("paper", "nyc_mmwave.toml", []),
+    ("tuned", "nyc_mmwave_tuned.toml", []),
+    ("sampled-los", "sub6_al_hourani.toml", ["channel.los=sampled"]),
+    ("fresh-layouts", "nyc_mmwave_any_layout.toml", ["train.eval_layouts=2"]),
+    ("plain-dqn", "nyc_mmwave.toml", ["agent.dueling=false"]),
+]
+CODE = ("import sys; from adaptsky_cli.cli.main import main; sys.exit(main(sys.argv[1:]))")
+
+
+def run(tree: Path, out: Path, *args: str) -> str:
+    """One adaptsky command with the code of ``tree``; its stdout."""
+    path = [str(tree), str(tree / "plugins" / "builtin")]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(path), "COLUMNS": "200"}
+    done = subprocess.run([sys.executable, "-c", CODE, *args], capture_output=True, text=True,
+                          cwd=out, env=env, check=False)
+    if done.returncode != 0:
+        sys.exit(f"{tree}: adaptsky {' '.join(args)} failed: {done.stderr.strip()}")
+    return done.stdout
+
+
+def outputs(tree: Path, out: Path) -> dict[str, str]:
+    """Run the fixed set with ``tree``'s code in ``out``; the printed JSON by name."""
+    printed = {}
+    for name, scenario, overrides in TRAININGS:
+        sets = [word for item in overrides for word in ("--set", item)]
+        run(tree, out, "train", str(ROOT / "scenarios" / scenario), *RUN, *sets,
+            "--out", f"{name}.h5")
+        printed[f"inspect {name}"] = run(tree, out, "inspect", f"{name}.h5", "--json")
+        printed[f"eval {name}"] = run(tree, out, "eval", "--checkpoint", f"{name}.h5",
+                                      "--steps", "50", "--layouts", "2",
+                                      "--compare", "soa,random", "--out", f"{name}-eval.h5",
+                                      "--json")
+    run(tree, out, "reproduce", "e1a", "--seeds", "2", "--episodes", "3", "--steps", "20",
+        "--workers", "1", "--out", "e1a", "--quiet")
+    return printed
+
+
+def arrays(path: Path) -> dict[str, np.ndarray]:
+    """Every dataset and attribute of an HDF5 file (times and versions left out)."""
+    found: dict[str, np.ndarray] = {}
+    skip = {"created_utc", "sessions", "command_line", "adaptsky_version", "platform",
+            "python_version", "torch_version", "numpy_version", "h5py_version", "file"}
+
+    def visit(name: str, item: h5py.HLObject) -> None:
+        if isinstance(item, h5py.Dataset) and name.rsplit("/", 1)[-1] not in skip:
+            found[name] = np.asarray(item[()])
+        for key, value in item.attrs.items():
+            if key not in skip:
+                found[f"{name}@{key}"] = np.asarray(value)
+
+    with h5py.File(path, "r") as file:
+        visit("/", file)
+        file.visititems(visit)
+    return found
+
+
+def same(a: np.ndarray, b: np.ndarray) -> bool:
+    if a.dtype.kind in "fc" and b.dtype.kind in "fc":
+        return a.shape == b.shape and np.array_equal(a, b, equal_nan=True)
+    return a.shape == b.shape and bool(np.all(a == b))
+
+
+def without_paths(text: str) -> object:
+    """Printed JSON with file paths and times removed."""
+    def clean(value: object) -> object:
+        if isinstance(value, dict):
+            return {k: clean(v) for k, v in value.items()
+                    if k not in {"path", "file", "run_file", "created_utc", "out", "wall_s"}}
+        if isinstance(value, list):
+            return [clean(v) for v in value]
+        return value
+    return clean(json.loads(text))
+
+
+def compare(old: Path, new: Path, printed_old: dict[str, str],
+            printed_new: dict[str, str]) -> list[str]:
+    differences, compared = [], 0
+    for name in printed_old:
+        compared += 1
+        if without_paths(printed_old[name]) != without_paths(printed_new[name]):
+            differences.append(f"{name}: the printed JSON differs")
+    for path in sorted(old.rglob("*.h5")):
+        other = new / path.relative_to(old)
+        a, b = arrays(path), arrays(other)
+        for key in sorted(set(a) | set(b)):
+            compared += 1
+            if key not in a or key not in b or not same(a[key], b[key]):
+                differences.append(f"{path.relative_to(old)}: {key} differs")
+    for path in sorted(old.rglob("*.csv")):
+        compared += 1
+        if path.read_text() != (new / path.relative_to(old)).read_text():
+            differences.append(f"{path.relative_to(old)} differs")
+    print(f"compared {compared} outputs")
+    return differences
+
+
+def main() -> int:
+    rev = sys.argv[1] if len(sys.argv) > 1 else "HEAD"
+    with tempfile.TemporaryDirectory() as scratch:
+        base = Path(scratch)
+        tree = base / "tree"
+        subprocess.run(["git", "worktree", "add", "-q", "--detach", str(tree), rev],
+                       cwd=ROOT, check=True)
+        try:
+            for side in ("old", "new"):
+                (base / side).mkdir()
+            printed_old = outputs(tree, base / "old")
+            printed_new = outputs(ROOT, base / "new")
+            differences = compare(base / "old", base / "new", printed_old, printed_new)
+        finally:
+            subprocess.run(["git", "worktree", "remove", "--force", str(tree)], cwd=ROOT,
+                           check=True)
+    for line in differences[:20]:
+        print(line)
+    print(f"{rev} and the working tree: " + ("the same numbers, bit for bit" if not differences
+                                             else f"{len(differences)} differences"))
+    return 1 if differences else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
