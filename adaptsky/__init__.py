@@ -4,15 +4,16 @@ This package is the library: scenarios, channel models (plugin authors import
 ``adaptsky.channels``), the simulation, environments, algorithms, training, run files,
 evaluation, experiments and reports (``docs/architecture.md``). The ``adaptsky`` command lives
 in ``adaptsky_cli``. The public names below are loaded on first use, so ``import adaptsky``
-imports no torch; it registers ``adaptsky/NomaUav-v0`` with Gymnasium.
+imports no torch; it registers ``adaptsky/NomaUav-v0`` with Gymnasium (when Gymnasium is
+imported: ``envs.registration``).
 """
 
 from importlib import import_module
 from typing import Any
 
-from adaptsky.envs.registration import ENV_ID, register_envs
+from adaptsky.envs.registration import ENV_ID, register_when_gymnasium_is_imported
 
-register_envs()
+register_when_gymnasium_is_imported()
 
 # public name -> module that defines it
 _EXPORTS = {

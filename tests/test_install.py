@@ -126,6 +126,17 @@ def test_import_adaptsky_registers_the_env_without_importing_torch():
     assert result.stdout == "ok\n", result.stderr
 
 
+def test_import_adaptsky_before_gymnasium_registers_the_env_when_gymnasium_comes():
+    # import adaptsky no longer imports Gymnasium (0.2 s for every command): the env is
+    # registered the moment Gymnasium is imported, and make() works as before
+    code = ("import sys, adaptsky; assert 'gymnasium' not in sys.modules; import gymnasium; "
+            "assert adaptsky.ENV_ID in gymnasium.registry; "
+            "env = gymnasium.make(adaptsky.ENV_ID); print(env.reset(seed=0)[0].shape)")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            cwd=ROOT, timeout=60)
+    assert result.stdout == "(17,)\n", result.stderr
+
+
 def test_the_wheel_ships_both_packages_and_the_default_scenario():
     wheel = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["hatch"]["build"][
         "targets"]["wheel"]
