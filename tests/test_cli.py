@@ -105,6 +105,24 @@ def _fake_distribution(root: Path, name: str, module_text: str) -> None:
         f"[adaptsky.channel_models]\n{name} = {module}:Model\n")
 
 
+def test_a_plugin_is_imported_when_used_or_listed_only(tmp_path):
+    # every installed plugin was imported and called when a run needed one model
+    _fake_distribution(tmp_path, "probe-channel", "import sys\nsys.stdout.write('IMPORTED')\n")
+    env = {**os.environ, "PYTHONPATH": str(tmp_path)}
+    code = ("from adaptsky.channels.registry import get_model_class, names; "
+            "get_model_class('mmwave-nyc'); print(' '.join(names()))")
+    used = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=env, check=False)
+    assert used.stdout == "mmwave-nyc probe-channel sub6-al-hourani uma-av\n", used.stderr
+    trained = subprocess.run([str(ADAPTSKY), "scenario", "validate",
+                              str(SCENARIOS / "nyc_mmwave.toml")], capture_output=True,
+                             text=True, env=env, check=False)
+    assert trained.returncode == 0 and "IMPORTED" not in trained.stdout, trained
+    listed = subprocess.run([str(ADAPTSKY), "plugins", "list"], capture_output=True,
+                            text=True, env=env, check=False)
+    assert listed.stdout.startswith("IMPORTED"), listed.stdout
+
+
 def test_a_broken_plugin_is_listed_and_breaks_nothing_else(tmp_path):
     _fake_distribution(tmp_path, "broken-channel", "import no_such_module\n")
     env = {**os.environ, "PYTHONPATH": str(tmp_path)}

@@ -10,9 +10,9 @@ from typing import ClassVar
 import numpy as np
 import pytest
 
-from adaptsky.channels import ChannelModel, LinkGeometry, db_to_linear
+from adaptsky.channels import ChannelModel, LinkGeometry, db_to_linear, registry
 from adaptsky.channels.checker import check_channel_model, structural_problems
-from adaptsky.channels.registry import PluginInfo, discover
+from adaptsky.channels.registry import PluginInfo
 from adaptsky.errors import AdaptskyError, ScenarioError
 from adaptsky.rollouts.oracle import has_oracle, require_deterministic_gains
 from adaptsky.scenario import parse_scenario
@@ -76,15 +76,16 @@ class ShadowedOff(Shadowed):
 @pytest.fixture
 def register():
     """Register model classes in this process's registry for one test."""
-    plugins, added = discover(), []
+    added = []
 
     def add(name: str, model: type[ChannelModel]) -> None:
-        plugins[name] = PluginInfo(name, "tests", "0", f"tests:{model.__name__}", model)
+        registry._loaded[name] = PluginInfo(name, "tests", "0", f"tests:{model.__name__}",
+                                            model)
         added.append(name)
 
     yield add
     for name in added:
-        plugins.pop(name, None)
+        registry._loaded.pop(name, None)
 
 
 def scenario(model: str = "mmwave-nyc", **sections):

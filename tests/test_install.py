@@ -137,6 +137,16 @@ def test_import_adaptsky_before_gymnasium_registers_the_env_when_gymnasium_comes
     assert result.stdout == "(17,)\n", result.stderr
 
 
+def test_the_command_line_starts_without_the_library_s_heavy_imports():
+    # adaptsky --help took 0.65-0.9 s here, most of it importing what no help text needs;
+    # a command imports the library when it runs
+    code = ("import sys, adaptsky_cli.cli.main; print(sorted(m for m in ('numpy', 'h5py', "
+            "'pydantic', 'gymnasium', 'torch', 'matplotlib') if m in sys.modules))")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            cwd=ROOT, timeout=60)
+    assert result.stdout == "[]\n", result.stderr
+
+
 def test_the_wheel_ships_both_packages_and_the_default_scenario():
     wheel = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["hatch"]["build"][
         "targets"]["wheel"]

@@ -1,7 +1,9 @@
 """Discovery of channel-model plugins through the entry-point group ``adaptsky.channel_models``.
 
-Each entry point is loaded on its own: one that fails to import, whose class does not
-declare what the contract asks (``checker.structural_problems``: a subclass of
+A plugin is imported when it is used (:func:`plugin`, :func:`get_model_class`: a run imports
+the one model its scenario names) or listed (:func:`discover`: every one); naming the installed
+models imports none. Each entry point is loaded on its own: one that fails to import, whose
+class does not declare what the contract asks (``checker.structural_problems``: a subclass of
 ChannelModel with every method, Params with defaults and descriptions, a known contract
 version), or whose methods raise or return arrays of the wrong shape, dtype or with NaN in one
 call on a few links (``checker.call_problems``), is recorded as broken with its error and fails
@@ -83,36 +85,56 @@ def load_class(name: str) -> type[ChannelModel] | object:
 
 
 @cache
-def discover() -> dict[str, PluginInfo]:
-    """All registered channel models by name (a name registered twice is broken)."""
-    found: dict[str, PluginInfo] = {}
-    seen: set[tuple[str, str]] = set()
+def _entry_points() -> dict[str, list[EntryPoint]]:
+    """Every registered name and its entry points, one per target (the same distribution seen
+    twice on sys.path counts once); nothing is imported."""
+    found: dict[str, dict[str, EntryPoint]] = {}
     for entry_point in entry_points(group=ENTRY_POINT_GROUP):
-        info = _load(entry_point)
-        key = (info.name, info.target)
-        if key in seen:  # the same distribution seen twice on sys.path
-            continue
-        seen.add(key)
-        if info.name in found:
-            other = found[info.name]
-            error = f"name '{info.name}' is registered by both {other.package} and {info.package}"
-            info = PluginInfo(info.name, info.package, info.version, info.target, None, error)
-        found[info.name] = info
-    return dict(sorted(found.items()))
+        found.setdefault(entry_point.name, {}).setdefault(entry_point.value, entry_point)
+    return {name: list(targets.values()) for name, targets in sorted(found.items())}
+
+
+# the plugins imported (and checked) so far, by name
+_loaded: dict[str, PluginInfo] = {}
+
+
+def names() -> list[str]:
+    """The registered channel-model names, sorted, without importing any plugin."""
+    return sorted(set(_entry_points()) | set(_loaded))
+
+
+def plugin(name: str) -> PluginInfo:
+    """The channel model registered as ``name``, imported and checked on first use (a name
+    registered by two packages is broken); PluginError if no plugin registers it."""
+    if name not in _loaded:
+        registered = _entry_points().get(name)
+        if not registered:
+            raise unknown_model(name)
+        infos = [_load(entry_point) for entry_point in registered]
+        info = infos[0]
+        if len(infos) > 1:
+            first, info = infos[0], infos[-1]
+            info = PluginInfo(info.name, info.package, info.version, info.target, None,
+                              f"name '{name}' is registered by both {first.package} and "
+                              f"{info.package}")
+        _loaded[name] = info
+    return _loaded[name]
+
+
+def discover() -> dict[str, PluginInfo]:
+    """All registered channel models by name, each imported and checked (``plugins list``)."""
+    return {name: plugin(name) for name in names()}
 
 
 def unknown_model(name: str) -> PluginError:
     """The error for a name no installed plugin registers, naming those that are."""
-    installed = ", ".join(discover()) or "none"
+    installed = ", ".join(names()) or "none"
     return PluginError(f"unknown channel model '{name}'; installed: {installed}")
 
 
 def get_model_class(name: str) -> type[ChannelModel]:
     """The channel-model class registered as ``name``; PluginError if unknown or broken."""
-    plugins = discover()
-    if name not in plugins:
-        raise unknown_model(name)
-    info = plugins[name]
+    info = plugin(name)
     if info.model is None:
         raise PluginError(f"channel model '{name}' ({info.package}) is broken: {info.error}")
     return info.model

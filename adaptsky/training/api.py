@@ -12,7 +12,7 @@ import numpy as np
 from rich.console import Console
 
 from adaptsky.arrays import Tree
-from adaptsky.channels.registry import discover
+from adaptsky.channels.registry import plugin
 from adaptsky.errors import AdaptskyError
 from adaptsky.scenario import Scenario, parse_scenario
 from adaptsky.scenario.loading import parse_toml, read_scenario_text
@@ -72,7 +72,7 @@ def _with_train(scenario: Scenario, **overrides: object) -> Scenario:
 
 
 def _plugins_used(scenario: Scenario) -> dict[str, dict[str, str]]:
-    info = discover()[scenario.channel.model]
+    info = plugin(scenario.channel.model)
     return {info.name: {"package": info.package, "version": info.version,
                         "target": info.target}}
 

@@ -11,12 +11,6 @@ from typing import Annotated, Any
 import typer
 
 from adaptsky.errors import AdaptskyError
-from adaptsky.evaluation import api
-from adaptsky.progress import WorkProgress
-from adaptsky.report.eval_table import methods_table, oracle_line
-from adaptsky.store.atomic import fresh_path
-from adaptsky.store.eval_file import write_eval
-from adaptsky.units import format_rate
 from adaptsky_cli.cli.console import err, out
 from adaptsky_cli.cli.options import Json, ScenarioFile, command_line
 
@@ -42,6 +36,7 @@ def _writable_new_file(path: Path) -> None:
 
 
 def _show(results: dict[str, Any]) -> None:
+    from adaptsky.report.eval_table import methods_table, oracle_line
     out.print(methods_table(results))
     line = oracle_line(results)
     if line:
@@ -69,6 +64,10 @@ def evaluate(
     as_json: Json = False,
 ) -> None:
     """Greedy rollouts of a trained policy, compared with baselines and other runs."""
+    from adaptsky.evaluation import api
+    from adaptsky.progress import WorkProgress
+    from adaptsky.store.atomic import fresh_path
+    from adaptsky.store.eval_file import write_eval
     start = time.monotonic()
     path = out_file if out_file is not None else fresh_path(checkpoint.parent,
                                                             f"{checkpoint.stem}-eval")
@@ -111,6 +110,9 @@ def baseline(
     as_json: Json = False,
 ) -> None:
     """Run one baseline on a scenario; the oracle also reports its optimum."""
+    from adaptsky.evaluation import api
+    from adaptsky.progress import WorkProgress
+    from adaptsky.units import format_rate
     if method not in api.BASELINES:
         raise AdaptskyError(f"--method: unknown method '{method}'; choose from "
                             f"{', '.join(api.BASELINES)}")

@@ -6,7 +6,6 @@ from typing import Annotated
 
 import typer
 
-from adaptsky.report.summary import curve_tables, summarize, summary_table
 from adaptsky_cli.cli.console import out
 from adaptsky_cli.cli.options import Json
 
@@ -16,6 +15,7 @@ def inspect(
     as_json: Json = False,
 ) -> None:
     """Summarise a run file: seeds, episodes done, R_e^tot and J_e per seed and over seeds."""
+    from adaptsky.report.summary import curve_tables, summarize, summary_table
     summary = summarize(run)
     if as_json:
         print(json.dumps(summary, indent=2))

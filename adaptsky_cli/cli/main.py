@@ -12,7 +12,6 @@ import typer
 
 from adaptsky import __version__
 from adaptsky.errors import AdaptskyError
-from adaptsky.store.atomic import error_path, storage_error
 from adaptsky_cli.cli import (
     eval_cmd,
     inspect_cmd,
@@ -74,6 +73,8 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as error:  # a file-system fault no writer turned into its own line
         if os.environ.get("ADAPTSKY_DEBUG") == "1":
             raise
+        from adaptsky.store.atomic import error_path, storage_error  # h5py: only when needed
+
         err.print(str(storage_error(error_path(error) or "adaptsky", "cannot access it",
                                     error)))
         return 1

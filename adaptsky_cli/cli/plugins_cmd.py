@@ -1,7 +1,7 @@
 """``adaptsky plugins list|show|check``."""
 
 import json
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.markup import escape
@@ -9,11 +9,12 @@ from rich.padding import Padding
 from rich.table import Table
 from rich.text import Text
 
-from adaptsky.channels.contract import ChannelParams
-from adaptsky.channels.registry import PluginInfo, discover, get_model_class, load_class
 from adaptsky.errors import PluginError
 from adaptsky_cli.cli.console import err, out
 from adaptsky_cli.cli.options import Json, PluginName
+
+if TYPE_CHECKING:  # the registry (numpy, pydantic) is imported when a command runs
+    from adaptsky.channels.registry import PluginInfo
 
 app = typer.Typer(help="Channel-model plugins (entry-point group adaptsky.channel_models).",
                   no_args_is_help=True)
@@ -22,6 +23,8 @@ app = typer.Typer(help="Channel-model plugins (entry-point group adaptsky.channe
 @app.command("list")
 def list_plugins(as_json: Json = False) -> None:
     """List every installed channel model, broken ones with their error."""
+    from adaptsky.channels.registry import discover
+
     plugins = discover().values()
     if as_json:
         print(json.dumps([{"name": p.name, "package": p.package, "version": p.version,
@@ -49,8 +52,10 @@ def list_plugins(as_json: Json = False) -> None:
 @app.command()
 def show(name: PluginName, as_json: Json = False) -> None:
     """Print a channel model's parameters with defaults and units."""
+    from adaptsky.channels.registry import get_model_class, plugin
+
     model = get_model_class(name)
-    info = discover()[name]
+    info = plugin(name)
     fields = model.Params.model_fields
     if as_json:
         print(json.dumps({"name": name, "package": info.package, "version": info.version,
@@ -87,6 +92,7 @@ def _limits(metadata: list[Any]) -> dict[str, float]:
 
 def _params(name: str, model: Any, items: list[str]) -> Any:
     """The model's Params with ``--param KEY=VALUE`` items, or None for its defaults."""
+    from adaptsky.channels.contract import ChannelParams
     if not items:
         return None
     from pydantic import ValidationError
@@ -120,7 +126,7 @@ def _shown(value: Any) -> str:
     return repr(value)
 
 
-def _contract(info: PluginInfo) -> str:
+def _contract(info: "PluginInfo") -> str:
     """``2``, or ``1 (declares none)`` for a class written before contract versions."""
     return (str(info.contract_version) if info.contract_declared
             else f"{info.contract_version} (declares no contract_version)")
@@ -145,6 +151,7 @@ def check(name: PluginName, carrier_hz: CarrierHz = None, param: Params = None) 
     """Check a channel model against every rule of the plugin contract (docs/plugins.md):
     one line per failure, exit 1 if any."""
     from adaptsky.channels.checker import check_channel_model, checked_conditions
+    from adaptsky.channels.registry import load_class, plugin
 
     model = load_class(name)
     params = _params(name, model, param or [])
@@ -153,7 +160,7 @@ def check(name: PluginName, carrier_hz: CarrierHz = None, param: Params = None) 
         for line in failures:
             err.print(f"{name}: {line}", markup=False, highlight=False, soft_wrap=True)
         raise typer.Exit(1)
-    info = discover()[name]
+    info = plugin(name)
     out.print(f"ok  {name}: follows plugin contract {info.contract_version} ("
               f"{checked_conditions(model, params, carrier_hz)})", markup=False,
               soft_wrap=True)

@@ -3,9 +3,6 @@
 import typer
 
 from adaptsky.errors import ScenarioError
-from adaptsky.scenario import load_scenario
-from adaptsky.scenario.toml_writer import dumps
-from adaptsky.training.resources import check_fits, format_bytes
 from adaptsky_cli.cli.console import err, out
 from adaptsky_cli.cli.options import ScenarioFile, ScenarioFiles
 
@@ -16,6 +13,8 @@ app = typer.Typer(help="Check and print scenario files.", no_args_is_help=True)
 def validate(files: ScenarioFiles) -> None:
     """Validate scenario files and check that this machine can train them: one 'ok' line
     each, or one line per problem (exit 1)."""
+    from adaptsky.scenario import load_scenario
+    from adaptsky.training.resources import check_fits, format_bytes
     failed = 0
     for path in files:
         try:
@@ -37,5 +36,7 @@ def validate(files: ScenarioFiles) -> None:
 @app.command()
 def show(file: ScenarioFile) -> None:
     """Print the resolved scenario, every default filled in, as TOML."""
+    from adaptsky.scenario import load_scenario
+    from adaptsky.scenario.toml_writer import dumps
     scenario = load_scenario(file)
     print(dumps(scenario.model_dump(mode="json")), end="")

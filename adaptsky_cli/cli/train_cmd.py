@@ -6,8 +6,6 @@ from typing import Annotated
 import typer
 
 from adaptsky.errors import AdaptskyError
-from adaptsky.report.summary import summarize, summary_table
-from adaptsky.training import api
 from adaptsky_cli.cli.console import err, out
 from adaptsky_cli.cli.options import Device
 
@@ -52,6 +50,8 @@ def train(
 ) -> None:
     """Train the dueling DQN on a scenario (algorithm 1): on a CPU one process per core, its
     seeds as one stack; on a GPU every seed in one stack."""
+    from adaptsky.report.summary import summarize, summary_table
+    from adaptsky.training import api
     if resume is not None:
         if scenario is not None or seeds or steps or checkpoint_every or out_file or set_values:
             raise AdaptskyError("--resume continues a run as it was configured: give only "
