@@ -194,3 +194,14 @@ def test_agent_state_round_trip_continues_identically():
         clone.update(*batch)
     assert torch.equal(agent.params, clone.params) and torch.equal(agent.target, clone.target)
     assert torch.equal(agent.loss_sum, clone.loss_sum)
+
+
+@pytest.mark.parametrize("dueling", [True, False])
+def test_the_one_list_of_parameter_names_is_torch_s(dueling):
+    # the names and shapes were written in three places (the network, the stacked trainer,
+    # the run-file layout); now one function, checked against torch's own names here
+    from adaptsky.algos.parameters import network_shapes
+
+    torch_shapes = [(name, tuple(parameter.shape))
+                    for name, parameter in QNetwork(17, 30, [64, 32], dueling).named_parameters()]
+    assert list(network_shapes(17, 30, [64, 32], dueling).items()) == torch_shapes

@@ -26,6 +26,7 @@ import numpy as np
 import torch
 
 from adaptsky.algos.network import QNetwork
+from adaptsky.algos.parameters import network_shapes
 from adaptsky.scenario.models import Agent
 
 ADAM_BETAS = (0.9, 0.999)
@@ -70,17 +71,6 @@ def _views(flat: torch.Tensor, layers: list[Layer]) -> list[tuple[torch.Tensor, 
             for layer in layers]
 
 
-def _torch_names(layers: list[Layer], dueling: bool) -> list[str]:
-    """QNetwork parameter names in its parameters() order; the head splits in two if dueling."""
-    names = []
-    for index in range(len(layers) - 1):
-        names += [f"torso.{2 * index}.weight", f"torso.{2 * index}.bias"]
-    heads = ("value", "advantage") if dueling else ("q",)
-    for head in heads:
-        names += [f"{head}.weight", f"{head}.bias"]
-    return names
-
-
 class StackedDqn:
     """Policy and target networks and Adam for S members on ``device``.
 
@@ -97,7 +87,8 @@ class StackedDqn:
         self.size = len(seeds)
         self.device = torch.device(device)
         self.layers = layer_plan(observation_size, num_actions, config)
-        self.names = _torch_names(self.layers, config.dueling)
+        self.names = list(network_shapes(observation_size, num_actions,
+                                         config.hidden_sizes, config.dueling))
         # rows padded to whole vectors: elementwise kernels then treat every element alike,
         # whatever the stack size (no scalar tail loop that rounds differently)
         used = self.layers[-1].end

@@ -40,19 +40,13 @@ from adaptsky.envs.registration import register_envs
 from adaptsky.scenario import Scenario, load_scenario
 from adaptsky.shipped_files import default_scenario_path
 from adaptsky.sim.batch import NetworkState, NomaUavBatch
-from adaptsky.sim.layout import user_layouts
+from adaptsky.sim.layout import uniform_layouts, user_layouts
 from adaptsky.sim.observation import observation_bounds
 
 RENDER_MODES = ["ansi"]
 # nominal frames per second of a rendered episode (the model has no time per step)
 RENDER_FPS = 4
 INFO_KEYS = ("uav_m", "alpha", "gain", "los", "p_los", "rate_bps", "sum_rate_bps", "fairness")
-
-
-def fresh_layouts(scenario: Scenario, rng: np.random.Generator, count: int) -> np.ndarray:
-    """``count`` new layouts (count, N, 2), every user uniform over the area."""
-    half_m = scenario.area.side_m / 2
-    return rng.uniform(-half_m, half_m, size=(count, scenario.num_users, 2))
 
 
 def _resolve(scenario: Scenario | str | Path | None) -> Scenario:
@@ -113,7 +107,7 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64]):
               ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
         if self._fresh:
-            self.batch.set_layouts(fresh_layouts(self.scenario, self.np_random, 1))
+            self.batch.set_layouts(uniform_layouts(self.scenario, self.np_random, 1))
         obs, state = self.batch.reset(seed=seed)
         return obs[0], state.for_env(0)
 
@@ -179,7 +173,7 @@ class NomaUavVectorEnv(VectorEnv):
         elif seed is not None:
             self._np_random, self._np_random_seed = gym.utils.seeding.np_random(seed)
         if self._fresh:
-            self.batch.set_layouts(fresh_layouts(self.scenario, self.np_random, self.num_envs))
+            self.batch.set_layouts(uniform_layouts(self.scenario, self.np_random, self.num_envs))
         obs, state = self.batch.reset(seed=seed)
         self._needs_reset = False
         return obs, self._info(state)

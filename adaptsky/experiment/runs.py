@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any, Literal
 from adaptsky.errors import AdaptskyError
 from adaptsky.experiment.plan import RunSpec, scenario_text
 from adaptsky.scenario import Scenario, parse_scenario
+from adaptsky.scenario.variants import with_values
 from adaptsky.store import run_file
 from adaptsky.store.atomic import make_parent
 from adaptsky.store.lock import run_lock
@@ -120,9 +121,8 @@ def _prepare(spec: RunSpec) -> tuple[RunState, SeedTask | None]:
 
 def _with_evaluation_of(scenario: Scenario, stored: Scenario) -> Scenario:
     """``scenario`` with the evaluation settings of ``stored`` (they change no training)."""
-    train = scenario.train.model_copy(update={key: getattr(stored.train, key)
-                                              for key in EVALUATION_KEYS})
-    return scenario.model_copy(update={"train": train})
+    return with_values(scenario, "train", {key: getattr(stored.train, key)
+                                           for key in EVALUATION_KEYS}, f"{stored.name} as stored")
 
 
 def execute_runs(specs: list[RunSpec], stop: Callable[[], bool] = lambda: False,

@@ -1,17 +1,30 @@
-"""Scenarios derived from a scenario, validated as a file would be."""
+"""Scenarios derived from a scenario, each validated again as a file would be: the one way to
+make a variant (a command line's ``[train]`` options, the evaluation layouts, a run's stored
+evaluation settings)."""
 
 from __future__ import annotations
 
+from typing import Any
+
 from adaptsky.scenario.loading import parse_scenario
 from adaptsky.scenario.models import Scenario
+
+
+def with_values(scenario: Scenario, section: str, values: dict[str, Any], source: str,
+                replace: bool = False) -> Scenario:
+    """``scenario`` with ``values`` set in ``[section]`` (with ``replace``, as the whole
+    section), validated again; ``source`` names the variant in a validation error."""
+    if not values:
+        return scenario
+    data = scenario.model_dump(mode="json")
+    data[section] = dict(values) if replace else {**data[section], **values}
+    return parse_scenario(data, source)
 
 
 def eval_scenario(scenario: Scenario, layouts: int | None, layout_seed: int) -> Scenario:
     """The scenario on ``layouts`` uniform layouts (near-far pairing), or as it is."""
     if layouts is None:
         return scenario
-    data = scenario.model_dump(mode="json")
-    data["users"] = {"count": scenario.num_users, "placement": "uniform",
-                     "layout_seed": layout_seed, "pairing": "near-far",
-                     "speed_m_per_step": scenario.users.speed_m_per_step}
-    return parse_scenario(data, "evaluation layouts")
+    users = {"count": scenario.num_users, "placement": "uniform", "layout_seed": layout_seed,
+             "pairing": "near-far", "speed_m_per_step": scenario.users.speed_m_per_step}
+    return with_values(scenario, "users", users, "evaluation layouts", replace=True)

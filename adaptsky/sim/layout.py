@@ -22,9 +22,15 @@ def user_layouts(scenario: Scenario, num_layouts: int, layout_seed: int | None =
         listed = np.asarray(users.positions_m, dtype=np.float64)
         return np.broadcast_to(listed, (num_layouts, *listed.shape)).copy()
     seed = users.layout_seed if layout_seed is None else layout_seed
+    return uniform_layouts(scenario, np.random.default_rng(seed), num_layouts)
+
+
+def uniform_layouts(scenario: Scenario, rng: np.random.Generator, count: int
+                    ) -> NDArray[np.float64]:
+    """``count`` layouts (count, N, 2) drawn from ``rng``, every user uniform over the area
+    (layout after layout, user after user, x before y)."""
     half_m = scenario.area.side_m / 2
-    rng = np.random.default_rng(seed)
-    return rng.uniform(-half_m, half_m, size=(num_layouts, scenario.num_users, 2))
+    return rng.uniform(-half_m, half_m, size=(count, scenario.num_users, 2))
 
 
 def pair_users(gains: NDArray[np.float64], pairing: str) -> tuple[NDArray[np.int64],
@@ -48,6 +54,5 @@ def episode_layouts(scenario: Scenario, seeds: list[int], episode: int) -> NDArr
     = "fresh"``: every user uniform over the area, from a generator of its own per seed and
     episode, ([seed, 2, episode]): a run's layouts do not depend on how it was stopped,
     resumed or stacked."""
-    half_m = scenario.area.side_m / 2
-    return np.stack([np.random.default_rng([seed, 2, episode]).uniform(
-        -half_m, half_m, size=(scenario.num_users, 2)) for seed in seeds])
+    return np.concatenate([uniform_layouts(scenario, np.random.default_rng([seed, 2, episode]), 1)
+                           for seed in seeds])

@@ -15,7 +15,6 @@ from __future__ import annotations
 import json
 from collections.abc import Iterable
 from dataclasses import dataclass
-from itertools import pairwise
 from pathlib import Path
 from typing import Any, Literal, NoReturn
 
@@ -23,6 +22,7 @@ import h5py
 import numpy as np
 
 from adaptsky import __version__
+from adaptsky.algos.parameters import network_shapes
 from adaptsky.channels.registry import get_model_class
 from adaptsky.errors import AdaptskyError, PluginError
 from adaptsky.scenario import Scenario, parse_scenario
@@ -123,21 +123,6 @@ UNITS = {field.name: field.units for field in (*EPISODES, *TRAJECTORY, *REPLAY, 
                                                *EVALUATIONS)}
 UNITS |= {"training_layouts_m": "m", "heldout_layouts_m": "m", "training_oracle_bps": "bit/s",
           "heldout_oracle_bps": "bit/s"}
-
-
-def network_shapes(obs: int, actions: int, hidden_sizes: Iterable[int],
-                   dueling: bool) -> dict[str, tuple[int, ...]]:
-    """The Q-network's parameters in ``QNetwork.parameters()`` order (the optimizer state's
-    order), named and shaped as torch names them ((out, in) weights)."""
-    sizes = [obs, *hidden_sizes]
-    shapes: dict[str, tuple[int, ...]] = {}
-    for index, (size_in, size_out) in enumerate(pairwise(sizes)):
-        shapes[f"torso.{2 * index}.weight"] = (size_out, size_in)
-        shapes[f"torso.{2 * index}.bias"] = (size_out,)
-    for head, width in (("value", 1), ("advantage", actions)) if dueling else (("q", actions),):
-        shapes[f"{head}.weight"] = (width, sizes[-1])
-        shapes[f"{head}.bias"] = (width,)
-    return shapes
 
 
 @dataclass(frozen=True)

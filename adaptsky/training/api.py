@@ -17,6 +17,7 @@ from adaptsky.errors import AdaptskyError
 from adaptsky.scenario import Scenario, parse_scenario
 from adaptsky.scenario.loading import parse_toml, read_scenario_text
 from adaptsky.scenario.overrides import apply_overrides
+from adaptsky.scenario.variants import with_values
 from adaptsky.store import run_file
 from adaptsky.store.atomic import (
     FileGoneError,
@@ -62,13 +63,9 @@ def default_output(scenario: Scenario, directory: Path = Path("runs")) -> Path:
 
 
 def _with_train(scenario: Scenario, **overrides: object) -> Scenario:
-    """The scenario with ``[train]`` overrides, validated again."""
+    """The scenario with ``[train]`` overrides (those not None), validated again."""
     changes = {key: value for key, value in overrides.items() if value is not None}
-    if not changes:
-        return scenario
-    data = scenario.model_dump(mode="json")
-    data["train"] |= changes
-    return parse_scenario(data, "command line")
+    return with_values(scenario, "train", changes, "command line")
 
 
 def _plugins_used(scenario: Scenario) -> dict[str, dict[str, str]]:

@@ -1,0 +1,23 @@
+"""The Q-network's parameters by name and shape, as ``torch`` names them in ``QNetwork``
+(``network.py``): the one definition the stacked trainer's checkpoints and the run-file layout
+both use. No torch here, so a run file is validated without it."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from itertools import pairwise
+
+
+def network_shapes(obs: int, actions: int, hidden_sizes: Iterable[int],
+                   dueling: bool) -> dict[str, tuple[int, ...]]:
+    """The Q-network's parameters in ``QNetwork.parameters()`` order (the optimizer state's
+    order), named and shaped as torch names them ((out, in) weights)."""
+    sizes = [obs, *hidden_sizes]
+    shapes: dict[str, tuple[int, ...]] = {}
+    for index, (size_in, size_out) in enumerate(pairwise(sizes)):
+        shapes[f"torso.{2 * index}.weight"] = (size_out, size_in)
+        shapes[f"torso.{2 * index}.bias"] = (size_out,)
+    for head, width in (("value", 1), ("advantage", actions)) if dueling else (("q", actions),):
+        shapes[f"{head}.weight"] = (width, sizes[-1])
+        shapes[f"{head}.bias"] = (width,)
+    return shapes
