@@ -12,6 +12,7 @@ from adaptsky.experiment.executors import LocalExecutor, stacks
 from adaptsky.experiment.plan import load_experiment, plan_experiment
 from adaptsky.experiment.runs import execute_run
 from adaptsky.store.run_file import RunReader
+from adaptsky.training.messages import Checkpoints, Done, Message, SeedCheckpoint
 from adaptsky.training.runner import SeedTask, train_stack
 from adaptsky.training.stack_run import Member, StackRun, stack_key
 from tests.conftest import TRAINING_LAYOUT_M, make_scenario
@@ -85,16 +86,15 @@ class Collect:
     """A stand-in for the run-file writer: keeps every message."""
 
     def __init__(self) -> None:
-        self.messages: list[tuple] = []
+        self.messages: list[Message] = []
 
-    def __call__(self, message) -> None:
+    def __call__(self, message: Message) -> None:
         self.messages.append(message)
 
-    def checkpoints(self, key):
-        """("checkpoint", key, rows, trajectories, last trajectory, checkpoint) of every
-        checkpoint of key."""
-        return [("checkpoint", *item) for m in self.messages if m[0] == "checkpoints"
-                for item in m[2] if item[0] == key]
+    def checkpoints(self, key) -> list[SeedCheckpoint]:
+        """Every checkpoint of ``key``, in order."""
+        return [item for m in self.messages if isinstance(m, Checkpoints) for item in m.items
+                if item.key == key]
 
 
 def test_resumes_from_different_episodes_catch_up_and_merge():
@@ -109,11 +109,11 @@ def test_resumes_from_different_episodes_catch_up_and_merge():
     tasks = [SeedTask(base, 1, 4, 1, 0, states[1][0]), SeedTask(base, 2, 4, 1, 0, states[3][1])]
     collect = Collect()
     train_stack(tasks, collect, lambda: False)
-    assert [m[4][0] for m in collect.checkpoints(1)] == [2, 3, 4]
-    assert [m[4][0] for m in collect.checkpoints(2)] == [4]
+    assert [m.last_trajectory[0] for m in collect.checkpoints(1)] == [2, 3, 4]
+    assert [m.last_trajectory[0] for m in collect.checkpoints(2)] == [4]
     for key, member in ((1, 0), (2, 1)):
-        assert_same_checkpoints(collect.checkpoints(key)[-1][5], states[4][member])
-    assert [m[1] for m in collect.messages if m[0] == "done"] == [1, 2]
+        assert_same_checkpoints(collect.checkpoints(key)[-1].checkpoint, states[4][member])
+    assert [m.key for m in collect.messages if isinstance(m, Done)] == [1, 2]
 
 
 def test_stop_checkpoints_every_member():
@@ -121,8 +121,8 @@ def test_stop_checkpoints_every_member():
     tasks = [SeedTask(base, seed, 4, 10, 0) for seed in (0, 1)]
     collect = Collect()
     train_stack(tasks, collect, lambda: True)
-    assert [m[4][0] for m in collect.checkpoints(0)] == [1]
-    assert [m[4][0] for m in collect.checkpoints(1)] == [1]
+    assert [m.last_trajectory[0] for m in collect.checkpoints(0)] == [1]
+    assert [m.last_trajectory[0] for m in collect.checkpoints(1)] == [1]
 
 
 def test_reproduce_runs_a_min_se_sweep_as_one_stack(tmp_path):

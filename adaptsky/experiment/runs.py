@@ -9,8 +9,8 @@ import os
 import time
 from collections.abc import Callable
 from contextlib import ExitStack
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Literal
 
 from adaptsky.errors import AdaptskyError
 from adaptsky.experiment.plan import RunSpec, scenario_text
@@ -22,6 +22,7 @@ from adaptsky.store.lock import run_lock
 from adaptsky.store.run_file import RunFileError, RunReader
 from adaptsky.training.api import create_run_file
 from adaptsky.training.evaluation import EVALUATION_KEYS, evaluation_set
+from adaptsky.training.messages import Checkpoints, Message
 from adaptsky.training.runner import RunFileWriter, SeedTask, pin_threads, train_stack
 
 if TYPE_CHECKING:
@@ -153,13 +154,12 @@ def _execute_locked(specs: list[RunSpec], stop: Callable[[], bool],
                for spec, (state, _) in zip(specs, prepared, strict=True)}
     seeds = {spec.path: spec.seed for spec in specs}
 
-    def route(message: tuple[Any, ...]) -> None:  # a run's messages to its own file
-        kind, path, *rest = message
-        if kind == "checkpoints":  # keyed by file: one seed per file
-            for key, *item in rest[0]:
-                writers[key](("checkpoints", None, [(seeds[key], *item)]))
+    def route(message: Message) -> None:  # a run's messages (keyed by file) to its own file
+        if isinstance(message, Checkpoints):  # one seed per file
+            for item in message.items:
+                writers[item.key](Checkpoints([replace(item, key=seeds[item.key])]))
             return
-        writers[path]((kind, seeds[path], *rest))
+        writers[message.key](replace(message, key=seeds[message.key]))
 
     if tasks:
         train_stack(tasks, route, stop, orphaned, device or torch.device("cpu"))

@@ -29,12 +29,20 @@ from adaptsky.errors import AdaptskyError
 from adaptsky.scenario.models import Scenario
 from adaptsky.store import run_file
 from adaptsky.training.evaluation import EvaluationSet
+from adaptsky.training.messages import (
+    Checkpoints,
+    Done,
+    Failed,
+    Message,
+    Progress,
+    SeedCheckpoint,
+)
 from adaptsky.training.progress import TrainingProgress
 
 if TYPE_CHECKING:  # torch is imported where training starts: commands start without it
     import torch
 
-Emit = Callable[[tuple[Any, ...]], None]
+Emit = Callable[[Message], None]
 
 
 class TrainingError(AdaptskyError):
@@ -95,10 +103,9 @@ def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
                 orphaned: Callable[[], bool] = lambda: False,
                 device: str | torch.device = "cpu") -> None:
     """Run every task to its ``episodes`` as stacks of members at the same episode, emitting
-    ``("progress", key, episode, metrics)`` per member and episode, one ``("checkpoints", None,
-    [(key, rows, trajectories, last_trajectory, checkpoint, evaluations), ...])`` per episode
-    where members checkpoint (written in one rewrite), and ``("done", key)`` (``key`` is
-    ``task.key``).
+    a :class:`Progress` per member and episode, one :class:`Checkpoints` per episode where
+    members checkpoint (written in one rewrite), and a :class:`Done` per task (their ``key``
+    is ``task.key``).
 
     Tasks resumed from different episodes: the ones furthest behind train first and join the
     others when they catch up. ``stop()`` asks for a checkpoint of every member and an early
@@ -138,17 +145,17 @@ def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
                 if result.evaluation is not None:
                     evaluations[task.key].append(result.evaluation)
                     shown["greedy"] = result.evaluation
-                emit(("progress", task.key, result.episode, shown))
+                emit(Progress(task.key, result.episode, shown))
                 if (result.episode % task.checkpoint_every == 0
                         or result.episode == task.episodes or stopping):
-                    checkpoints.append((task.key, _columns(rows[task.key]),
-                                        trajectories[task.key],
-                                        (result.episode, result.trajectory),
-                                        run.checkpoint(index), _columns(evaluations[task.key])))
+                    checkpoints.append(SeedCheckpoint(
+                        task.key, _columns(rows[task.key]), trajectories[task.key],
+                        (result.episode, result.trajectory), run.checkpoint(index),
+                        _columns(evaluations[task.key])))
                     rows[task.key], trajectories[task.key] = [], {}
                     evaluations[task.key] = []
             if checkpoints:  # one message: the writer stores them in one rewrite
-                emit(("checkpoints", None, checkpoints))
+                emit(Checkpoints(checkpoints))
             if stopping:
                 break
             if (run.episodes_done == merge_at
@@ -161,7 +168,7 @@ def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
             if run.episodes_done < task.episodes:
                 states[task.key] = run.checkpoint(index)
     for task in tasks:
-        emit(("done", task.key))
+        emit(Done(task.key))
 
 
 def _columns(rows: list[dict[str, Any]]) -> dict[str, np.ndarray]:
@@ -196,7 +203,7 @@ def _worker(group: list[SeedTask], connection: Connection, stop_event: Any,
             last = (str(error) if isinstance(error, AdaptskyError)
                     else traceback.format_exception_only(type(error), error)[-1].strip())
             for task in group:
-                connection.send(("error", task.key, last))
+                connection.send(Failed(task.key, last))
     except OSError:  # the parent closed its end (it quit or died): nobody reads any more
         pass
     finally:
@@ -229,7 +236,7 @@ class _StopOnInterrupt:
     def shielded(self, handle: Emit) -> Emit:
         """``handle`` with a second Ctrl-C held back while it runs (it writes the run file:
         an interrupt inside HDF5's callbacks could leave a file it cannot close)."""
-        def shielded_handle(message: tuple[Any, ...]) -> None:
+        def shielded_handle(message: Message) -> None:
             self.writing = True
             try:
                 handle(message)
@@ -254,18 +261,19 @@ class RunFileWriter:
         self.path, self.done, self.errors, self.on_episode = path, done, errors, on_episode
         self.reached: dict[object, int] = dict(done)
 
-    def __call__(self, message: tuple[Any, ...]) -> None:
-        kind, seed = message[0], message[1]
-        if kind == "progress":
-            self.reached[seed] = message[2]
+    def __call__(self, message: Message) -> None:
+        if isinstance(message, Progress):
+            self.reached[message.key] = message.episode
             if self.on_episode is not None:
-                self.on_episode(seed, message[2], message[3])
-        elif kind == "checkpoints":  # [(seed, rows, trajectories, last, checkpoint, evals)]
-            run_file.append_checkpoints(self.path, message[2])
-            for seed, *_, checkpoint, _ in message[2]:
-                self.done[seed] = int(checkpoint["episode"])
-        elif kind == "error":
-            self.errors.append(f"seed {seed} failed: {message[2]}")
+                self.on_episode(message.key, message.episode, message.metrics)
+        elif isinstance(message, Checkpoints):  # keyed by seed
+            run_file.append_checkpoints(self.path, [
+                (item.key, item.rows, item.trajectories, item.last_trajectory, item.checkpoint,
+                 item.evaluations) for item in message.items])
+            for item in message.items:
+                self.done[item.key] = item.episode
+        elif isinstance(message, Failed):
+            self.errors.append(f"seed {message.key} failed: {message.error}")
 
     def lost(self) -> str:
         """What an end without waiting for checkpoints keeps and loses, in one line."""
@@ -387,9 +395,9 @@ def _collect(started: list[_Worker], left: set[object], handle: Emit, errors: li
                     stop_event.set()
                 continue
             handle(message)
-            if message[0] in ("done", "error"):
-                left.discard(message[1])
-                if message[0] == "error":
+            if isinstance(message, Done | Failed):
+                left.discard(message.key)
+                if isinstance(message, Failed):
                     stop_event.set()
 
 

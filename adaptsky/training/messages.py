@@ -1,0 +1,66 @@
+"""What a training stack tells the writer of its run files, as typed messages (they cross
+process boundaries pickled, so they hold only arrays, numbers and strings).
+
+``key`` names a task: its seed in ``train``, its run file in ``reproduce``."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from adaptsky.arrays import Tree
+
+
+@dataclass(frozen=True)
+class Progress:
+    """A task has done ``episode`` episodes; ``metrics`` of the last one (and its greedy
+    evaluation under ``greedy``, when one ran)."""
+
+    key: Any
+    episode: int
+    metrics: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class SeedCheckpoint:
+    """One task's checkpoint: the learning-curve ``rows`` and greedy ``evaluations`` since the
+    last one (one array per column), the trajectories kept meanwhile, the last episode's
+    trajectory and everything needed to continue."""
+
+    key: Any
+    rows: dict[str, np.ndarray]
+    trajectories: dict[int, Tree]
+    last_trajectory: tuple[int, Tree]
+    checkpoint: Tree
+    evaluations: dict[str, np.ndarray]
+
+    @property
+    def episode(self) -> int:
+        return int(self.checkpoint["episode"])
+
+
+@dataclass(frozen=True)
+class Checkpoints:
+    """The checkpoints of the members of a stack that checkpoint together (one write)."""
+
+    items: list[SeedCheckpoint]
+
+
+@dataclass(frozen=True)
+class Done:
+    """A task reached its episodes."""
+
+    key: Any
+
+
+@dataclass(frozen=True)
+class Failed:
+    """A task failed; ``error`` is one line."""
+
+    key: Any
+    error: str
+
+
+Message = Progress | Checkpoints | Done | Failed
