@@ -118,33 +118,34 @@ def test_import_adaptsky_reexports_the_public_api():
         adaptsky.make  # noqa: B018
 
 
-def test_import_adaptsky_registers_the_env_without_importing_torch():
-    code = ("import sys, gymnasium, adaptsky; assert 'torch' not in sys.modules; "
-            "assert adaptsky.ENV_ID in gymnasium.registry; print('ok')")
+def _fresh_python(code: str) -> str:
+    """What ``code`` prints in a new interpreter (imports start from nothing there)."""
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                             cwd=ROOT, timeout=60)
-    assert result.stdout == "ok\n", result.stderr
+    assert result.returncode == 0, result.stderr
+    return result.stdout
+
+
+def test_import_adaptsky_registers_the_env_without_importing_torch():
+    assert _fresh_python("import sys, gymnasium, adaptsky; assert 'torch' not in sys.modules; "
+                         "assert adaptsky.ENV_ID in gymnasium.registry; print('ok')") == "ok\n"
 
 
 def test_import_adaptsky_before_gymnasium_registers_the_env_when_gymnasium_comes():
     # import adaptsky no longer imports Gymnasium (0.2 s for every command): the env is
     # registered the moment Gymnasium is imported, and make() works as before
-    code = ("import sys, adaptsky; assert 'gymnasium' not in sys.modules; import gymnasium; "
-            "assert adaptsky.ENV_ID in gymnasium.registry; "
-            "env = gymnasium.make(adaptsky.ENV_ID); print(env.reset(seed=0)[0].shape)")
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                            cwd=ROOT, timeout=60)
-    assert result.stdout == "(17,)\n", result.stderr
+    assert _fresh_python(
+        "import sys, adaptsky; assert 'gymnasium' not in sys.modules; import gymnasium; "
+        "assert adaptsky.ENV_ID in gymnasium.registry; "
+        "print(gymnasium.make(adaptsky.ENV_ID).reset(seed=0)[0].shape)") == "(17,)\n"
 
 
 def test_the_command_line_starts_without_the_library_s_heavy_imports():
     # adaptsky --help took 0.65-0.9 s here, most of it importing what no help text needs;
     # a command imports the library when it runs
-    code = ("import sys, adaptsky_cli.cli.main; print(sorted(m for m in ('numpy', 'h5py', "
-            "'pydantic', 'gymnasium', 'torch', 'matplotlib') if m in sys.modules))")
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                            cwd=ROOT, timeout=60)
-    assert result.stdout == "[]\n", result.stderr
+    assert _fresh_python(
+        "import sys, adaptsky_cli.cli.main; print(sorted(m for m in ('numpy', 'h5py', "
+        "'pydantic', 'gymnasium', 'torch', 'matplotlib') if m in sys.modules))") == "[]\n"
 
 
 def test_the_wheel_ships_both_packages_and_the_default_scenario():
