@@ -123,6 +123,25 @@ def test_a_plugin_is_imported_when_used_or_listed_only(tmp_path):
     assert listed.stdout.startswith("IMPORTED"), listed.stdout
 
 
+def test_a_name_registered_by_two_packages_is_broken_and_neither_is_imported(tmp_path):
+    for package in ("first-pkg", "second-pkg"):
+        module = package.replace("-", "_")
+        (tmp_path / f"{module}.py").write_text("import sys\nsys.stdout.write('IMPORTED')\n")
+        info = tmp_path / f"{module}-0.3.dist-info"
+        info.mkdir()
+        (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {package}\nVersion: 0.3\n")
+        (info / "entry_points.txt").write_text(
+            f"[adaptsky.channel_models]\ntwice = {module}:Model\n")
+    listed = subprocess.run([str(ADAPTSKY), "plugins", "list", "--json"], capture_output=True,
+                            text=True, env={**os.environ, "PYTHONPATH": str(tmp_path)},
+                            check=False)
+    assert "IMPORTED" not in listed.stdout
+    twice = {p["name"]: p for p in json.loads(listed.stdout)}["twice"]
+    assert twice["status"] == "broken"
+    assert twice["error"] in ("name 'twice' is registered by both first-pkg and second-pkg",
+                              "name 'twice' is registered by both second-pkg and first-pkg")
+
+
 def test_a_broken_plugin_is_listed_and_breaks_nothing_else(tmp_path):
     _fake_distribution(tmp_path, "broken-channel", "import no_such_module\n")
     env = {**os.environ, "PYTHONPATH": str(tmp_path)}

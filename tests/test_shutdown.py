@@ -27,7 +27,7 @@ from adaptsky.store.run_file import RunReader
 from adaptsky.training import runner
 from adaptsky_cli.cli import entry
 from adaptsky_cli.cli.main import main
-from tests.test_faults import assert_same_run, leftovers, stub
+from tests.test_faults import assert_same_run, leftovers, resume, stub
 from tests.test_train import small_scenario
 
 ADAPTSKY = Path(sys.executable).with_name("adaptsky")
@@ -39,10 +39,6 @@ def train_args(scenario: Path, out: Path, seeds: int) -> list[str]:
     return ["train", str(scenario), "--seeds", ",".join(map(str, range(seeds))),
             "--episodes", str(EPISODES), "--steps", str(STEPS), "--checkpoint-every", "1",
             "--workers", str(seeds), "--out", str(out), "--quiet"]
-
-
-def resume(path: Path) -> list[str]:
-    return ["train", "--resume", str(path), "--workers", "2", "--quiet"]
 
 
 @pytest.fixture(scope="module")

@@ -11,8 +11,8 @@ import torch
 from adaptsky.experiment.executors import LocalExecutor, stacks
 from adaptsky.experiment.plan import load_experiment, plan_experiment
 from adaptsky.experiment.runs import execute_run
-from adaptsky.store.run_file import RunReader
-from adaptsky.training.messages import Checkpoints, Done, Message, SeedCheckpoint
+from adaptsky.store.run_file import RunReader, SeedCheckpoint
+from adaptsky.training.messages import Checkpoints, Done, Message
 from adaptsky.training.runner import SeedTask, train_stack
 from adaptsky.training.stack_run import Member, StackRun, stack_key
 from tests.conftest import TRAINING_LAYOUT_M, make_scenario

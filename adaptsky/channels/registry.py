@@ -52,12 +52,15 @@ class PluginInfo:
         return self.model is not None and self.model.contract_version is not None
 
 
-def _load(entry_point: EntryPoint) -> PluginInfo:
+def _described(entry_point: EntryPoint) -> dict[str, str]:
+    """Name, package, version and target of an entry point (nothing is imported)."""
     dist = entry_point.dist
-    package = dist.name if dist is not None else "?"
-    version = dist.version if dist is not None else "?"
-    info = dict(name=entry_point.name, package=package, version=version,
-                target=entry_point.value)
+    return dict(name=entry_point.name, package=dist.name if dist is not None else "?",
+                version=dist.version if dist is not None else "?", target=entry_point.value)
+
+
+def _load(entry_point: EntryPoint) -> PluginInfo:
+    info = _described(entry_point)
     try:
         model = entry_point.load()
     except Exception as error:  # any import failure of third-party code
@@ -110,14 +113,13 @@ def plugin(name: str) -> PluginInfo:
         registered = _entry_points().get(name)
         if not registered:
             raise unknown_model(name)
-        infos = [_load(entry_point) for entry_point in registered]
-        info = infos[0]
-        if len(infos) > 1:
-            first, info = infos[0], infos[-1]
-            info = PluginInfo(info.name, info.package, info.version, info.target, None,
-                              f"name '{name}' is registered by both {first.package} and "
-                              f"{info.package}")
-        _loaded[name] = info
+        if len(registered) == 1:
+            _loaded[name] = _load(registered[0])
+        else:  # broken whatever the classes are: neither is imported
+            first, last = _described(registered[0]), _described(registered[-1])
+            _loaded[name] = PluginInfo(**last, model=None, error=(
+                f"name '{name}' is registered by both {first['package']} and "
+                f"{last['package']}"))
     return _loaded[name]
 
 

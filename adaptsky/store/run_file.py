@@ -13,6 +13,7 @@ import os
 import platform
 import stat
 import sys
+from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
@@ -39,9 +40,11 @@ from adaptsky.store.layout import (
 )
 from adaptsky.store.lock import writer_of
 from adaptsky.store.tree import read_tree, write_tree
+from adaptsky.units import plural
 
-__all__ = ["FORMAT_VERSION", "KIND", "RunFileError", "RunReader", "append_checkpoint",
-           "create_run", "environment", "record_session", "set_planned_episodes"]
+__all__ = ["FORMAT_VERSION", "KIND", "RunFileError", "RunReader", "SeedCheckpoint",
+           "append_checkpoint", "append_checkpoints", "create_run", "environment",
+           "record_session", "set_planned_episodes"]
 
 EPISODE_METRICS = tuple(field.name for field in EPISODES if len(field.shape) == 1)
 PER_USER_METRICS = tuple(field.name for field in EPISODES if len(field.shape) == 2)
@@ -101,10 +104,23 @@ def set_planned_episodes(path: Path, config: dict[str, Any]) -> None:
             group.attrs["episodes_planned"] = config["train"]["episodes"]
 
 
-# one seed's checkpoint: seed, learning-curve rows, trajectories, last trajectory, checkpoint,
-# the rows of the greedy evaluations since the last checkpoint ({} for none)
-SeedCheckpoint = tuple[int, dict[str, np.ndarray], dict[int, Tree], tuple[int, Tree], Tree,
-                       dict[str, np.ndarray]]
+@dataclass(frozen=True)
+class SeedCheckpoint:
+    """One seed's checkpoint as a run file stores it: the learning-curve ``rows`` and greedy
+    ``evaluations`` since the last one (one array per column; {} for none), the trajectories
+    kept meanwhile, the last episode's trajectory and everything needed to continue.
+    ``key`` is the seed (a training stack may key it otherwise until it reaches the file)."""
+
+    key: Any
+    rows: dict[str, np.ndarray]
+    trajectories: dict[int, Tree]
+    last_trajectory: tuple[int, Tree]
+    checkpoint: Tree
+    evaluations: dict[str, np.ndarray]
+
+    @property
+    def episode(self) -> int:
+        return int(self.checkpoint["episode"])
 
 
 def append_checkpoint(path: Path, seed: int, rows: dict[str, np.ndarray],
@@ -114,17 +130,17 @@ def append_checkpoint(path: Path, seed: int, rows: dict[str, np.ndarray],
     """Append learning-curve ``rows`` (k, ...) of one seed, its trajectories and evaluation
     rows, and replace its checkpoint; ``checkpoint["episode"]`` becomes the seed's
     ``episodes_done``."""
-    append_checkpoints(path, [(seed, rows, trajectories, last_trajectory, checkpoint,
-                               evaluations or {})])
+    append_checkpoints(path, [SeedCheckpoint(seed, rows, trajectories, last_trajectory,
+                                             checkpoint, evaluations or {})])
 
 
 def append_checkpoints(path: Path, items: list[SeedCheckpoint]) -> None:
     """:func:`append_checkpoint` for several seeds in one rewrite of the file (the seeds of a
     stack checkpoint together: one copy of the file per round, not one per seed)."""
     with rewrite(path) as file:
-        for seed, rows, trajectories, last_trajectory, checkpoint, evaluations in items:
-            _write_checkpoint(file[f"seeds/{seed}"], rows, trajectories, last_trajectory,
-                              checkpoint, evaluations)
+        for item in items:
+            _write_checkpoint(file[f"seeds/{item.key}"], item.rows, item.trajectories,
+                              item.last_trajectory, item.checkpoint, item.evaluations)
 
 
 def _append_rows(table: h5py.Group, start: int, rows: dict[str, np.ndarray]) -> None:
@@ -341,8 +357,7 @@ class RunReader:
             return
         writer = writer_of(self.path)
         if writer is not None:
-            every = self.scenario.train.checkpoint_every
-            episodes = "1 episode" if every == 1 else f"{every} episodes"
+            episodes = plural(self.scenario.train.checkpoint_every, "episode")
             raise RunFileError(f"{self.path}: seed {seed} has no checkpoint yet: {writer} is "
                                f"training it and writes the first after {episodes}; try "
                                "again then")

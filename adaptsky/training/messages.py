@@ -8,9 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
-
-from adaptsky.arrays import Tree
+from adaptsky.store.run_file import SeedCheckpoint
 
 
 @dataclass(frozen=True)
@@ -24,26 +22,9 @@ class Progress:
 
 
 @dataclass(frozen=True)
-class SeedCheckpoint:
-    """One task's checkpoint: the learning-curve ``rows`` and greedy ``evaluations`` since the
-    last one (one array per column), the trajectories kept meanwhile, the last episode's
-    trajectory and everything needed to continue."""
-
-    key: Any
-    rows: dict[str, np.ndarray]
-    trajectories: dict[int, Tree]
-    last_trajectory: tuple[int, Tree]
-    checkpoint: Tree
-    evaluations: dict[str, np.ndarray]
-
-    @property
-    def episode(self) -> int:
-        return int(self.checkpoint["episode"])
-
-
-@dataclass(frozen=True)
 class Checkpoints:
-    """The checkpoints of the members of a stack that checkpoint together (one write)."""
+    """The checkpoints of the members of a stack that checkpoint together (one write; each
+    keyed by the task until the writer gives the file its seed)."""
 
     items: list[SeedCheckpoint]
 

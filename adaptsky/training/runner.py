@@ -28,15 +28,9 @@ from adaptsky.arrays import Tree
 from adaptsky.errors import AdaptskyError
 from adaptsky.scenario.models import Scenario
 from adaptsky.store import run_file
+from adaptsky.store.run_file import SeedCheckpoint
 from adaptsky.training.evaluation import EvaluationSet
-from adaptsky.training.messages import (
-    Checkpoints,
-    Done,
-    Failed,
-    Message,
-    Progress,
-    SeedCheckpoint,
-)
+from adaptsky.training.messages import Checkpoints, Done, Failed, Message, Progress
 from adaptsky.training.progress import TrainingProgress
 
 if TYPE_CHECKING:  # torch is imported where training starts: commands start without it
@@ -267,9 +261,7 @@ class RunFileWriter:
             if self.on_episode is not None:
                 self.on_episode(message.key, message.episode, message.metrics)
         elif isinstance(message, Checkpoints):  # keyed by seed
-            run_file.append_checkpoints(self.path, [
-                (item.key, item.rows, item.trajectories, item.last_trajectory, item.checkpoint,
-                 item.evaluations) for item in message.items])
+            run_file.append_checkpoints(self.path, message.items)
             for item in message.items:
                 self.done[item.key] = item.episode
         elif isinstance(message, Failed):
