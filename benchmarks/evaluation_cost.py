@@ -31,7 +31,7 @@ for layouts in (0, 16):
         run.run_episode()
         train_s.append(time.perf_counter() - start)
         start = time.perf_counter()
-        evaluator.run(run.agent.greedy)
+        evaluator.run(run.algorithm.greedy)
         eval_s.append(time.perf_counter() - start)
     tr, evs = np.median(train_s), np.median(eval_s)
     print(f"held-out layouts {layouts}: training episode {tr:.3f} s, evaluation (1000 steps, "

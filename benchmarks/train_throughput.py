@@ -33,7 +33,7 @@ def warm_stack(scenario: Scenario, seeds: int, device: torch.device) -> StackRun
     """A stack whose memories hold a batch, so every timed step makes an update (and, on
     CUDA, whose graphs are recorded)."""
     run = StackRun([Member(scenario, seed) for seed in range(seeds)], device)
-    while run.memory.size < scenario.agent.batch_size + 1 or run.episodes_done < 1:
+    while run.algorithm.memory.size < scenario.agent.batch_size + 1 or run.episodes_done < 1:
         run.run_episode()
     return run
 
@@ -42,7 +42,7 @@ def timed_episodes(run: StackRun, episodes: int) -> float:
     start = time.perf_counter()
     for _ in range(episodes):
         run.run_episode()
-    if run.agent.device.type == "cuda":
+    if run.algorithm.agent.device.type == "cuda":
         torch.cuda.synchronize()
     return time.perf_counter() - start
 
@@ -50,14 +50,14 @@ def timed_episodes(run: StackRun, episodes: int) -> float:
 def floor_seconds(run: StackRun, updates: int, rng: np.random.Generator) -> float:
     """Bare updates (replay gather, TD update, Adam) on random rows of the memory."""
     batch = run.scenario.agent.batch_size
-    indices = [rng.integers(0, run.memory.size, size=(len(run.members), batch))
+    indices = [rng.integers(0, run.algorithm.memory.size, size=(len(run.members), batch))
                for _ in range(64)]
-    if run.agent.device.type == "cuda":
+    if run.algorithm.agent.device.type == "cuda":
         torch.cuda.synchronize()
     start = time.perf_counter()
     for step in range(updates):
-        run.device_step.update(indices[step % len(indices)])
-    if run.agent.device.type == "cuda":
+        run.algorithm.device_step.update(indices[step % len(indices)])
+    if run.algorithm.agent.device.type == "cuda":
         torch.cuda.synchronize()
     return time.perf_counter() - start
 

@@ -19,6 +19,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import tomllib
 from pathlib import Path
 
 import h5py
@@ -97,22 +98,38 @@ def same(a: np.ndarray, b: np.ndarray, a_dir: Path, b_dir: Path) -> bool:
 
 
 def _text(value: object, folder: Path) -> object:
+    """Text as compared: JSON or TOML (a written scenario) as the data it holds, without
+    times and added defaults, the output folder named alike."""
     text = value.decode() if isinstance(value, bytes) else value
     if not isinstance(text, str):
         return text
     text = text.replace(str(folder), "OUT")
-    try:
-        return without_times(json.loads(text))
-    except ValueError:
-        return text
+    for parse in (json.loads, tomllib.loads):
+        try:
+            return without_times(parse(text))
+        except ValueError:
+            pass
+    return text
+
+
+# keys that a newer adaptsky writes into a stored scenario with the value every older file
+# means (they hold no number): [agent] algorithm, "dqn" by default since it exists
+ADDED_DEFAULTS = {"algorithm": "dqn"}
 
 
 def without_times(value: object) -> object:
-    """JSON without the keys that hold a wall time or a moment."""
+    """JSON without the keys that hold a wall time or a moment, and without the
+    :data:`ADDED_DEFAULTS` at their default."""
+    if isinstance(value, str) and "\n[" in value:  # TOML text inside JSON
+        try:
+            return without_times(tomllib.loads(value))
+        except ValueError:
+            return value
     if isinstance(value, dict):
         return {k: without_times(v) for k, v in value.items()
                 if "wall" not in k and "seconds" not in k
-                and k not in {"created_utc", "started_utc"}}
+                and k not in {"created_utc", "started_utc"}
+                and not (k in ADDED_DEFAULTS and v == ADDED_DEFAULTS[k])}
     if isinstance(value, list):
         return [without_times(v) for v in value]
     return value

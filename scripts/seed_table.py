@@ -42,9 +42,10 @@ def main() -> None:
     for path in args.runs:
         with RunReader(path) as run:
             trained = run.scenario
-            policies = {seed: {name: with_policy(run.checkpoint(seed), best)
+            policies = {seed: {name: with_policy(trained, run.checkpoint(seed), best)
                                for name, best in (("best", run.best(seed)), ("last", None))}
                         for seed in run.seeds}
+            last_episode = {seed: int(run.checkpoint(seed)["episode"]) for seed in run.seeds}
             best_episode = {seed: (run.best(seed) or {}).get("episode") for seed in run.seeds}
         scenario = eval_scenario(trained, args.layouts, args.layout_seed)
         users_m = eval_layouts(scenario, args.layouts)
@@ -63,12 +64,12 @@ def main() -> None:
         print("|---|---|---|---|---|---|")
         record: dict[str, object] = {"run": str(path), "layouts": len(users_m), "seeds": {}}
         for seed, chosen in policies.items():
-            for name, checkpoint in chosen.items():
+            for name, arrays in chosen.items():
                 method = Method.of(name, scenario, rollout(
-                    scenario, greedy_policy(trained, checkpoint), args.steps, users_m))
+                    scenario, greedy_policy(trained, arrays), args.steps, users_m))
                 pct = percent_of(method.metrics["steady_sum_rate_bps"], oracle)
                 beats = compare(method.metrics, soa)["beats_share"]
-                episode = best_episode[seed] if name == "best" else int(checkpoint["episode"])
+                episode = best_episode[seed] if name == "best" else last_episode[seed]
                 print(f"| {seed} | {name} ({episode}) | {np.nanmean(pct):.1f} | "
                       f"{np.nanmedian(pct):.1f} | {np.nanmin(pct):.1f} | {100 * beats:.0f}% |")
                 record["seeds"][f"{seed}-{name}"] = {  # type: ignore[index]

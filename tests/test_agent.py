@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 import torch
 
-from adaptsky.algos.network import QNetwork
-from adaptsky.algos.replay import StackedReplay
-from adaptsky.algos.schedule import epsilon
-from adaptsky.algos.stacked import StackedDqn
-from adaptsky.scenario.models import Agent
+from adaptsky.algos.dqn.network import QNetwork
+from adaptsky.algos.dqn.replay import StackedReplay
+from adaptsky.algos.dqn.schedule import epsilon
+from adaptsky.algos.dqn.stacked import StackedDqn
+from adaptsky.scenario.agents import DqnAgent as Agent
 
 CPU = torch.device("cpu")
 
@@ -200,7 +200,7 @@ def test_agent_state_round_trip_continues_identically():
 def test_the_one_list_of_parameter_names_is_torch_s(dueling):
     # the names and shapes were written in three places (the network, the stacked trainer,
     # the run-file layout); now one function, checked against torch's own names here
-    from adaptsky.algos.parameters import network_shapes
+    from adaptsky.algos.dqn.parameters import network_shapes
 
     torch_shapes = [(name, tuple(parameter.shape))
                     for name, parameter in QNetwork(17, 30, [64, 32], dueling).named_parameters()]

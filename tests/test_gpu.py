@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from adaptsky.rollouts.rollout import greedy_policy
+from adaptsky.rollouts.rollout import checkpoint_policy
 from adaptsky.scenario import parse_scenario
 from adaptsky.store.run_file import RunReader
 from adaptsky.training import api
@@ -53,7 +53,7 @@ def test_graphs_replay_the_eager_update_exactly():
     for _ in range(3):
         for a, b in zip(graphed.run_episode(), eager.run_episode(), strict=True):
             assert_same_results(a, b)
-    assert torch.equal(graphed.agent.params, eager.agent.params)
+    assert torch.equal(graphed.algorithm.agent.params, eager.algorithm.agent.params)
 
 
 @cuda
@@ -65,8 +65,8 @@ def test_a_gpu_member_starts_as_the_cpu_member():
     cpu = StackRun([Member(base, 3)], "cpu")
     gpu.run_episode()
     cpu.run_episode()
-    np.testing.assert_allclose(gpu.agent.params[3].cpu().numpy(),
-                               cpu.agent.params[0].numpy(), atol=1e-3)
+    np.testing.assert_allclose(gpu.algorithm.agent.params[3].cpu().numpy(),
+                               cpu.algorithm.agent.params[0].numpy(), atol=1e-3)
 
 
 @cuda
@@ -81,6 +81,6 @@ def test_train_on_cuda_resume_and_evaluate_on_cpu(tmp_path):
         config = run.config
         assert run.seed_attrs(1)["episodes_done"] == 6
     assert checkpoint["device"].startswith("cuda")
-    policy = greedy_policy(parse_scenario(config), checkpoint)
+    policy = checkpoint_policy(parse_scenario(config), checkpoint)
     actions = policy(np.zeros((2, 17), dtype=np.float32))
     assert actions.shape == (2,)

@@ -338,7 +338,7 @@ def test_a_non_finite_loss_names_the_agent_keys():
     scenario = parse_scenario({"name": "nan", "agent": {"batch_size": 2, "memory_size": 2},
                                "train": {"steps": 4, "seeds": [7]}})
     run = StackRun([Member(scenario, 7)])
-    run.agent.params.fill_(math.nan)
+    run.algorithm.agent.params.fill_(math.nan)
     with pytest.raises(NonFiniteError) as error:
         run.run_episode()
     assert str(error.value).startswith("nan: seed 7, episode 1: loss is nan; it depends on "

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 import torch
 
-from adaptsky.algos.returns import NStepWindow
-from adaptsky.algos.stacked import StackedDqn
+from adaptsky.algos.dqn.returns import NStepWindow
+from adaptsky.algos.dqn.spec import replay_rows
+from adaptsky.algos.dqn.stacked import StackedDqn
 from adaptsky.scenario.toml_writer import dumps
 from adaptsky.sim.layout import episode_layouts
-from adaptsky.store.layout import Sizes
 from adaptsky.store.run_file import RunReader
 from adaptsky.training import api
 from adaptsky.training.stack_run import Member, StackRun
@@ -120,7 +120,7 @@ def test_rewards_are_scaled_before_they_are_stored_but_not_in_the_curves():
     assert np.array_equal(results[0.01].trajectory["reward"], reward)
     assert results[0.01].metrics["reward"] == pytest.approx(reward.sum(), rel=1e-12)
     for scale, run in runs.items():
-        rows = run.memory.arrays(0)["rewards"]
+        rows = run.algorithm.memory.arrays(0)["rewards"]
         assert len(rows) == 20
         assert np.allclose(rows, (reward * scale).astype(np.float32), rtol=1e-6, atol=0)
     assert abs(reward).max() > 0
@@ -172,7 +172,7 @@ def test_n_step_run_stores_discounted_sums_and_the_state_n_steps_later():
     run = StackRun([Member(scenario(agent={"n_step": n, "gamma": gamma, "batch_size": 64},
                                     train={"steps": steps}), 4)])
     first = run.run_episode()[0]
-    memory = run.memory.arrays(0)
+    memory = run.algorithm.memory.arrays(0)
     assert len(memory["rewards"]) == steps - (n - 1) == 8
     r = first.trajectory["reward"]
     expected = [r[t] + gamma * r[t + 1] + gamma**2 * r[t + 2] for t in range(8)]
@@ -182,7 +182,7 @@ def test_n_step_run_stores_discounted_sums_and_the_state_n_steps_later():
     assert np.array_equal(memory["next_observations"][:5], memory["observations"][3:8])
     assert not memory["terminated"].any()
     second = run.run_episode()[0]
-    memory = run.memory.arrays(0)
+    memory = run.algorithm.memory.arrays(0)
     assert len(memory["rewards"]) == 16                 # the window restarted: no row spans two
     r2 = second.trajectory["reward"]
     assert memory["rewards"][8] == pytest.approx(r2[0] + gamma * r2[1] + gamma**2 * r2[2],
@@ -190,10 +190,10 @@ def test_n_step_run_stores_discounted_sums_and_the_state_n_steps_later():
 
 
 def test_replay_rows_of_an_n_step_run():
-    sizes = Sizes(scenario(agent={"n_step": 4, "memory_size": 50}, train={"steps": 20}))
-    assert sizes.replay_rows(1) == (17, 17)
-    assert sizes.replay_rows(2) == (34, 34)
-    assert sizes.replay_rows(3) == (50, 51 % 50)
+    n_step = scenario(agent={"n_step": 4, "memory_size": 50}, train={"steps": 20})
+    assert replay_rows(n_step, 1) == (17, 17)
+    assert replay_rows(n_step, 2) == (34, 34)
+    assert replay_rows(n_step, 3) == (50, 51 % 50)
 
 
 def _dqn(**agent) -> StackedDqn:
@@ -242,9 +242,9 @@ def test_a_soft_target_is_never_copied_hard():
     hard = StackRun([Member(scenario(agent={"target_update_episodes": 1}), 2)])
     for run in (soft, hard):
         run.run_episode()
-        assert run.agent.updates == 0 and run.agent.step.item() > 0
-    assert torch.equal(hard.agent.target, hard.agent.params)        # copied after episode 1
-    assert not torch.equal(soft.agent.target, soft.agent.params)
+        assert run.algorithm.agent.updates == 0 and run.algorithm.agent.step.item() > 0
+    assert torch.equal(hard.algorithm.agent.target, hard.algorithm.agent.params)  # hard copy
+    assert not torch.equal(soft.algorithm.agent.target, soft.algorithm.agent.params)
 
 
 @pytest.mark.parametrize(("global_step", "lr"), [(0, 1e-3), (50, 5.5e-4), (100, 1e-4),
@@ -266,13 +266,13 @@ def test_learning_rate_is_set_at_every_episode_start():
     run = StackRun([Member(scenario(agent={"lr": 1e-3, "lr_end": 1e-4,
                                            "lr_decay_steps": 100.0}), 1)])
     seen = []
-    original = run.agent.set_learning_rate
-    run.agent.set_learning_rate = lambda step: (seen.append(step), original(step))[1]
+    original = run.algorithm.agent.set_learning_rate
+    run.algorithm.agent.set_learning_rate = lambda step: (seen.append(step), original(step))[1]
     for _ in range(episodes):
         run.run_episode()
     assert seen == [0, 20, 40]
     assert seen == [steps * episode for episode in range(episodes)]
-    assert float(run.agent._lr) == pytest.approx(1e-3 + (1e-4 - 1e-3) * 40 / 100)
+    assert float(run.algorithm.agent._lr) == pytest.approx(1e-3 + (1e-4 - 1e-3) * 40 / 100)
 
 
 # ---- resume bit for bit --------------------------------------------------------------------

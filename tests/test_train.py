@@ -16,7 +16,7 @@ import h5py
 import numpy as np
 import pytest
 
-from adaptsky.rollouts.rollout import greedy_policy, random_policy, rollout
+from adaptsky.rollouts.rollout import checkpoint_policy, random_policy, rollout
 from adaptsky.scenario import load_scenario
 from adaptsky.scenario.toml_writer import dumps
 from adaptsky.sim.layout import user_layouts
@@ -106,7 +106,7 @@ def test_learning_beats_random_by_a_clear_margin(tmp_path):
                             seeds=[0], episodes=30, workers=1, quiet=True)
     scenario = load_scenario(scenario_path)
     with RunReader(run_path) as run:
-        policy = greedy_policy(scenario, run.checkpoint(0))
+        policy = checkpoint_policy(scenario, run.checkpoint(0))
     layout = user_layouts(scenario, 1)
     greedy = rollout(scenario, policy, 100, layout).sum_rate_bps.mean()
     random = rollout(scenario, random_policy(32, seed=0), 100, layout).sum_rate_bps.mean()

@@ -14,6 +14,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from adaptsky.algos.registry import algorithm_of
 from adaptsky.arrays import Tree
 from adaptsky.errors import AdaptskyError
 from adaptsky.evaluation.labels import distinct_labels
@@ -142,12 +143,12 @@ POLICIES = ("best", "last")
 
 
 class TrainedPolicy(NamedTuple):
-    """What an evaluation reads of a run: the training scenario, the checkpoint with the
-    policy asked for, the seed, which policy that is (:func:`policy_record`), and the seed's
-    greedy evaluations during training."""
+    """What an evaluation reads of a run: the training scenario, the arrays of the policy
+    asked for, the seed, which policy that is (:func:`policy_record`), and the seed's greedy
+    evaluations during training."""
 
     scenario: Scenario
-    checkpoint: Tree
+    policy: Tree
     seed: int
     record: dict[str, Any]
     evaluations: dict[str, np.ndarray]
@@ -165,17 +166,17 @@ def _read_run(run_path: Path, seed: int | None, policy: str = "best") -> Trained
                                   f"{', '.join(map(str, seeds))}")
         checkpoint = run.checkpoint(chosen)  # (validated on opening)
         best = run.best(chosen) if policy == "best" else None
-        return TrainedPolicy(run.scenario, with_policy(checkpoint, best), chosen,
+        return TrainedPolicy(run.scenario, with_policy(run.scenario, checkpoint, best), chosen,
                              policy_record(run_path, chosen, checkpoint, policy, best),
                              run.evaluations(chosen))
 
 
-def with_policy(checkpoint: Tree, best: Tree | None) -> Tree:
-    """The checkpoint with the best policy's weights in place of the last ones (as is
-    without a best policy)."""
+def with_policy(scenario: Scenario, checkpoint: Tree, best: Tree | None) -> Tree:
+    """The arrays of the best policy, or of the checkpoint's last one without a best policy
+    (``scenario``'s algorithm says where they are)."""
     if best is None:
-        return checkpoint
-    return {**checkpoint, "agent": {**checkpoint["agent"], "policy": best["policy"]}}
+        return algorithm_of(scenario).policy_of(checkpoint)
+    return best["policy"]
 
 
 def policy_record(run_path: Path, seed: int, checkpoint: Tree, asked: str,
@@ -198,9 +199,9 @@ def load_policy(run_path: Path, seed: int | None, scenario: Scenario, policy: st
                 ) -> tuple[Policy, dict[str, Any]]:
     """The greedy policy (``best`` or ``last``) of a run's seed, checked to fit the
     evaluation ``scenario``, and which policy it is."""
-    trained, checkpoint, _, record, _ = _read_run(run_path, seed, policy)
+    trained, arrays, _, record, _ = _read_run(run_path, seed, policy)
     _check_compatible(run_path, trained, scenario)
-    return greedy_policy(trained, checkpoint), record
+    return greedy_policy(trained, arrays), record
 
 
 def _setting(scenario: Scenario, key: str) -> Any:
@@ -252,7 +253,7 @@ def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path |
     and the oracle's search."""
     progress = progress or SilentProgress()
     compared = compared_methods(compare_with or [])
-    trained, state, chosen, used, curve = _read_run(checkpoint, seed, policy)
+    trained, arrays, chosen, used, curve = _read_run(checkpoint, seed, policy)
     base = load_scenario(scenario_path) if scenario_path else trained
     scenario = eval_scenario(base, layouts, layout_seed)
     _check_compatible(checkpoint, trained, scenario)
@@ -262,7 +263,7 @@ def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path |
               for item in compared if item.run is not None}
     check_rollout_memory(scenario, steps, layouts or 1, 1 + len(compared), str(checkpoint))
     users_m = eval_layouts(scenario, layouts)
-    policy = greedy_policy(trained, state)
+    policy = greedy_policy(trained, arrays)
     methods = [_policy_method(POLICY, scenario, policy, steps, users_m, progress)]
     for item in compared:
         if item.baseline is not None:

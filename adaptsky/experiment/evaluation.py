@@ -26,7 +26,7 @@ from adaptsky.evaluation.api import (
 from adaptsky.experiment.plan import Plan, RunSpec
 from adaptsky.progress import WorkProgress
 from adaptsky.rollouts.metrics import Method
-from adaptsky.rollouts.rollout import greedy_policy, rollout
+from adaptsky.rollouts.rollout import checkpoint_policy, rollout
 from adaptsky.scenario import Scenario, parse_scenario
 from adaptsky.scenario.variants import eval_scenario
 from adaptsky.store.eval_file import read_eval_metrics, write_eval
@@ -102,7 +102,7 @@ def _evaluate_plan(plan: Plan, progress: WorkProgress) -> Evaluations:
             metrics = _cached(path, record)
             if metrics is None:
                 with RunReader(run.path) as reader:
-                    policy = greedy_policy(trained, reader.checkpoint(run.seed))
+                    policy = checkpoint_policy(trained, reader.checkpoint(run.seed))
                 stage = f"evaluating {run.name} on {plural(len(users_m), 'layout')}"
                 with progress.stage(stage, spec.steps, "step") as tick:
                     method = Method.of("policy", scenario, rollout(

@@ -9,13 +9,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from adaptsky.algos.protocol import Policy
+from adaptsky.algos.registry import algorithm_of
 from adaptsky.arrays import Tree
 from adaptsky.scenario.models import Scenario
-from adaptsky.sim.actions import ActionSet
 from adaptsky.sim.batch import NetworkState, NomaUavBatch
-from adaptsky.sim.observation import observation_size
 
-Policy = Callable[[NDArray[np.float32]], NDArray[np.int64]]
 Tick = Callable[[int], None]
 FloatArray = NDArray[np.float64]
 
@@ -76,12 +75,12 @@ def random_policy(num_actions: int, seed: int = 0) -> Policy:
     return lambda obs: rng.integers(0, num_actions, size=len(obs))
 
 
-def greedy_policy(scenario: Scenario, checkpoint: Tree) -> Policy:
-    """argmax_a Q(s, a) of a checkpoint's policy network."""
-    from adaptsky.algos.stacked import StackedDqn  # torch: imported only to evaluate
+def greedy_policy(scenario: Scenario, policy: Tree) -> Policy:
+    """argmax_a of a stored greedy policy (the arrays of a checkpoint's ``policy_of`` or of
+    its best policy), by the scenario's algorithm."""
+    return algorithm_of(scenario).greedy_policy(scenario, policy)
 
-    num_actions = ActionSet(scenario.num_clusters, scenario.uav.actions).count
-    agent = StackedDqn(scenario.agent, observation_size(scenario.num_users), num_actions,
-                       seeds=[0])
-    agent.load_state_arrays(0, checkpoint["agent"])
-    return lambda observations: agent.greedy(observations[None])[0]
+
+def checkpoint_policy(scenario: Scenario, checkpoint: Tree) -> Policy:
+    """The greedy policy of a checkpoint's last weights."""
+    return greedy_policy(scenario, algorithm_of(scenario).policy_of(checkpoint))

@@ -22,6 +22,7 @@ from adaptsky.channels.contract import (
 )
 from adaptsky.channels.registry import get_model_class
 from adaptsky.errors import PluginError, ScenarioError
+from adaptsky.scenario.agents import AGENT_MODELS, UNKNOWN_ALGORITHM
 from adaptsky.scenario.models import Scenario
 
 
@@ -29,10 +30,17 @@ def _error_lines(source: str, error: ValidationError,
                  prefix: tuple[str | int, ...] = ()) -> list[str]:
     lines = []
     for item in error.errors(include_url=False):
-        loc = ".".join(str(part) for part in (*prefix, *item["loc"]))
+        where = item["loc"]
+        if where[:1] == ("agent",) and where[1:2] and where[1] in AGENT_MODELS:
+            where = where[:1] + where[2:]  # the union's tag: agent.dqn.lr is agent.lr
+        loc = ".".join(str(part) for part in (*prefix, *where))
         message = item["msg"].removeprefix("Value error, ")
         if item["type"] == "extra_forbidden":
             message = "unknown key"
+        elif item["type"] == UNKNOWN_ALGORITHM:
+            loc = ".".join(str(part) for part in (*prefix, *where, "algorithm"))
+            message = (f"unknown algorithm {item['input'].get('algorithm')!r}; choose from "
+                       f"{', '.join(AGENT_MODELS)}")
         elif "input" in item and item["type"] not in ("missing",) and not isinstance(
                 item["input"], dict):
             shown = repr(item["input"])

@@ -7,57 +7,33 @@ run overflows; what a run needs in memory is checked apart (``training.resources
 
 from __future__ import annotations
 
-import re
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import Field, field_validator, model_validator
 
-PAPER_TRAINING_LAYOUT_M = [[4.0, 15.0], [-44.0, -49.0], [-5.0, 21.0], [47.0, 49.0]]
-
-# names become file names (runs/<name>-<time>.h5, DIR/runs/<group>-...): see safe_name
-NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
-NAME_MAX_LENGTH = 64
-# the replay memory stores an action index as float32, exact up to 2^24: the dense action space
-# (2^(3+K) or 3^(3+K) actions) may not be larger
-MAX_DENSE_ACTIONS = 2**24
-MAX_SEED = 2**63 - 1          # seeds are stored as int64
-MAX_COUNT = 10**9             # episodes, steps, periods
-MAX_MEMORY = 2**53            # replay rows are drawn as floor(u * size), u a float64
-AREA_MAX_SIDE_M = 100_000.0
-MIN_HEIGHT_M = 1.0            # every link is then >= 1 m long: no gain above the 1 m intercept
-MAX_HEIGHT_M = 10_000.0
-MAX_ANTENNAS = 4096
-MAX_REWARD_WEIGHT = 1e6
-MAX_GAIN_WEIGHT = 1e12        # linear gains are ~1e-12 .. 1e-5
-
-Seed = Annotated[int, Field(ge=0, le=MAX_SEED)]
-LayerSize = Annotated[int, Field(ge=1, le=2**31 - 1)]
-StepM = Annotated[float, Field(ge=0.01, le=1000.0)]
-CoordinateM = Annotated[float, Field(ge=-AREA_MAX_SIDE_M, le=AREA_MAX_SIDE_M)]
-
-
-def max_users(mode: str) -> int:
-    """The most users whose dense action space (``uav.actions = mode``) has at most
-    ``MAX_DENSE_ACTIONS`` actions: 42 for ``paper``, 24 for ``with-hover``."""
-    base, components = (2 if mode == "paper" else 3), 3
-    while base ** (components + 1) <= MAX_DENSE_ACTIONS:
-        components += 1
-    return 2 * (components - 3)
-
-
-def safe_name(value: str) -> str:
-    """``value`` if it can be a file name's stem on every system, else a ValueError saying what
-    is allowed."""
-    if len(value) > NAME_MAX_LENGTH or not NAME_PATTERN.fullmatch(value):
-        raise ValueError(f"not a safe file name: use 1 to {NAME_MAX_LENGTH} letters, digits, "
-                         "'-', '_' or '.', starting with a letter or digit")
-    return value
-
-
-class Section(BaseModel):
-    """Strict base: unknown keys are errors and no string is silently turned into a number."""
-
-    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
+from adaptsky.scenario.agents import AgentConfig, DqnAgent
+from adaptsky.scenario.sections import (  # noqa: F401 (names of the scenario model)
+    AREA_MAX_SIDE_M,
+    MAX_ANTENNAS,
+    MAX_COUNT,
+    MAX_DENSE_ACTIONS,
+    MAX_GAIN_WEIGHT,
+    MAX_HEIGHT_M,
+    MAX_MEMORY,
+    MAX_REWARD_WEIGHT,
+    MAX_SEED,
+    MIN_HEIGHT_M,
+    NAME_MAX_LENGTH,
+    NAME_PATTERN,
+    PAPER_TRAINING_LAYOUT_M,
+    CoordinateM,
+    LayerSize,
+    Section,
+    Seed,
+    StepM,
+    max_users,
+    safe_name,
+)
 
 
 class Area(Section):
@@ -218,69 +194,6 @@ class Reward(Section):
                                  description="w_u, SE of users below R_min")
 
 
-class Agent(Section):
-    """The dueling DQN of sec. IV and V-A; extensions are off by default.
-
-    ``preset`` names a set of values (``agent.presets``) for the keys a file does not give;
-    ``"paper"`` is the paper's agent, every key at its default (docs/agent.md).
-    """
-
-    preset: str = Field("paper", description="named recipe for the keys not given "
-                        "(docs/agent.md): 'paper' or 'tuned'")
-    hidden_sizes: list[LayerSize] = Field([128, 128], min_length=1, max_length=100,
-                                          description="hidden ReLU layers")
-    dueling: bool = Field(True, description="dueling head; false gives the paper's plain 'DRL'")
-    double_dqn: bool = Field(False, description="double-DQN target (extension)")
-    loss: Literal["mse", "huber"] = Field("mse", description="TD loss; the paper uses MSE (eq. 12)")
-    grad_clip_norm: float = Field(0.0, ge=0, le=1e6, description="gradient-norm clip; 0 disables")
-    gamma: float = Field(0.999, ge=0, le=1, description="discount factor")
-    lr: float = Field(1e-3, ge=1e-10, le=1.0, description="Adam learning rate l_r")
-    batch_size: int = Field(128, ge=1, le=MAX_COUNT, description="mini-batch size B")
-    memory_size: int = Field(15000, ge=1, le=MAX_MEMORY, description="replay memory capacity M")
-    epsilon_start: float = Field(0.9, ge=0, le=1, description="epsilon_s")
-    epsilon_end: float = Field(0.1, ge=0, le=1, description="epsilon_e")
-    epsilon_decay_steps: float = Field(200.0, gt=0, le=1e15,
-                                       description="chi, decay constant in steps")
-    target_update_episodes: int = Field(10, ge=1, le=MAX_COUNT,
-                                        description="hard target copy period")
-    observation: Literal["scaled", "raw"] = Field(
-        "scaled", description="observation scaling, see docs/environment.md"
-    )
-    user_order: Literal["listed", "clusters"] = Field(
-        "listed", description="users in the observation: as the layout lists them, or cluster "
-        "by cluster (first and second user of cluster 1, then cluster 2...)")
-    reward_scale: float = Field(1.0, gt=0, le=1e6, description="rewards are multiplied by "
-                                "this before they are stored for learning (extension)")
-    n_step: int = Field(1, ge=1, le=100, description="n-step returns (extension); 1 is "
-                        "eq. 12's one-step target")
-    target_tau: float = Field(0.0, ge=0, le=1, description="soft target update theta' <- "
-                              "theta' + tau (theta - theta') after every update (extension); "
-                              "0 keeps the hard copies of target_update_episodes")
-    lr_end: float | None = Field(None, ge=1e-12, le=1.0, description="learning rate reached "
-                                 "after lr_decay_steps steps, linearly (extension); unset: "
-                                 "constant lr")
-    lr_decay_steps: float = Field(300_000.0, gt=0, le=1e15, description="steps over which lr "
-                                  "falls to lr_end")
-
-    @model_validator(mode="before")
-    @classmethod
-    def _apply_preset(cls, data: Any) -> Any:
-        """A preset's values under the keys given explicitly."""
-        if not isinstance(data, dict):
-            return data
-        from adaptsky.scenario.presets import preset_values
-
-        name = data.get("preset", "paper")
-        return {**preset_values(name), **data} if isinstance(name, str) else data
-
-    @model_validator(mode="after")
-    def _memory_holds_a_batch(self) -> Agent:
-        if self.memory_size < self.batch_size:
-            raise ValueError(f"memory_size ({self.memory_size}) must hold at least one batch "
-                             f"({self.batch_size})")
-        return self
-
-
 class Train(Section):
     episodes: int = Field(1000, ge=1, le=MAX_COUNT, description="episodes E")
     steps: int = Field(300, ge=1, le=MAX_COUNT, description="steps per episode T (time limit)")
@@ -318,7 +231,7 @@ class Scenario(Section):
     radio: Radio = Field(default_factory=Radio)
     channel: Channel = Field(default_factory=Channel)
     reward: Reward = Field(default_factory=Reward)
-    agent: Agent = Field(default_factory=Agent)
+    agent: AgentConfig = Field(default_factory=DqnAgent)
     train: Train = Field(default_factory=Train)
 
     _safe_name = field_validator("name")(safe_name)

@@ -9,6 +9,7 @@ x, y, h, cluster 1, ..., cluster K.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Literal
 
@@ -19,6 +20,13 @@ ActionMode = Literal["paper", "with-hover"]
 
 MAX_ACTIONS = 2**31 - 1
 TABLE_MAX_ACTIONS = 4096  # action sets up to this size are looked up in a table, not decoded
+
+
+def count_estimate(num_clusters: int, mode: ActionMode) -> float:
+    """How many actions ``ActionSet(num_clusters, mode)`` has, as a float, inf where it would
+    overflow one (memory estimates of scenarios far beyond any machine stay numbers)."""
+    base, components = (2 if mode == "paper" else 3), 3 + num_clusters
+    return math.inf if components * math.log(base) > 700 else float(base**components)
 
 
 @dataclass(frozen=True)

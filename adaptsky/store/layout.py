@@ -22,10 +22,13 @@ import h5py
 import numpy as np
 
 from adaptsky import __version__
-from adaptsky.algos.parameters import network_shapes
+from adaptsky.algos.protocol import AlgorithmSpec
+from adaptsky.algos.registry import ALGORITHMS, algorithm_of
+from adaptsky.arrays import Field
 from adaptsky.channels.registry import get_model_class
 from adaptsky.errors import AdaptskyError, PluginError
 from adaptsky.scenario import Scenario, parse_scenario
+from adaptsky.scenario.agents import DEFAULT_ALGORITHM
 from adaptsky.sim.actions import ActionSet
 from adaptsky.sim.observation import observation_size
 
@@ -35,24 +38,11 @@ SUPPORTED_VERSIONS = (1, 2)  # what it reads
 MAX_PLUGINS = 64
 
 Needs = Literal["curves", "all"]
-Dtype = Literal["float", "int", "bool"]
-Shape = tuple[int | str, ...]
 
 
 class RunFileError(AdaptskyError):
     """A run file that is missing, unreadable, not HDF5, damaged, too new, or lacks what is
     asked of it."""
-
-
-@dataclass(frozen=True)
-class Field:
-    """One dataset of the layout: its name, dtype kind, shape (symbols of :class:`Sizes`)
-    and units (the ``units`` attribute written on it)."""
-
-    name: str
-    dtype: Dtype
-    shape: Shape
-    units: str = "1"
 
 
 # /seeds/<S>/episodes/: one row per episode ("E": rows, at least episodes_done)
@@ -91,17 +81,6 @@ TRAJECTORY = (
     Field("reward", "float", ("T",)),
     Field("action", "int", ("T",)),
 )
-# /seeds/<S>/checkpoint/replay/: R rows in storage order, attr position
-REPLAY = (
-    Field("observations", "float", ("R", "O")),
-    Field("actions", "int", ("R",)),
-    Field("rewards", "float", ("R",)),
-    Field("next_observations", "float", ("R", "O")),
-    Field("terminated", "bool", ("R",)),
-)
-# /seeds/<S>/checkpoint/agent/optimizer/state/<i>/ for the i-th network parameter P_i
-ADAM_STATE = (Field("step", "float", ()), Field("exp_avg", "float", ("P",)),
-              Field("exp_avg_sq", "float", ("P",)))
 # attributes: name -> type ("int", "str", "json", "rng": a numpy bit generator's state as JSON)
 ROOT_ATTRS = {"kind": "str", "format_version": "int", "adaptsky_version": "str",
               "created_utc": "str", "scenario_name": "str"}
@@ -116,11 +95,10 @@ RNG_ATTRS = {"numpy_agent_json": "rng", "numpy_env_json": "rng"}
 # sections whose absence would silently give defaults (a missing [train] means 1000 x 300)
 CONFIG_SECTIONS = ("area", "users", "uav", "radio", "channel", "reward", "agent", "train")
 CONFIG_KEYS = {"train": ("episodes", "steps", "seeds", "checkpoint_every"),
-               "agent": ("hidden_sizes", "dueling", "memory_size", "batch_size"),
                "users": ("count",), "uav": ("actions",), "channel": ("model",)}
 
-UNITS = {field.name: field.units for field in (*EPISODES, *TRAJECTORY, *REPLAY, *ADAM_STATE,
-                                               *EVALUATIONS)}
+UNITS = {field.name: field.units for field in (*EPISODES, *TRAJECTORY, *EVALUATIONS)}
+UNITS |= {field.name: field.units for spec in ALGORITHMS.values() for field in spec.fields}
 UNITS |= {"training_layouts_m": "m", "heldout_layouts_m": "m", "training_oracle_bps": "bit/s",
           "heldout_oracle_bps": "bit/s"}
 
@@ -137,18 +115,9 @@ class Sizes:
         return {"N": s.num_users, "O": observation_size(s.num_users), "T": s.train.steps}
 
     @property
-    def network(self) -> dict[str, tuple[int, ...]]:
-        s = self.scenario
-        actions = ActionSet(s.num_clusters, s.uav.actions).count
-        return network_shapes(observation_size(s.num_users), actions, s.agent.hidden_sizes,
-                              s.agent.dueling)
-
-    def replay_rows(self, episode: int) -> tuple[int, int]:
-        """Rows held and write position after ``episode`` episodes of T steps."""
-        s = self.scenario  # an n-step run stores T - (n - 1) rows per episode
-        added = episode * max(0, s.train.steps - s.agent.n_step + 1)
-        capacity = s.agent.memory_size
-        return min(added, capacity), added % capacity
+    def algorithm(self) -> AlgorithmSpec:
+        """The algorithm that checks its own part of every checkpoint."""
+        return algorithm_of(self.scenario)
 
 
 class Node:
@@ -218,6 +187,10 @@ class Validator:
             what = "a group" if isinstance(item, GROUP) else "a dataset"
             self.fail(where, f"is {what}", f"a {'group' if kind is GROUP else 'dataset'}")
         return Node(item, where)
+
+    def group(self, parent: Node, name: str, optional: bool = False) -> Any:
+        """``parent``'s group ``name`` (None if absent and ``optional``)."""
+        return self.child(parent, name, GROUP, optional=optional)
 
     def members(self, group: Node, allowed: int, expected: str) -> list[str]:
         """The member names of ``group``, refused beyond ``allowed`` before they are listed."""
@@ -352,7 +325,11 @@ class Validator:
             if not isinstance(config.get(section), dict):
                 self.fail("/config", f"section '{section}' is missing",
                           "the resolved scenario with every section")
-            for key in CONFIG_KEYS.get(section, ()):
+            keys = CONFIG_KEYS.get(section, ())
+            if section == "agent":
+                spec = ALGORITHMS.get(config["agent"].get("algorithm", DEFAULT_ALGORITHM))
+                keys = spec.config_keys if spec is not None else ()
+            for key in keys:
                 if key not in config[section]:
                     self.fail("/config", f"{section}.{key} is missing",
                               "the resolved scenario with every key")
@@ -417,10 +394,7 @@ class Validator:
             self.fail(f"{best.name}/@episode", f"is {episode}", f"1 to {done}")
         self.attr(best, "score", "float")
         self.exact_members(best, ("policy",))
-        weights = self.child(best, "policy", GROUP)
-        self.exact_members(weights, sizes.network)
-        for param, shape in sizes.network.items():
-            self.dataset(weights, Field(param, "float", ()), {}, shape)
+        sizes.algorithm.check_policy(self, self.group(best, "policy"), sizes.scenario)
 
     def seeds(self, sizes: Sizes, needs: Needs) -> None:
         expected = [str(seed) for seed in sizes.scenario.train.seeds]
@@ -490,37 +464,10 @@ class Validator:
         for name, value in (("episode", done), ("seed", seed), ("global_step", done * steps)):
             if attrs[name] != value:
                 self.fail(f"{group.name}/@{name}", f"is {attrs[name]}", f"{value}")
-        self.exact_members(group, ("agent", "replay", "rng"), extra_ok=("best",))
+        algorithm = sizes.algorithm
+        self.exact_members(group, (*algorithm.checkpoint_members, "rng"), extra_ok=("best",))
         self.best(group, sizes, done)
-        agent = self.child(group, "agent", GROUP)
-        self.exact_members(agent, ("policy", "target", "optimizer"), extra_ok=("torch_rng",))
-        network = sizes.network
-        for name in ("policy", "target"):
-            weights = self.child(agent, name, GROUP)
-            self.exact_members(weights, network)
-            for param, shape in network.items():
-                self.dataset(weights, Field(param, "float", ()), {}, shape)
-        rows, position = sizes.replay_rows(done)
-        optimizer = self.child(agent, "optimizer", GROUP)
-        self.attr(optimizer, "param_groups_json", "json")
-        self.exact_members(optimizer, ("state",))
-        state = self.child(optimizer, "state", GROUP)
-        updates = rows >= sizes.scenario.agent.batch_size
-        if len(state) or updates:  # torch kept no Adam state before the first update
-            self.exact_members(state, map(str, range(len(network))))
-            for index, shape in enumerate(network.values()):
-                moments = self.child(state, str(index), GROUP)
-                self.exact_members(moments, [field.name for field in ADAM_STATE])
-                for field in ADAM_STATE:
-                    self.dataset(moments, field, {}, shape if field.shape else ())
-        replay = self.child(group, "replay", GROUP)
-        stored_position = self.attr(replay, "position", "int")
-        if stored_position != position:
-            self.fail(f"{replay.name}/@position", f"is {stored_position}",
-                      f"{position} after {done} episodes of {steps} steps")
-        self.exact_members(replay, [field.name for field in REPLAY])
-        for field in REPLAY:
-            self.dataset(replay, field, {**sizes.symbols, "R": rows})
+        algorithm.check_checkpoint(self, group, sizes.scenario, done)
         self.attrs(self.child(group, "rng", GROUP), RNG_ATTRS)
 
 

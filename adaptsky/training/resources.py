@@ -3,13 +3,9 @@
 The estimate adds up what grows with the scenario's sizes (docs/scenario-format.md, "Machine
 limits"), per seed where it is per seed:
 
-- replay: M rows of 2 obs + 3 float32 (obs = 4 N + 1), and a member's copy at a checkpoint;
-- networks and optimizer: policy, target, gradients and two Adam moments (5 float32 per
-  parameter), and the copies a checkpoint makes;
-- dueling head: the fixed (1 + A) x A matrix that forms Q = V + A - mean A, and its build
-  copy (measured: 22 users peak at 2.4 GB, estimated 2.6 GB);
+- the algorithm's parts (``AlgorithmSpec.memory_parts``; the DQN's: replay memory, networks
+  and optimizer, dueling head, batch activations);
 - action table: the directions of every action, for A <= TABLE_MAX_ACTIONS;
-- batch activations: every layer's output for a batch, forward and backward;
 - trajectories: the states of an episode (T steps) and the kept episodes between checkpoints,
   and the episode table between checkpoints;
 - runtime: the Python and torch of every process (workers and, beside them, the writer).
@@ -23,11 +19,11 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
-from itertools import pairwise
 
+from adaptsky.algos.registry import algorithm_of
 from adaptsky.errors import ResourceError
 from adaptsky.scenario.models import Scenario
-from adaptsky.sim.actions import TABLE_MAX_ACTIONS
+from adaptsky.sim.actions import TABLE_MAX_ACTIONS, count_estimate
 
 FLOAT32 = 4
 FLOAT64 = 8
@@ -50,55 +46,31 @@ class Estimate:
         return sorted(self.parts.items(), key=lambda item: -item[1])[:count]
 
 
-# what to lower when a part is the largest
+# what to lower when a part is the largest (the algorithm's parts: its own remedies)
 REMEDY = {
-    "replay": "lower agent.memory_size or the number of seeds",
-    "networks and optimizer": "lower agent.hidden_sizes, users or the number of seeds",
-    "dueling head": "fewer users (the action space doubles per cluster) or agent.dueling = false",
     "action table": "fewer users",
-    "batch activations": "lower agent.batch_size or agent.hidden_sizes",
     "trajectories": "lower train.steps, train.checkpoint_every or raise train.trajectory_every",
     "runtime": "train fewer seeds at once (--workers)",
 }
 
 
-def _power(base: int, exponent: int) -> float:
-    """base**exponent as a float, inf where it would overflow one."""
-    return math.inf if exponent * math.log(base) > 700 else float(base**exponent)
-
-
 def estimate(scenario: Scenario, workers: int | None = None) -> Estimate:
     """Bytes a training run of ``scenario`` (all its seeds, in ``workers`` processes, by default
     one per seed up to the cores) needs at its peak."""
-    agent, train = scenario.agent, scenario.train
+    train = scenario.train
     seeds = len(train.seeds)
     users = scenario.num_users
     clusters = users // 2
-    obs = 4 * users + 1
-    base = 2 if scenario.uav.actions == "paper" else 3
-    actions = _power(base, 3 + clusters)
-    head = actions + 1 if agent.dueling else actions
-    sizes = [obs, *agent.hidden_sizes]
-    params = float(sum((a + 1) * b for a, b in pairwise(sizes)))
-    params += (sizes[-1] + 1) * head
-    width = 2 * obs + 3
-    replay_row = width * FLOAT32
-    hidden = float(sum(agent.hidden_sizes))
-    batch = agent.batch_size
+    actions = count_estimate(scenario.num_clusters, scenario.uav.actions)
     # a step's state: uav (3), alpha, gain, p_los, rate (N each), los (N bytes), 3 sums;
     # the episode's trajectory stacks them, and every member gets a contiguous copy
     state_bytes = (6 + 4 * users) * FLOAT64 + users
     workers = min(workers or seeds, seeds, os.cpu_count() or 1)  # as train.runner.run_tasks
     kept = (train.checkpoint_every // train.trajectory_every) if train.trajectory_every else 0
     episode_rows = min(train.checkpoint_every, train.episodes)
-    parts = {
-        # a checkpoint copies one member's rows, and pickles them to the writer if apart
-        "replay": (seeds + (3 if workers > 1 else 1)) * agent.memory_size * replay_row,
-        "networks and optimizer": (5 * seeds + 2 * seeds + 8) * params * FLOAT32,
-        "dueling head": 2 * (actions + 1) * actions * FLOAT32 if agent.dueling else 0.0,
+    parts = algorithm_of(scenario).memory_parts(scenario, seeds, workers) | {
         "action table": (actions * (3 + clusters) * 3 * FLOAT64
                          if actions <= TABLE_MAX_ACTIONS else 0.0),
-        "batch activations": seeds * batch * (4 * (obs + hidden) + 8 * head) * FLOAT32,
         "trajectories": (train.steps * (STEP_OVERHEAD_BYTES + 3 * seeds * state_bytes)
                          + seeds * kept * train.steps * state_bytes
                          + seeds * episode_rows * (EPISODE_ROW_BYTES + 2 * users * FLOAT64)),
@@ -106,6 +78,11 @@ def estimate(scenario: Scenario, workers: int | None = None) -> Estimate:
         "runtime": float((workers + (workers > 1)) * RUNTIME_BYTES),
     }
     return Estimate({name: float(size) for name, size in parts.items()})
+
+
+def remedy(scenario: Scenario, part: str) -> str:
+    """What to lower when ``part`` is the largest."""
+    return REMEDY.get(part) or algorithm_of(scenario).remedies[part]
 
 
 def available_bytes() -> int | None:
@@ -150,5 +127,5 @@ def check_fits(scenario: Scenario, source: str, available: int | None = None,
                           if size >= needed.total / 100)
         raise ResourceError([f"{source}: needs about {format_bytes(needed.total)} of memory "
                             f"({parts}), this machine has {format_bytes(available)} available; "
-                            f"{REMEDY[largest[0][0]]}"])
+                            f"{remedy(scenario, largest[0][0])}"])
     return needed

@@ -1,4 +1,8 @@
-"""Algorithm 1 for a stack of members (seeds) in lockstep: collect, update, log, checkpoint.
+"""Algorithm 1 for a stack of members (seeds) in lockstep: collect, learn, log, checkpoint.
+
+What learns is the scenario's algorithm (``[agent] algorithm``), reached only through
+:class:`~adaptsky.algos.protocol.Algorithm`; this loop owns the environment, the generators,
+the greedy evaluations, the best policies and the checkpoints' envelope.
 
 Every member is a whole independent run: its own environment generator (LoS draws, user
 moves; seeded with (seed, 0)), its own agent generator (exploration, replay sampling; (seed,
@@ -21,11 +25,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from adaptsky.algos.device_step import DeviceStep, describe
-from adaptsky.algos.replay import StackedReplay
-from adaptsky.algos.returns import NStepWindow
-from adaptsky.algos.schedule import epsilon
-from adaptsky.algos.stacked import StackedDqn
+from adaptsky.algos.registry import algorithm_of
 from adaptsky.arrays import Tree
 from adaptsky.errors import NonFiniteError
 from adaptsky.scenario.models import Scenario
@@ -110,76 +110,49 @@ class StackRun:
                                 seed=[np.random.SeedSequence([s, 0]) for s in seeds],
                                 weights=[reward_weights(m.scenario) for m in members])
         self.rngs = [np.random.default_rng([s, 1]) for s in seeds]
-        obs_size = observation_size(scenario.num_users)
-        device = torch.device(device)
-        self.agent = StackedDqn(scenario.agent, obs_size, self.env.actions.count, seeds, device)
-        self.memory = StackedReplay(len(members), scenario.agent.memory_size, obs_size, device)
-        self.device_step = DeviceStep(self.agent, self.memory, scenario.agent.batch_size,
-                                      graphs)
-        self.window = NStepWindow(scenario.agent.n_step, scenario.agent.gamma)
-        self._reward_scale = np.array(scenario.agent.reward_scale)
+        self.algorithm = algorithm_of(scenario).build(
+            scenario, seeds, self.rngs, observation_size(scenario.num_users),
+            self.env.actions.count, torch.device(device), graphs)
         self._seeds = seeds
         self.episodes_done = 0
         self.evaluators = _evaluators(members)
-        # the best policy so far of every member: its score, episode and weights
+        # the best policy so far of every member: its score, episode and policy arrays
         self.best_score = np.full(len(members), -np.inf)
         self.best_episode = np.zeros(len(members), dtype=np.int64)
-        self.best_params = torch.zeros_like(self.agent.params)
-
-    def _actions(self, observations: np.ndarray, eps: float) -> np.ndarray:
-        """Epsilon-greedy per member (alg. 1 line 6): one uniform draw, one more to explore."""
-        explore = [rng.random() < eps for rng in self.rngs]
-        if not any(explore):
-            return self.device_step.greedy(observations)
-        greedy = None if all(explore) else self.device_step.greedy(observations)
-        count = self.env.actions.count
-        return np.array([rng.integers(count) if explores else greedy[index]  # type: ignore[index]
-                         for index, (rng, explores) in enumerate(zip(self.rngs, explore,
-                                                                     strict=True))],
-                        dtype=np.int64)
+        self.best_policy: list[Tree | None] = [None] * len(members)
 
     def run_episode(self) -> list[EpisodeResult]:
-        """One episode of T steps, an update per step once the memories hold a batch."""
-        config, steps = self.scenario.agent, self.scenario.train.steps
-        not_terminal = np.zeros(len(self.members), dtype=bool)  # T is a truncation
+        """One episode of T steps; the algorithm learns from every step."""
+        algorithm, steps = self.algorithm, self.scenario.train.steps
+        start = self.episodes_done * steps
         states, rewards, chosen = [], [], []
-        eps = config.epsilon_start
-        scale, window = self._reward_scale, self.window
-        window.restart()
-        self.agent.set_learning_rate(self.episodes_done * steps)
+        algorithm.begin_episode(start)
         if self.scenario.users.placement == "fresh":
             self.env.set_layouts(episode_layouts(self.scenario, self._seeds, self.episodes_done))
         # a NaN or infinity is reported once, by _check_finite, not as numpy warnings
         with np.errstate(all="ignore"):
             obs, _ = self.env.reset()
             for tau in range(steps):
-                eps = epsilon(self.episodes_done * steps + tau, config.epsilon_start,
-                              config.epsilon_end, config.epsilon_decay_steps)
-                actions = self._actions(obs, eps)
+                actions = algorithm.act(obs, start + tau)
                 next_obs, reward, _, state = self.env.step(actions)
-                ready = window.push(obs, actions, reward * scale, next_obs)
-                if ready is not None:
-                    self.memory.add(*ready, not_terminal)
-                if self.memory.size >= config.batch_size:
-                    self.device_step.update(self.memory.sample_index(config.batch_size,
-                                                                     self.rngs))
+                algorithm.observe(obs, actions, reward, next_obs)
+                algorithm.update()
                 states.append(state)
                 rewards.append(reward)
                 chosen.append(actions)
                 obs = next_obs
-        # alg. 1: a hard copy when ep is a multiple of delta (unless the target is soft)
-        if config.target_tau == 0 and self.episodes_done % config.target_update_episodes == 0:
-            self.agent.sync_target()
+        algorithm.end_episode(self.episodes_done)
         self.episodes_done += 1
-        updated = self.agent.updates > 0
-        losses = self.agent.take_mean_loss()  # NaN without updates: not an error
+        losses = algorithm.take_mean_loss()
         trajectory = {name: np.stack([getattr(state, name) for state in states])
                       for name in STATE_FIELDS}  # time-major, (T, S, ...)
         trajectory["reward"], trajectory["action"] = np.stack(rewards), np.stack(chosen)
-        self._check_finite(trajectory, losses if updated else None)
+        self._check_finite(trajectory, losses)
+        if losses is None:  # no update yet: not an error
+            losses = np.full(len(self.members), np.nan)
         evaluations = self._evaluate()
         return [self._result({name: values[:, index] for name, values in trajectory.items()},
-                             eps, losses[index], evaluations[index])
+                             algorithm.epsilon, losses[index], evaluations[index])
                 for index in range(len(self.members))]
 
     def _evaluate(self) -> list[dict[str, float] | None]:
@@ -196,18 +169,18 @@ class StackRun:
                 if row["score"] > self.best_score[index]:  # a NaN score is never the best
                     self.best_score[index] = row["score"]
                     self.best_episode[index] = self.episodes_done
-                    self.best_params[index] = self.agent.params[index]
+                    self.best_policy[index] = self.algorithm.policy(index)
         return found
 
     def _greedy_of(self, indices: list[int]) -> Callable[[np.ndarray], np.ndarray]:
         """The greedy actions of the members ``indices`` for their observations (k, n, obs)."""
         if len(indices) == len(self.members):
-            return self.agent.greedy
+            return self.algorithm.greedy
 
         def greedy(observations: np.ndarray) -> np.ndarray:
             every = np.zeros((len(self.members), *observations.shape[1:]), dtype=np.float32)
             every[indices] = observations
-            return self.agent.greedy(every)[indices]
+            return self.algorithm.greedy(every)[indices]
         return greedy
 
     def _check_finite(self, trajectory: dict[str, np.ndarray], losses: np.ndarray | None
@@ -248,13 +221,12 @@ class StackRun:
 
     def best(self, index: int) -> Tree | None:
         """Member ``index``'s best policy so far (None before it has one): the episode that
-        made it, its score, and its weights named as ``QNetwork`` names them."""
-        if not self.best_episode[index]:
+        made it, its score, and its policy's arrays."""
+        policy = self.best_policy[index]
+        if policy is None:
             return None
-        row = self.best_params[index, :self.agent.layers[-1].end].cpu().numpy()
         return {"episode": int(self.best_episode[index]),
-                "score": np.float64(self.best_score[index]),
-                "policy": self.agent.state_from_row(row)}
+                "score": np.float64(self.best_score[index]), "policy": policy}
 
     def checkpoint(self, index: int) -> Tree:
         """Everything member ``index`` needs to continue bit for bit, as arrays and JSON (and
@@ -264,9 +236,8 @@ class StackRun:
             "episode": self.episodes_done,
             "global_step": self.episodes_done * self.scenario.train.steps,
             "seed": self.members[index].seed,
-            "device": describe(self.agent.device),
-            "agent": self.agent.state_arrays(index),
-            "replay": {**self.memory.arrays(index), "position": self.memory.position},
+            "device": self.algorithm.device_name(),
+            **self.algorithm.checkpoint(index),
             "rng": {"numpy_agent_json": json.dumps(self.rngs[index].bit_generator.state),
                     "numpy_env_json": json.dumps(self._env_rng(index).bit_generator.state)},
         }
@@ -282,10 +253,7 @@ class StackRun:
         if index and episode != self.episodes_done:
             raise ValueError(f"members of a stack must be at one episode: member {index} is at "
                              f"{episode}, member 0 at {self.episodes_done}")
-        self.agent.load_state_arrays(index, checkpoint["agent"])
-        replay = dict(checkpoint["replay"])
-        position = int(replay.pop("position"))
-        self.memory.load(index, replay, position)
+        self.algorithm.restore(index, checkpoint)
         self.rngs[index].bit_generator.state = json.loads(checkpoint["rng"]["numpy_agent_json"])
         self._env_rng(index).bit_generator.state = json.loads(
             checkpoint["rng"]["numpy_env_json"])
@@ -293,6 +261,5 @@ class StackRun:
         if best is not None:
             self.best_score[index] = float(best["score"])
             self.best_episode[index] = int(best["episode"])
-            self.best_params[index, :self.agent.layers[-1].end] = torch.from_numpy(
-                self.agent.row_from_state(best["policy"]))
+            self.best_policy[index] = best["policy"]
         self.episodes_done = episode

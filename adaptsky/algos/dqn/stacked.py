@@ -11,7 +11,7 @@ records it once and replays it.
 Network (sec. IV-A): ReLU layers ``hidden_sizes``, then a dueling head Q = V + A - mean_a A
 (the mean per sample, docs/model.md §4; computed as [V | A] times a fixed matrix) or a plain
 linear head. Per-member checkpoints use the
-names of :class:`adaptsky.algos.network.QNetwork` (``torso.0.weight`` ...), so run files
+names of :class:`adaptsky.algos.dqn.network.QNetwork` (``torso.0.weight`` ...), so run files
 from every device and every stack size read alike.
 """
 
@@ -25,9 +25,10 @@ from typing import Any
 import numpy as np
 import torch
 
-from adaptsky.algos.network import QNetwork
-from adaptsky.algos.parameters import network_shapes
-from adaptsky.scenario.models import Agent
+from adaptsky.algos.dqn.forward import head_output
+from adaptsky.algos.dqn.network import QNetwork
+from adaptsky.algos.dqn.parameters import network_shapes
+from adaptsky.scenario.agents import DqnAgent
 
 ADAM_BETAS = (0.9, 0.999)
 ADAM_EPS = 1e-8
@@ -52,7 +53,7 @@ class Layer:
         return self.bias_at + self.size_out
 
 
-def layer_plan(observation_size: int, num_actions: int, config: Agent) -> list[Layer]:
+def layer_plan(observation_size: int, num_actions: int, config: DqnAgent) -> list[Layer]:
     """The layers of the network, the head last (width 1 + A when dueling)."""
     head = num_actions + 1 if config.dueling else num_actions
     sizes = [observation_size, *config.hidden_sizes, head]
@@ -61,6 +62,24 @@ def layer_plan(observation_size: int, num_actions: int, config: Agent) -> list[L
         layers.append(Layer(size_in, size_out, offset))
         offset = layers[-1].end
     return layers
+
+
+def _baddbmm(x: torch.Tensor, weight: torch.Tensor, bias: torch.Tensor) -> torch.Tensor:
+    return torch.baddbmm(bias, x, weight)
+
+
+def _relu_(x: torch.Tensor) -> torch.Tensor:
+    return x.clamp_(min=0.0)
+
+
+def _matmul_add(x: np.ndarray, weight: np.ndarray, bias: np.ndarray) -> np.ndarray:
+    out = np.matmul(x, weight)
+    out += bias
+    return out
+
+
+def _relu_host(x: np.ndarray) -> np.ndarray:
+    return np.maximum(x, 0.0, out=x)
 
 
 def _views(flat: torch.Tensor, layers: list[Layer]) -> list[tuple[torch.Tensor, torch.Tensor]]:
@@ -79,7 +98,7 @@ class StackedDqn:
     ``QNetwork`` under ``torch.manual_seed(seed)``), ``observation_size``, ``num_actions``.
     """
 
-    def __init__(self, config: Agent, observation_size: int, num_actions: int,
+    def __init__(self, config: DqnAgent, observation_size: int, num_actions: int,
                  seeds: list[int], device: str | torch.device = "cpu") -> None:
         self.config = config
         self.num_actions = num_actions
@@ -133,14 +152,7 @@ class StackedDqn:
     def _forward(self, views: list[tuple[torch.Tensor, torch.Tensor]], x: torch.Tensor,
                  keep: list[torch.Tensor] | None = None) -> torch.Tensor:
         """Q (S, n, A) for observations x (S, n, obs); ``keep`` collects each layer's input."""
-        for weight, bias in views[:-1]:
-            if keep is not None:
-                keep.append(x)
-            x = torch.baddbmm(bias, x, weight).clamp_(min=0.0)
-        if keep is not None:
-            keep.append(x)
-        weight, bias = views[-1]
-        return self._head(torch.baddbmm(bias, x, weight))
+        return self._head(head_output(views, x, _baddbmm, _relu_, keep))
 
     def _head(self, out: torch.Tensor) -> torch.Tensor:
         """Q from the head's output: itself, or V + A - mean_a A (per sample) if dueling."""
@@ -160,14 +172,7 @@ class StackedDqn:
         if self._host is None:
             x = torch.from_numpy(observations).to(self.device)
             return self.q_values(x).argmax(dim=-1).cpu().numpy()
-        x = observations
-        for weight, bias in self._host[:-1]:
-            x = np.matmul(x, weight)
-            x += bias
-            np.maximum(x, 0.0, out=x)
-        weight, bias = self._host[-1]
-        out = np.matmul(x, weight)
-        out += bias
+        out = head_output(self._host, observations, _matmul_add, _relu_host)
         if self.config.dueling:  # the constant V and mean(A) do not change the argmax
             out = out[..., 1:]
         return out.argmax(axis=-1)
@@ -317,6 +322,15 @@ class StackedDqn:
                           for i, name in enumerate(self.names)},
             },
         }
+
+    def policy_arrays(self, member: int) -> dict[str, np.ndarray]:
+        """One member's policy weights, named as ``QNetwork`` names them (a copy)."""
+        return self.state_from_row(self.params[member, :self.layers[-1].end].cpu().numpy())
+
+    def load_policy(self, member: int, policy: dict[str, Any]) -> None:
+        """Put QNetwork-named policy weights into one member (greedy evaluation)."""
+        self.params[member, :self.layers[-1].end] = torch.from_numpy(
+            self.row_from_state(policy))
 
     def load_state_arrays(self, member: int, state: dict[str, Any]) -> None:
         """Inverse of :meth:`state_arrays` for one member."""

@@ -7,6 +7,9 @@ from itertools import pairwise
 
 import torch
 from torch import nn
+from torch.nn import functional
+
+from adaptsky.algos.dqn.forward import head_output
 
 
 def mlp(sizes: list[int]) -> nn.Sequential:
@@ -36,9 +39,19 @@ class QNetwork(nn.Module):
         else:
             self.q = nn.Linear(last, num_actions)
 
-    def forward(self, observations: torch.Tensor) -> torch.Tensor:
-        features = self.torso(observations)
+    def layers(self) -> list[tuple[torch.Tensor, torch.Tensor]]:
+        """(weight (out, in), bias) of every linear layer, the head last ([V | A] if
+        dueling)."""
+        torso = [(layer.weight, layer.bias) for layer in self.torso
+                 if isinstance(layer, nn.Linear)]
         if not self.dueling:
-            return self.q(features)
-        advantage = self.advantage(features)
-        return self.value(features) + advantage - advantage.mean(dim=1, keepdim=True)
+            return [*torso, (self.q.weight, self.q.bias)]
+        return [*torso, (torch.cat([self.value.weight, self.advantage.weight]),
+                         torch.cat([self.value.bias, self.advantage.bias]))]
+
+    def forward(self, observations: torch.Tensor) -> torch.Tensor:
+        out = head_output(self.layers(), observations, functional.linear, torch.relu)
+        if not self.dueling:
+            return out
+        value, advantage = out[:, :1], out[:, 1:]
+        return value + advantage - advantage.mean(dim=1, keepdim=True)

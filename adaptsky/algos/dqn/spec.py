@@ -1,0 +1,165 @@
+"""The DQN's torch-free half (:class:`~adaptsky.algos.protocol.AlgorithmSpec`): its part of a
+checkpoint (docs/file-format.md), its memory estimate, and the builders of its learner and of
+a greedy policy, which import torch only when called."""
+
+from __future__ import annotations
+
+from itertools import pairwise
+from typing import Any, ClassVar
+
+from adaptsky.algos.dqn.parameters import network_shapes
+from adaptsky.algos.protocol import Algorithm, LayoutCheck, Node, Policy
+from adaptsky.arrays import Field, Tree
+from adaptsky.scenario.agents import DqnAgent
+from adaptsky.scenario.models import Scenario
+from adaptsky.sim.actions import ActionSet, count_estimate
+from adaptsky.sim.observation import observation_size
+
+FLOAT32 = 4
+# /seeds/<S>/checkpoint/replay/: R rows in storage order, attr position
+REPLAY = (
+    Field("observations", "float", ("R", "O")),
+    Field("actions", "int", ("R",)),
+    Field("rewards", "float", ("R",)),
+    Field("next_observations", "float", ("R", "O")),
+    Field("terminated", "bool", ("R",)),
+)
+# /seeds/<S>/checkpoint/agent/optimizer/state/<i>/ for the i-th network parameter P_i
+ADAM_STATE = (Field("step", "float", ()), Field("exp_avg", "float", ("P",)),
+              Field("exp_avg_sq", "float", ("P",)))
+
+
+def _config(scenario: Scenario) -> DqnAgent:
+    agent = scenario.agent
+    assert isinstance(agent, DqnAgent), f"not a DQN agent: {agent.algorithm}"
+    return agent
+
+
+def network(scenario: Scenario) -> dict[str, tuple[int, ...]]:
+    """The Q-network's parameters of ``scenario``, named and shaped as torch names them."""
+    agent = _config(scenario)
+    actions = ActionSet(scenario.num_clusters, scenario.uav.actions).count
+    return network_shapes(observation_size(scenario.num_users), actions, agent.hidden_sizes,
+                          agent.dueling)
+
+
+def replay_rows(scenario: Scenario, episodes: int) -> tuple[int, int]:
+    """Rows held and write position after ``episodes`` episodes of T steps."""
+    agent = _config(scenario)  # an n-step run stores T - (n - 1) rows per episode
+    added = episodes * max(0, scenario.train.steps - agent.n_step + 1)
+    capacity = agent.memory_size
+    return min(added, capacity), added % capacity
+
+
+class DqnSpec:
+    """The dueling (or plain) DQN of sec. IV, stacked over seeds (``adaptsky.algos.dqn``)."""
+
+    name = "dqn"
+    checkpoint_members = ("agent", "replay")
+    config_keys = ("hidden_sizes", "dueling", "memory_size", "batch_size")
+    fields = (*REPLAY, *ADAM_STATE)
+    remedies: ClassVar[dict[str, str]] = {
+        "replay": "lower agent.memory_size or the number of seeds",
+        "networks and optimizer": "lower agent.hidden_sizes, users or the number of seeds",
+        "dueling head": "fewer users (the action space doubles per cluster) or "
+                        "agent.dueling = false",
+        "batch activations": "lower agent.batch_size or agent.hidden_sizes",
+    }
+
+    # ---- the checkpoint -------------------------------------------------------------------
+
+    def _weights(self, check: LayoutCheck, group: Node, name: str,
+                 shapes: dict[str, tuple[int, ...]]) -> None:
+        weights = check.group(group, name)
+        check.exact_members(weights, shapes)
+        for param, shape in shapes.items():
+            check.dataset(weights, Field(param, "float", ()), {}, shape)
+
+    def check_policy(self, check: LayoutCheck, group: Node, scenario: Scenario) -> None:
+        """A stored policy network: every parameter of :func:`network`, nothing else."""
+        check.exact_members(group, network(scenario))
+        for param, shape in network(scenario).items():
+            check.dataset(group, Field(param, "float", ()), {}, shape)
+
+    def check_checkpoint(self, check: LayoutCheck, group: Node, scenario: Scenario,
+                         episodes_done: int) -> None:
+        """``agent`` (policy, target, Adam state) and ``replay`` (rows and write position)."""
+        agent = check.group(group, "agent")
+        check.exact_members(agent, ("policy", "target", "optimizer"), extra_ok=("torch_rng",))
+        shapes = network(scenario)
+        for name in ("policy", "target"):
+            self._weights(check, agent, name, shapes)
+        rows, position = replay_rows(scenario, episodes_done)
+        optimizer = check.group(agent, "optimizer")
+        check.attr(optimizer, "param_groups_json", "json")
+        check.exact_members(optimizer, ("state",))
+        state = check.group(optimizer, "state")
+        updates = rows >= _config(scenario).batch_size
+        if len(state) or updates:  # torch kept no Adam state before the first update
+            check.exact_members(state, map(str, range(len(shapes))))
+            for index, shape in enumerate(shapes.values()):
+                moments = check.group(state, str(index))
+                check.exact_members(moments, [field.name for field in ADAM_STATE])
+                for field in ADAM_STATE:
+                    check.dataset(moments, field, {}, shape if field.shape else ())
+        replay = check.group(group, "replay")
+        stored_position = check.attr(replay, "position", "int")
+        if stored_position != position:
+            check.fail(f"{replay.name}/@position", f"is {stored_position}",
+                       f"{position} after {episodes_done} episodes of "
+                       f"{scenario.train.steps} steps")
+        check.exact_members(replay, [field.name for field in REPLAY])
+        symbols = {"O": observation_size(scenario.num_users), "R": rows}
+        for field in REPLAY:
+            check.dataset(replay, field, symbols)
+
+    def policy_of(self, checkpoint: Tree) -> Tree:
+        return checkpoint["agent"]["policy"]
+
+    # ---- memory ---------------------------------------------------------------------------
+
+    def memory_parts(self, scenario: Scenario, seeds: int, workers: int) -> dict[str, float]:
+        """Replay (M rows of 2 obs + 3 float32, and a member's copy at a checkpoint, pickled
+        to the writer when apart); networks and optimizer (policy, target, gradients, two
+        Adam moments, and a checkpoint's copies); the dueling head's fixed (1 + A) x A matrix
+        and its build copy (measured: 22 users peak at 2.4 GB, estimated 2.6 GB); every
+        layer's output for a batch, forward and backward."""
+        agent = _config(scenario)
+        users = scenario.num_users
+        obs = observation_size(users)
+        actions = count_estimate(scenario.num_clusters, scenario.uav.actions)
+        head = actions + 1 if agent.dueling else actions
+        sizes = [obs, *agent.hidden_sizes]
+        params = float(sum((a + 1) * b for a, b in pairwise(sizes)))
+        params += (sizes[-1] + 1) * head
+        replay_row = (2 * obs + 3) * FLOAT32
+        hidden = float(sum(agent.hidden_sizes))
+        return {
+            "replay": (seeds + (3 if workers > 1 else 1)) * agent.memory_size * replay_row,
+            "networks and optimizer": (5 * seeds + 2 * seeds + 8) * params * FLOAT32,
+            "dueling head": 2 * (actions + 1) * actions * FLOAT32 if agent.dueling else 0.0,
+            "batch activations": seeds * agent.batch_size * (4 * (obs + hidden) + 8 * head)
+            * FLOAT32,
+        }
+
+    # ---- builders (torch) -----------------------------------------------------------------
+
+    def build(self, scenario: Scenario, seeds: list[int], rngs: list[Any],
+              observation_size: int, num_actions: int, device: Any = "cpu",
+              graphs: bool | None = None) -> Algorithm:
+        from adaptsky.algos.dqn.learner import DqnLearner  # torch
+
+        return DqnLearner(_config(scenario), observation_size, num_actions, seeds, rngs,
+                          device, graphs)
+
+    def greedy_policy(self, scenario: Scenario, policy: Tree) -> Policy:
+        from adaptsky.algos.dqn.stacked import StackedDqn  # torch
+
+        num_actions = ActionSet(scenario.num_clusters, scenario.uav.actions).count
+        agent = StackedDqn(_config(scenario), observation_size(scenario.num_users),
+                           num_actions, seeds=[0])
+        agent.load_policy(0, policy)
+        return lambda observations: agent.greedy(observations[None])[0]
+
+
+DQN = DqnSpec()

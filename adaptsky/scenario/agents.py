@@ -1,0 +1,101 @@
+"""The ``[agent]`` section: one model per algorithm, told apart by ``algorithm`` (a tagged
+union; docs/scenario-format.md). A file without ``algorithm`` gets ``"dqn"``, the paper's
+agent family, so every scenario written before the key existed reads as it did.
+
+A new algorithm adds its model here and an entry in :data:`AGENT_MODELS`; its learner lives in
+``adaptsky.algos`` (docs/architecture.md).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import Discriminator, Field, Tag, model_validator
+
+from adaptsky.scenario.sections import MAX_COUNT, MAX_MEMORY, LayerSize, Section
+
+DEFAULT_ALGORITHM = "dqn"
+UNKNOWN_ALGORITHM = "unknown_algorithm"  # the error type of an algorithm no model has
+
+
+class DqnAgent(Section):
+    """The dueling DQN of sec. IV and V-A; extensions are off by default.
+
+    ``preset`` names a set of values (``agent.presets``) for the keys a file does not give;
+    ``"paper"`` is the paper's agent, every key at its default (docs/agent.md).
+    """
+
+    algorithm: Literal["dqn"] = Field(DEFAULT_ALGORITHM, description="the learning "
+                                      "algorithm: 'dqn' (the dueling or plain DQN)")
+    preset: str = Field("paper", description="named recipe for the keys not given "
+                        "(docs/agent.md): 'paper' or 'tuned'")
+    hidden_sizes: list[LayerSize] = Field([128, 128], min_length=1, max_length=100,
+                                          description="hidden ReLU layers")
+    dueling: bool = Field(True, description="dueling head; false gives the paper's plain 'DRL'")
+    double_dqn: bool = Field(False, description="double-DQN target (extension)")
+    loss: Literal["mse", "huber"] = Field("mse", description="TD loss; the paper uses MSE (eq. 12)")
+    grad_clip_norm: float = Field(0.0, ge=0, le=1e6, description="gradient-norm clip; 0 disables")
+    gamma: float = Field(0.999, ge=0, le=1, description="discount factor")
+    lr: float = Field(1e-3, ge=1e-10, le=1.0, description="Adam learning rate l_r")
+    batch_size: int = Field(128, ge=1, le=MAX_COUNT, description="mini-batch size B")
+    memory_size: int = Field(15000, ge=1, le=MAX_MEMORY, description="replay memory capacity M")
+    epsilon_start: float = Field(0.9, ge=0, le=1, description="epsilon_s")
+    epsilon_end: float = Field(0.1, ge=0, le=1, description="epsilon_e")
+    epsilon_decay_steps: float = Field(200.0, gt=0, le=1e15,
+                                       description="chi, decay constant in steps")
+    target_update_episodes: int = Field(10, ge=1, le=MAX_COUNT,
+                                        description="hard target copy period")
+    observation: Literal["scaled", "raw"] = Field(
+        "scaled", description="observation scaling, see docs/environment.md"
+    )
+    user_order: Literal["listed", "clusters"] = Field(
+        "listed", description="users in the observation: as the layout lists them, or cluster "
+        "by cluster (first and second user of cluster 1, then cluster 2...)")
+    reward_scale: float = Field(1.0, gt=0, le=1e6, description="rewards are multiplied by "
+                                "this before they are stored for learning (extension)")
+    n_step: int = Field(1, ge=1, le=100, description="n-step returns (extension); 1 is "
+                        "eq. 12's one-step target")
+    target_tau: float = Field(0.0, ge=0, le=1, description="soft target update theta' <- "
+                              "theta' + tau (theta - theta') after every update (extension); "
+                              "0 keeps the hard copies of target_update_episodes")
+    lr_end: float | None = Field(None, ge=1e-12, le=1.0, description="learning rate reached "
+                                 "after lr_decay_steps steps, linearly (extension); unset: "
+                                 "constant lr")
+    lr_decay_steps: float = Field(300_000.0, gt=0, le=1e15, description="steps over which lr "
+                                  "falls to lr_end")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _apply_preset(cls, data: Any) -> Any:
+        """A preset's values under the keys given explicitly."""
+        if not isinstance(data, dict):
+            return data
+        from adaptsky.scenario.presets import preset_values
+
+        name = data.get("preset", "paper")
+        return {**preset_values(name), **data} if isinstance(name, str) else data
+
+    @model_validator(mode="after")
+    def _memory_holds_a_batch(self) -> DqnAgent:
+        if self.memory_size < self.batch_size:
+            raise ValueError(f"memory_size ({self.memory_size}) must hold at least one batch "
+                             f"({self.batch_size})")
+        return self
+
+
+AGENT_MODELS: dict[str, type[Section]] = {"dqn": DqnAgent}
+
+
+def algorithm_tag(value: Any) -> str | None:
+    """The algorithm an ``[agent]`` value names (``"dqn"`` where it names none); None for
+    a name no model has, which pydantic reports as :data:`UNKNOWN_ALGORITHM`."""
+    name = (value.get("algorithm", DEFAULT_ALGORITHM) if isinstance(value, dict)
+            else getattr(value, "algorithm", None))
+    return name if isinstance(name, str) and name in AGENT_MODELS else None
+
+
+AgentConfig = Annotated[
+    Annotated[DqnAgent, Tag("dqn")],
+    Discriminator(algorithm_tag, custom_error_type=UNKNOWN_ALGORITHM,
+                  custom_error_message="unknown algorithm")]
+"""The ``[agent]`` section: the model its ``algorithm`` names."""

@@ -1,0 +1,56 @@
+"""What every section of a scenario file shares: the strict base model, the limits that keep
+every step of a run finite, and the field types used in several sections."""
+
+from __future__ import annotations
+
+import re
+from typing import Annotated
+
+from pydantic import BaseModel, ConfigDict, Field
+
+PAPER_TRAINING_LAYOUT_M = [[4.0, 15.0], [-44.0, -49.0], [-5.0, 21.0], [47.0, 49.0]]
+
+# names become file names (runs/<name>-<time>.h5, DIR/runs/<group>-...): see safe_name
+NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
+NAME_MAX_LENGTH = 64
+# the replay memory stores an action index as float32, exact up to 2^24: the dense action space
+# (2^(3+K) or 3^(3+K) actions) may not be larger
+MAX_DENSE_ACTIONS = 2**24
+MAX_SEED = 2**63 - 1          # seeds are stored as int64
+MAX_COUNT = 10**9             # episodes, steps, periods
+MAX_MEMORY = 2**53            # replay rows are drawn as floor(u * size), u a float64
+AREA_MAX_SIDE_M = 100_000.0
+MIN_HEIGHT_M = 1.0            # every link is then >= 1 m long: no gain above the 1 m intercept
+MAX_HEIGHT_M = 10_000.0
+MAX_ANTENNAS = 4096
+MAX_REWARD_WEIGHT = 1e6
+MAX_GAIN_WEIGHT = 1e12        # linear gains are ~1e-12 .. 1e-5
+
+Seed = Annotated[int, Field(ge=0, le=MAX_SEED)]
+LayerSize = Annotated[int, Field(ge=1, le=2**31 - 1)]
+StepM = Annotated[float, Field(ge=0.01, le=1000.0)]
+CoordinateM = Annotated[float, Field(ge=-AREA_MAX_SIDE_M, le=AREA_MAX_SIDE_M)]
+
+
+def max_users(mode: str) -> int:
+    """The most users whose dense action space (``uav.actions = mode``) has at most
+    ``MAX_DENSE_ACTIONS`` actions: 42 for ``paper``, 24 for ``with-hover``."""
+    base, components = (2 if mode == "paper" else 3), 3
+    while base ** (components + 1) <= MAX_DENSE_ACTIONS:
+        components += 1
+    return 2 * (components - 3)
+
+
+def safe_name(value: str) -> str:
+    """``value`` if it can be a file name's stem on every system, else a ValueError saying what
+    is allowed."""
+    if len(value) > NAME_MAX_LENGTH or not NAME_PATTERN.fullmatch(value):
+        raise ValueError(f"not a safe file name: use 1 to {NAME_MAX_LENGTH} letters, digits, "
+                         "'-', '_' or '.', starting with a letter or digit")
+    return value
+
+
+class Section(BaseModel):
+    """Strict base: unknown keys are errors and no string is silently turned into a number."""
+
+    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
