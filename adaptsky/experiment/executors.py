@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import threading
 import uuid
+from collections.abc import Callable
 from concurrent.futures import Future
 from pathlib import Path
 from typing import Any, Protocol
@@ -23,7 +24,7 @@ from adaptsky.experiment.plan import RunSpec
 from adaptsky.experiment.runs import RunReport, execute_run, execute_runs
 from adaptsky.scenario import parse_scenario
 from adaptsky.training.host import EXIT_GRACE_S, QUIT_GRACE_S, Job, ProcessHost
-from adaptsky.training.messages import Done, Failed, HostMessage, WorkerLost
+from adaptsky.training.messages import Done, Failed, HostMessage, Message, WorkerLost
 from adaptsky.training.stack_run import stack_key
 
 # how often the local executor's thread looks at a stop or quit between messages
@@ -41,7 +42,8 @@ class Executor(Protocol):
     def close(self, now: bool = False) -> None: ...
 
 
-def _stack_job(specs: list[RunSpec], device: str, emit: Any, stop: Any, orphaned: Any) -> None:
+def _stack_job(specs: list[RunSpec], device: str, emit: Callable[[Message], None],
+               stop: Callable[[], bool], orphaned: Callable[[], bool]) -> None:
     """A local worker's job: train ``specs`` as one stack, then report each run."""
     reports = execute_runs(specs, stop, orphaned, torch.device(device))
     for spec, report in zip(specs, reports, strict=True):
@@ -73,7 +75,7 @@ class LocalExecutor:
         self.device = device
         self.futures: dict[Path, Future[RunReport]] = {}
         self.quit = threading.Event()
-        self.lock = threading.Lock()  # the host is used by this thread and by its pump's
+        self.lock = threading.Lock()  # the host is used by this thread and by the pump's
         self.thread = threading.Thread(target=self._pump, name="adaptsky-runs", daemon=True)
         self.description = (f"{describe(device)}, {workers} process"
                             f"{'es' if workers > 1 else ''} of stacked runs")
@@ -133,7 +135,6 @@ class LocalExecutor:
         """End every worker: when they are done, or ``now`` (a second Ctrl-C: within about
         a second, without a checkpoint)."""
         if now:
-            self.host.quit_event.set()
             self.quit.set()
         if self.thread.is_alive():
             self.thread.join()
