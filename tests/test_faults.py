@@ -337,7 +337,7 @@ def test_commands_that_do_not_train_start_without_torch():
 def test_pin_threads_limits_blas_after_numpy_is_imported():
     from threadpoolctl import threadpool_info
 
-    from adaptsky.training.runner import pin_threads
+    from adaptsky.training.host import pin_threads
 
     pin_threads()
     assert {pool["num_threads"] for pool in threadpool_info()} == {1}

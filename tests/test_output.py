@@ -25,6 +25,7 @@ from adaptsky.scenario.toml_writer import dumps
 from adaptsky.store.eval_file import read_eval_metrics
 from adaptsky.training.progress import TrainingProgress
 from adaptsky_cli.cli.main import main
+from adaptsky_cli.cli.progress_display import RichReporter
 from tests.conftest import ROOT, SCENARIOS
 
 STAMP = r"\d{4}-\d\d-\d\d \d\d:\d\d:\d\d "
@@ -183,7 +184,7 @@ def test_train_logs_progress_where_stderr_is_no_terminal(tmp_path, capsys):
 def test_plain_training_log_is_periodic_not_per_episode():
     buffer = io.StringIO()
     metrics = {"sum_rate_bps": 4.1e10, "fairness": 0.5, "epsilon": 0.3}
-    with TrainingProgress(Console(file=buffer), quiet=False, log_every_s=3600) as view:
+    with TrainingProgress(RichReporter(Console(file=buffer)), log_every_s=3600) as view:
         view.add_seed(0, 0, 1000)
         view.add_seed(1, 0, 1000)
         for episode in range(1, 1001):
@@ -198,7 +199,7 @@ def test_plain_training_log_is_periodic_not_per_episode():
 def test_terminal_shows_rich_progress_and_no_log_lines():
     buffer = io.StringIO()
     console = Console(file=buffer, force_terminal=True, width=100)
-    with TrainingProgress(console, quiet=False, log_every_s=0) as view:
+    with TrainingProgress(RichReporter(console), log_every_s=0) as view:
         view.add_seed(0, 0, 2)
         view.episode(0, 1, {"sum_rate_bps": 1e9, "fairness": 0.5, "epsilon": 0.3})
     assert "seed   0" in buffer.getvalue() and ": episode 1/2" not in buffer.getvalue()

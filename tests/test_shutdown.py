@@ -24,7 +24,7 @@ from adaptsky.store import atomic
 from adaptsky.store.atomic import FileGoneError, rewrite
 from adaptsky.store.lock import lock_path, run_lock, writer_of
 from adaptsky.store.run_file import RunReader
-from adaptsky.training import runner
+from adaptsky.training import host, interrupts
 from adaptsky_cli.cli import entry
 from adaptsky_cli.cli.main import main
 from tests.test_faults import assert_same_run, leftovers, resume, stub
@@ -259,7 +259,7 @@ def _sleep_forever() -> None:
 
 
 def _send_forever(connection) -> None:
-    runner.ignore_stop_signals()
+    interrupts.ignore_stop_signals()
     try:
         while True:
             connection.send(b"x" * 100_000)  # blocks: nobody reads
@@ -276,9 +276,9 @@ def test_workers_that_do_not_end_are_killed_after_the_grace():
     sending.start()
     writer.close()
     time.sleep(2.0)  # both have started (spawned interpreters)
-    workers = [runner._Worker(stuck, None, {0}), runner._Worker(sending, reader, {1})]
+    workers = [host._Worker(stuck, None, {0}), host._Worker(sending, reader, {1})]
     began = time.monotonic()
-    runner._end(workers, grace_s=1.0)
+    host.end(workers, grace_s=1.0)
     assert time.monotonic() - began < 3.0
     assert stuck.exitcode == -signal.SIGKILL  # it ignores SIGTERM: killed
     assert sending.exitcode == 0  # its blocked send failed once the pipe closed: it ended

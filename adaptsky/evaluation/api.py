@@ -18,7 +18,7 @@ from adaptsky.algos.registry import algorithm_of
 from adaptsky.arrays import Tree
 from adaptsky.errors import AdaptskyError
 from adaptsky.evaluation.labels import distinct_labels
-from adaptsky.progress import SilentProgress, WorkProgress
+from adaptsky.progress import Reporter, Silent, WorkProgress
 from adaptsky.report.evaluations import curve_json, score_kind
 from adaptsky.rollouts.metrics import Method, compare, percent_of, summary_row
 from adaptsky.rollouts.oracle import oracle, require_deterministic_gains
@@ -244,14 +244,13 @@ def _baseline_method(scenario: Scenario, name: str, steps: int, users_m: np.ndar
 
 def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path | None = None,
              layouts: int | None = None, layout_seed: int = 0, steps: int = 1000,
-             compare_with: list[str] | None = None, progress: WorkProgress | None = None,
+             compare_with: list[str] | None = None, progress: Reporter | None = None,
              policy: str = "best") -> tuple[dict[str, Any], list[Method]]:
     """Greedy rollouts of a checkpoint's ``policy`` (``best``: the best greedy evaluation
     during training, ``last``: the last checkpoint) next to baselines and other runs (their
     policy alike); results as JSON-able values and the methods (policy first) with their
     traces. Every input is checked before the first rollout; ``progress`` shows the rollouts
-    and the oracle's search."""
-    progress = progress or SilentProgress()
+    and the oracle's search (default: nothing)."""
     compared = compared_methods(compare_with or [])
     trained, arrays, chosen, used, curve = _read_run(checkpoint, seed, policy)
     base = load_scenario(scenario_path) if scenario_path else trained
@@ -264,13 +263,14 @@ def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path |
     check_rollout_memory(scenario, steps, layouts or 1, 1 + len(compared), str(checkpoint))
     users_m = eval_layouts(scenario, layouts)
     policy = greedy_policy(trained, arrays)
-    methods = [_policy_method(POLICY, scenario, policy, steps, users_m, progress)]
-    for item in compared:
-        if item.baseline is not None:
-            methods.append(_baseline_method(scenario, item.baseline, steps, users_m, progress))
-        else:
-            methods.append(_policy_method(item.label, scenario, others[item.label][0], steps,
-                                          users_m, progress))
+    with WorkProgress(progress or Silent()) as work:
+        methods = [_policy_method(POLICY, scenario, policy, steps, users_m, work)]
+        for item in compared:
+            if item.baseline is not None:
+                methods.append(_baseline_method(scenario, item.baseline, steps, users_m, work))
+            else:
+                methods.append(_policy_method(item.label, scenario, others[item.label][0],
+                                              steps, users_m, work))
     results = results_json(methods, scenario, steps, layouts, layout_seed, users_m)
     used["score_kind"] = score_kind(trained)
     results |= {"checkpoint": used["path"], "seed": chosen, "checkpoint_episode":
@@ -283,15 +283,17 @@ def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path |
 
 
 def baseline(*, scenario_path: Path, method: str, layouts: int | None = None,
-             layout_seed: int = 0, steps: int = 1000, progress: WorkProgress | None = None
+             layout_seed: int = 0, steps: int = 1000, progress: Reporter | None = None
              ) -> tuple[dict[str, Any], list[Method]]:
-    """One baseline on the scenario's layout or on uniform layouts."""
+    """One baseline on the scenario's layout or on uniform layouts; ``progress`` shows its
+    work (default: nothing)."""
     scenario = eval_scenario(load_scenario(scenario_path), layouts, layout_seed)
     if method == "oracle":
         require_deterministic_gains(scenario)
     check_rollout_memory(scenario, steps, layouts or 1, 1, str(scenario_path))
     users_m = eval_layouts(scenario, layouts)
-    result = _baseline_method(scenario, method, steps, users_m, progress or SilentProgress())
+    with WorkProgress(progress or Silent()) as work:
+        result = _baseline_method(scenario, method, steps, users_m, work)
     return results_json([result], scenario, steps, layouts, layout_seed, users_m), [result]
 
 

@@ -14,7 +14,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from rich.console import Console
 
 from adaptsky.errors import AdaptskyError
 from adaptsky.evaluation.api import (
@@ -24,7 +23,7 @@ from adaptsky.evaluation.api import (
     run_baseline,
 )
 from adaptsky.experiment.plan import Plan, RunSpec
-from adaptsky.progress import WorkProgress
+from adaptsky.progress import Reporter, WorkProgress
 from adaptsky.rollouts.metrics import Method
 from adaptsky.rollouts.rollout import checkpoint_policy, rollout
 from adaptsky.scenario import Scenario, parse_scenario
@@ -71,10 +70,10 @@ def _label(value: Any) -> str:
     return "" if value is None else f"-{value:g}" if isinstance(value, float) else f"-{value}"
 
 
-def evaluate_plan(plan: Plan, console: Console, quiet: bool) -> Evaluations:
+def evaluate_plan(plan: Plan, reporter: Reporter) -> Evaluations:
     """Evaluate every finished run of the evaluated groups and every baseline, with progress
-    (a bar on a terminal, timestamped lines elsewhere, nothing with ``quiet``)."""
-    with WorkProgress(console, quiet=quiet) as progress:
+    (a bar per stage where ``reporter`` draws live, else timestamped lines)."""
+    with WorkProgress(reporter) as progress:
         return _evaluate_plan(plan, progress)
 
 

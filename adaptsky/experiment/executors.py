@@ -1,17 +1,18 @@
-"""Where runs execute: local processes of stacked runs (on the CPU or a GPU), or a Dask
-cluster (one run per task).
+"""Where runs execute: local processes of stacked runs (on the CPU or a GPU, through
+:class:`adaptsky.training.host.ProcessHost`), or a Dask cluster (one run per task).
 
-All speak ``concurrent.futures``: ``submit_all(specs) -> [future per run]`` and
-``request_stop()``. A run writes only its own file, so results come back through the files,
-never through memory, and a retried run resumes from its last checkpoint.
+All speak futures: ``submit_all(specs) -> [future per run]``, ``request_stop()`` (running runs
+checkpoint and end, runs not started stay as they are) and ``close(now)``. A run writes only
+its own file, so results come back through the files, never through memory, and a retried run
+resumes from its last checkpoint.
 """
 
 from __future__ import annotations
 
-import multiprocessing
-import os
+import threading
 import uuid
-from concurrent.futures import Future, ProcessPoolExecutor
+from collections.abc import Callable
+from concurrent.futures import Future
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -22,8 +23,12 @@ from adaptsky.errors import AdaptskyError
 from adaptsky.experiment.plan import RunSpec
 from adaptsky.experiment.runs import RunReport, execute_run, execute_runs
 from adaptsky.scenario import parse_scenario
-from adaptsky.training.runner import ignore_stop_signals
+from adaptsky.training.host import EXIT_GRACE_S, QUIT_GRACE_S, Job, ProcessHost
+from adaptsky.training.messages import Done, Failed, HostMessage, Message, WorkerLost
 from adaptsky.training.stack_run import stack_key
+
+# how often the local executor's thread looks at a stop or quit between messages
+PUMP_S = 0.2
 
 
 class Executor(Protocol):
@@ -34,39 +39,15 @@ class Executor(Protocol):
 
     def request_stop(self) -> None: ...
 
-    def close(self) -> None: ...
+    def close(self, now: bool = False) -> None: ...
 
 
-_stop_event: Any = None
-_parent_pid = 0
-
-
-def _init_local_worker(stop_event: Any, parent_pid: int) -> None:
-    global _stop_event, _parent_pid
-    ignore_stop_signals()
-    _stop_event, _parent_pid = stop_event, parent_pid
-
-
-def _orphaned() -> bool:
-    return os.getppid() != _parent_pid
-
-
-def _stack_run(specs: list[RunSpec], device: str) -> list[RunReport]:
-    return execute_runs(specs, _stop_event.is_set, _orphaned, torch.device(device))
-
-
-class RunFuture(Future[RunReport]):
-    """One run's future inside a stack's: cancelling it cancels the stack, and fails (the run
-    goes on to its checkpoint) once the stack is running."""
-
-    def __init__(self) -> None:
-        super().__init__()
-        self.stack: Future[list[RunReport]] | None = None
-
-    def cancel(self) -> bool:
-        if self.stack is not None and not self.stack.cancel():
-            return False
-        return super().cancel()
+def _stack_job(specs: list[RunSpec], device: str, emit: Callable[[Message], None],
+               stop: Callable[[], bool], orphaned: Callable[[], bool]) -> None:
+    """A local worker's job: train ``specs`` as one stack, then report each run."""
+    reports = execute_runs(specs, stop, orphaned, torch.device(device))
+    for spec, report in zip(specs, reports, strict=True):
+        emit(Done(spec.path, report))
 
 
 def stacks(specs: list[RunSpec], max_size: int | None = None) -> list[list[RunSpec]]:
@@ -85,56 +66,81 @@ class LocalExecutor:
     """Stacks of runs, each in one process on ``device``: one trainer updates all the runs of
     a stack together. ``workers`` stacks run at once. On a CPU the runs are cut into about
     ``workers`` stacks (one per core: a stack of four trains about 1.45 times as many
-    seed-steps per second on one core as one seed does); on a GPU every group is one stack."""
+    seed-steps per second on one core as one seed does); on a GPU every group is one stack.
+    A thread of this process hands the workers' messages to the runs' futures."""
 
     def __init__(self, workers: int, device: torch.device) -> None:
-        context = multiprocessing.get_context("spawn")
-        self.stop_event = context.Event()
-        self.pool = ProcessPoolExecutor(workers, mp_context=context,
-                                        initializer=_init_local_worker,
-                                        initargs=(self.stop_event, os.getpid()))
+        self.host = ProcessHost(workers, on_drop=self._drop)
         self.workers = self.capacity = workers
         self.device = device
-        self.stacks: list[Future[list[RunReport]]] = []
+        self.futures: dict[Path, Future[RunReport]] = {}
+        self.quit = threading.Event()
+        self.lock = threading.Lock()  # the host is used by this thread and by the pump's
+        self.thread = threading.Thread(target=self._pump, name="adaptsky-runs", daemon=True)
         self.description = (f"{describe(device)}, {workers} process"
                             f"{'es' if workers > 1 else ''} of stacked runs")
 
-    def submit_all(self, specs: list[RunSpec]) -> list[RunFuture]:
-        futures = {spec.path: RunFuture() for spec in specs}
+    def submit_all(self, specs: list[RunSpec]) -> list[Future[RunReport]]:
+        futures = {spec.path: Future[RunReport]() for spec in specs}
+        self.futures.update(futures)
         max_size = None if self.device.type != "cpu" else -(-len(specs) // self.workers)
         groups = stacks(specs, max_size)
         self.capacity = sum(sorted(map(len, groups), reverse=True)[:self.workers])
-        for group in groups:
-            stacked = self.pool.submit(_stack_run, group, str(self.device))
-            self.stacks.append(stacked)
-            for spec in group:
-                futures[spec.path].stack = stacked
-            stacked.add_done_callback(lambda done, group=group: _settle(done, group, futures))
+        with self.lock:
+            self.host.submit([Job(_stack_job, (group, str(self.device)),
+                                  tuple(spec.path for spec in group)) for group in groups])
+        if not self.thread.is_alive():
+            self.thread.start()
         return [futures[spec.path] for spec in specs]
+
+    def _pump(self) -> None:
+        try:
+            while not self.quit.is_set():
+                with self.lock:
+                    if not self.host.pump(self._settle, PUMP_S):
+                        return
+        except BaseException as error:  # a bug here: every run waiting on it fails
+            for key in self.futures:
+                self._resolve(key, error)
+
+    def _settle(self, message: HostMessage) -> None:
+        """A worker's word to the futures of its runs."""
+        if isinstance(message, Done):
+            self._resolve(message.key, message.result)
+        elif isinstance(message, Failed):
+            self._resolve(message.key, AdaptskyError(message.error))
+        elif isinstance(message, WorkerLost):
+            for key in message.keys:
+                self._resolve(key, AdaptskyError(f"its process ended with exit code "
+                                                 f"{message.exitcode}"))
+
+    def _resolve(self, key: object, outcome: object) -> None:
+        future = self.futures[key]  # type: ignore[index]
+        if future.done():  # cancelled
+            return
+        if isinstance(outcome, BaseException):
+            future.set_exception(outcome)
+        else:
+            future.set_result(outcome)  # type: ignore[arg-type]
+
+    def _drop(self, job: Job) -> None:
+        for key in job.keys:
+            self.futures[key].cancel()
 
     def request_stop(self) -> None:
         """Running stacks checkpoint and stop; stacks not started yet stay as they are."""
-        self.stop_event.set()
-        for stacked in self.stacks:
-            stacked.cancel()
+        self.host.request_stop()
 
-    def close(self) -> None:
-        self.pool.shutdown(wait=True, cancel_futures=True)
-
-
-def _settle(done: Future[list[RunReport]], group: list[RunSpec],
-            futures: dict[Path, RunFuture]) -> None:
-    """Hand a finished stack's outcome to the futures of its runs."""
-    for index, spec in enumerate(group):
-        future = futures[spec.path]
-        if future.done():  # cancelled by the sweep
-            continue
-        if done.cancelled():
+    def close(self, now: bool = False) -> None:
+        """End every worker: when they are done, or ``now`` (a second Ctrl-C: within about
+        a second, without a checkpoint)."""
+        if now:
+            self.quit.set()
+        if self.thread.is_alive():
+            self.thread.join()
+        self.host.close(QUIT_GRACE_S if now else EXIT_GRACE_S, quit_now=now)
+        for future in self.futures.values():
             future.cancel()
-        elif done.exception() is not None:
-            future.set_exception(done.exception())
-        else:
-            future.set_result(done.result()[index])
 
 
 def _dask_run(spec: RunSpec, stop_name: str) -> RunReport:
@@ -173,7 +179,7 @@ class DaskExecutor:
     def request_stop(self) -> None:
         self.stop.set()
 
-    def close(self) -> None:
+    def close(self, now: bool = False) -> None:
         self.client.close()
 
 

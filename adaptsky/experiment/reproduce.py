@@ -11,13 +11,12 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from rich.console import Console
-
 from adaptsky.errors import AdaptskyError
 from adaptsky.experiment.executors import make_executor, stacks
 from adaptsky.experiment.plan import Plan, load_experiment, plan_experiment
 from adaptsky.experiment.runs import run_state
 from adaptsky.experiment.sweep import SweepOutcome, run_sweep
+from adaptsky.progress import LogLines, Reporter
 from adaptsky.store.atomic import write_text_atomic
 from adaptsky.training.api import training_device
 
@@ -43,15 +42,17 @@ def reproduce(*, experiment: str, out: Path | None = None, seeds: int | None = N
               workers: int | None = None, scheduler: str | None = None,
               set_values: list[str] | None = None, runs_only: bool = False,
               report_only: bool = False, device: str = "cpu", quiet: bool = False,
-              console: Console | None = None) -> ReproduceResult:
+              progress: Reporter | None = None) -> ReproduceResult:
     """Run, evaluate and report an experiment into ``out`` (default reproduce/<id>).
 
     ``runs_only`` stops after training; ``report_only`` trains nothing and reports the runs
-    that are finished (for a look while the runs go on elsewhere)."""
+    that are finished (for a look while the runs go on elsewhere). ``progress`` hears of the
+    work (default: timestamped lines on standard error, none but interrupts with ``quiet``).
+    """
     return reproduce_many(experiments=[experiment], outs=[out], seeds=seeds, episodes=episodes,
                           steps=steps, workers=workers, scheduler=scheduler,
                           set_values=set_values, runs_only=runs_only, report_only=report_only,
-                          device=device, quiet=quiet, console=console)[0]
+                          device=device, quiet=quiet, progress=progress)[0]
 
 
 def reproduce_many(*, experiments: list[str], outs: list[Path | None],
@@ -59,11 +60,11 @@ def reproduce_many(*, experiments: list[str], outs: list[Path | None],
                    steps: int | None = None, workers: int | None = None,
                    scheduler: str | None = None, set_values: list[str] | None = None,
                    runs_only: bool = False, report_only: bool = False, device: str = "cpu",
-                   quiet: bool = False, console: Console | None = None
+                   quiet: bool = False, progress: Reporter | None = None
                    ) -> list[ReproduceResult]:
     """:func:`reproduce` for several experiments whose runs train in one sweep (side by side
     on the executor), then are evaluated and reported one experiment at a time."""
-    console = console or Console(stderr=True, highlight=False)
+    progress = progress or LogLines(quiet=quiet)
     torch_device = training_device(device)
     plans = []
     for experiment, out in zip(experiments, outs, strict=True):
@@ -86,7 +87,7 @@ def reproduce_many(*, experiments: list[str], outs: list[Path | None],
         units = len(stacks([run for run, _ in todo])) if on_gpu else len(todo)
         default_workers = min(units, os.cpu_count() or 1)
         executor = make_executor(workers or max(1, default_workers), scheduler, torch_device)
-        sweep = run_sweep(todo, executor, console, quiet, sum(len(p.runs) for p in plans))
+        sweep = run_sweep(todo, executor, progress, sum(len(p.runs) for p in plans))
         if sweep.interrupted or runs_only:
             return [ReproduceResult(plan, sweep, None, []) for plan in plans]
     if runs_only:
@@ -97,10 +98,9 @@ def reproduce_many(*, experiments: list[str], outs: list[Path | None],
     results = []
     for plan in plans:
         start = time.monotonic()
-        evaluations = evaluate_plan(plan, console, quiet)
+        evaluations = evaluate_plan(plan, progress)
         report, files = write_report(plan, evaluations)
-        if not quiet:
-            console.print(f"{plan.experiment.id}: evaluated and reported in "
-                          f"{time.monotonic() - start:.1f} s", markup=False)
+        progress.say(f"{plan.experiment.id}: evaluated and reported in "
+                     f"{time.monotonic() - start:.1f} s")
         results.append(ReproduceResult(plan, sweep, report, files))
     return results

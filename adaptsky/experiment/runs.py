@@ -22,8 +22,9 @@ from adaptsky.store.lock import run_lock
 from adaptsky.store.run_file import RunFileError, RunReader
 from adaptsky.training.api import create_run_file
 from adaptsky.training.evaluation import EVALUATION_KEYS, evaluation_set
+from adaptsky.training.host import pin_threads
 from adaptsky.training.messages import Checkpoints, Message
-from adaptsky.training.runner import RunFileWriter, SeedTask, pin_threads, train_stack
+from adaptsky.training.runner import RunFileWriter, SeedTask, train_stack
 
 if TYPE_CHECKING:
     import torch

@@ -9,11 +9,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-from rich.console import Console
 
 from adaptsky.arrays import Tree
 from adaptsky.channels.registry import plugin
 from adaptsky.errors import AdaptskyError
+from adaptsky.progress import LogLines, Reporter
 from adaptsky.scenario import Scenario, parse_scenario
 from adaptsky.scenario.loading import parse_toml, read_scenario_text
 from adaptsky.scenario.overrides import apply_overrides
@@ -115,13 +115,16 @@ def create_run_file(path: Path, scenario: Scenario, text: str,
 def train(*, scenario_path: Path, out: Path | None = None, seeds: list[int] | None = None,
           episodes: int | None = None, steps: int | None = None, workers: int | None = None,
           checkpoint_every: int | None = None, set_values: list[str] | None = None,
-          device: str = "cpu", quiet: bool = False, console: Console | None = None
+          device: str = "cpu", quiet: bool = False, progress: Reporter | None = None
           ) -> tuple[Path, RunOutcome]:
     """Train every seed of the scenario into a new run file; returns its path.
 
     ``set_values`` are ``section.key=value`` overrides, applied before the options above and
     recorded in the run file. ``device``: cpu, cuda or auto (cuda when available).
+    ``progress`` hears of the training (default: timestamped lines on standard error, only
+    warnings and interrupts with ``quiet``).
     """
+    progress = progress or LogLines(quiet=quiet)
     started_utc, start_s = utc_timestamp(), time.monotonic()
     torch_device = training_device(device)
     scenario, text = load_with_overrides(scenario_path, set_values)
@@ -135,9 +138,9 @@ def train(*, scenario_path: Path, out: Path | None = None, seeds: list[int] | No
         t = scenario.train
         tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every,
                           evaluation=evaluation) for seed in t.seeds]
-        outcome = _run(path, tasks, workers, torch_device, quiet, console)
+        outcome = _run(path, tasks, workers, torch_device, progress)
         _record_session(path, "train", started_utc, start_s, dict.fromkeys(t.seeds, 0),
-                        console)
+                        progress)
         return path, outcome
 
 
@@ -156,10 +159,12 @@ def read_progress(run_path: Path) -> tuple[Scenario, dict[int, Tree | None],
 
 
 def resume(*, run_path: Path, episodes: int | None = None, workers: int | None = None,
-           device: str = "cpu", quiet: bool = False, console: Console | None = None
+           device: str = "cpu", quiet: bool = False, progress: Reporter | None = None
            ) -> tuple[Path, RunOutcome]:
     """Continue every seed of a run file from its last checkpoint, a seed without one from
-    zero (on any device: only the same device continues bit for bit)."""
+    zero (on any device: only the same device continues bit for bit); ``quiet`` and
+    ``progress`` as for :func:`train`."""
+    progress = progress or LogLines(quiet=quiet)
     started_utc, start_s = utc_timestamp(), time.monotonic()
     torch_device = training_device(device)
     with RunReader(run_path, needs="curves"):
@@ -186,13 +191,13 @@ def resume(*, run_path: Path, episodes: int | None = None, workers: int | None =
         tasks = [replace(task, evaluation=evaluation) for task in tasks]
         before = {seed: int(c["episode"]) if c is not None else 0
                   for seed, c in checkpoints.items()}
-        outcome = _run(run_path, tasks, workers, torch_device, quiet, console)
-        _record_session(run_path, "resume", started_utc, start_s, before, console)
+        outcome = _run(run_path, tasks, workers, torch_device, progress)
+        _record_session(run_path, "resume", started_utc, start_s, before, progress)
         return run_path, outcome
 
 
 def _record_session(path: Path, kind: str, started_utc: str, start_s: float,
-                    episodes_before: dict[int, int], console: Console | None) -> None:
+                    episodes_before: dict[int, int], progress: Reporter) -> None:
     """Append this session to the run's history; the training it describes is stored
     already, so a failure to write it (a full disk) is a warning, not a failed run."""
     try:
@@ -201,9 +206,7 @@ def _record_session(path: Path, kind: str, started_utc: str, start_s: float,
     except FileGoneError:
         raise RunFileGoneError(path) from None
     except StorageError as error:
-        (console or Console(stderr=True)).print(
-            f"warning: the session history was not recorded: {error}", markup=False,
-            highlight=False)
+        progress.print(f"warning: the session history was not recorded: {error}")
 
 
 def training_device(name: str) -> torch.device:
@@ -217,10 +220,9 @@ def training_device(name: str) -> torch.device:
 
 
 def _run(path: Path, tasks: list[SeedTask], workers: int | None, device: torch.device,
-         quiet: bool, console: Console | None) -> RunOutcome:
-    console = console or Console(stderr=True)
+         progress: Reporter) -> RunOutcome:
     try:
-        with TrainingProgress(console, quiet) as view:
+        with TrainingProgress(progress) as view:
             for task in tasks:
                 view.add_seed(task.seed, task.episodes_done, task.episodes)
             return run_tasks(path, tasks, workers or len(tasks), view, device)

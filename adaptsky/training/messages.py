@@ -1,5 +1,6 @@
-"""What a training stack tells the writer of its run files, as typed messages (they cross
-process boundaries pickled, so they hold only arrays, numbers and strings).
+"""What a training stack tells the writer of its run files, and a worker process the process
+that started it (:mod:`adaptsky.training.host`), as typed messages (they cross process
+boundaries pickled, so they hold only arrays, numbers, strings and dataclasses of them).
 
 ``key`` names a task: its seed in ``train``, its run file in ``reproduce``."""
 
@@ -31,9 +32,11 @@ class Checkpoints:
 
 @dataclass(frozen=True)
 class Done:
-    """A task reached its episodes."""
+    """A task reached its episodes (or stopped when asked); ``result``: what it reports, if
+    anything."""
 
     key: Any
+    result: Any = None
 
 
 @dataclass(frozen=True)
@@ -44,4 +47,14 @@ class Failed:
     error: str
 
 
+@dataclass(frozen=True)
+class WorkerLost:
+    """Said by the host, never sent: a worker process ended (exit code ``exitcode``) before
+    its tasks ``keys`` were done or failed."""
+
+    keys: tuple[Any, ...]
+    exitcode: int | None
+
+
 Message = Progress | Checkpoints | Done | Failed
+HostMessage = Message | WorkerLost

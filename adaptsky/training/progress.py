@@ -1,6 +1,6 @@
-"""Live display of training: one Rich progress row per seed on a terminal; elsewhere (a pipe,
-nohup, a batch job, CI) one timestamped log line per seed at its first and last episode and
-at most one every ``log_every_s`` in between."""
+"""Progress of training: one live row per seed where the reporter draws stages (a terminal);
+elsewhere (a pipe, nohup, a batch job, CI) one timestamped log line per seed at its first and
+last episode and at most one every ``log_every_s`` in between."""
 
 from __future__ import annotations
 
@@ -8,11 +8,8 @@ import math
 import time
 from collections import deque
 
-from rich.console import Console
-from rich.progress import MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-
 from adaptsky import progress as work_progress
-from adaptsky.progress import pace, stamp
+from adaptsky.progress import Reporter, pace
 from adaptsky.units import format_rate
 
 MOVING_WINDOW = 100
@@ -29,16 +26,9 @@ class _SeedLog:
 class TrainingProgress:
     """Episode, moving-average sum rate (last 100 episodes), fairness and epsilon per seed."""
 
-    def __init__(self, console: Console, quiet: bool, log_every_s: float | None = None) -> None:
-        self.quiet = quiet
+    def __init__(self, reporter: Reporter, log_every_s: float | None = None) -> None:
+        self.reporter = reporter
         self.log_every_s = work_progress.LOG_EVERY_S if log_every_s is None else log_every_s
-        self.live = console.is_terminal and not quiet
-        self.progress = Progress(
-            TextColumn("seed {task.fields[seed]:>3}"), MofNCompleteColumn(),
-            TextColumn("R {task.fields[rate]} J {task.fields[fairness]} "
-                       "eps {task.fields[epsilon]} greedy {task.fields[greedy]}"),
-            TimeRemainingColumn(), console=console, disable=not self.live, transient=False)
-        self.tasks: dict[int, int] = {}
         self.totals: dict[int, int] = {}
         self.logs: dict[int, _SeedLog] = {}
         self.rates: dict[int, deque[float]] = {}
@@ -46,19 +36,18 @@ class TrainingProgress:
         self.greedy: dict[int, dict[str, float]] = {}  # each seed's last greedy evaluation
 
     def __enter__(self) -> TrainingProgress:
-        self.progress.start()
+        self.reporter.open("seeds")
         return self
 
     def __exit__(self, *exc: object) -> None:
-        self.progress.stop()
+        self.reporter.close()
 
     def add_seed(self, seed: int, done: int, total: int) -> None:
         self.rates[seed] = deque(maxlen=MOVING_WINDOW)
         self.fairness[seed] = deque(maxlen=MOVING_WINDOW)
         self.totals[seed], self.logs[seed] = total, _SeedLog(done)
-        self.tasks[seed] = self.progress.add_task("", total=total, completed=done, seed=seed,
-                                                  rate="-", fairness="-", epsilon="-",
-                                                  greedy="-")
+        self.reporter.start(seed, total, done, seed=seed, rate="-", fairness="-", epsilon="-",
+                            greedy="-")
 
     def episode(self, seed: int, episode: int, metrics: dict[str, float]) -> None:
         """Seed ``seed`` has done ``episode`` episodes, the last with ``metrics``."""
@@ -70,10 +59,9 @@ class TrainingProgress:
         if "greedy" in metrics:
             self.greedy[seed] = metrics["greedy"]  # type: ignore[assignment]
         greedy = greedy_text(self.greedy[seed], short=True) if seed in self.greedy else "-"
-        self.progress.update(self.tasks[seed], completed=episode, rate=rate,
-                             fairness=f"{mean_fairness:.3f}",
-                             epsilon=f"{metrics['epsilon']:.3f}", greedy=greedy)
-        if not self.live and not self.quiet:
+        self.reporter.advance(seed, episode, rate=rate, fairness=f"{mean_fairness:.3f}",
+                              epsilon=f"{metrics['epsilon']:.3f}", greedy=greedy)
+        if not self.reporter.live and not self.reporter.quiet:
             self._log(seed, episode, rate, mean_fairness, metrics["epsilon"])
 
     def _log(self, seed: int, episode: int, rate: str, fairness: float, epsilon: float) -> None:
@@ -87,13 +75,13 @@ class TrainingProgress:
                      "episode")
         averaged = len(self.rates[seed])
         greedy = f"; greedy {greedy_text(self.greedy[seed])}" if seed in self.greedy else ""
-        self.message(f"seed {seed}: episode {episode}/{total}, mean of the last {averaged}: "
-                     f"sum rate {rate}, J {fairness:.3f}; eps {epsilon:.3f}{greedy}, {speed}")
+        self.reporter.log(f"seed {seed}: episode {episode}/{total}, mean of the last "
+                          f"{averaged}: sum rate {rate}, J {fairness:.3f}; eps {epsilon:.3f}"
+                          f"{greedy}, {speed}")
 
     def message(self, text: str) -> None:
         """A line above the live rows; timestamped where there are none (a log)."""
-        self.progress.console.print(text if self.live else stamp(text), markup=False,
-                                    highlight=False, soft_wrap=True)
+        self.reporter.message(text)
 
 
 def greedy_text(row: dict[str, float], short: bool = False) -> str:

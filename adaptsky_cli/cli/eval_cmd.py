@@ -65,20 +65,19 @@ def evaluate(
 ) -> None:
     """Greedy rollouts of a trained policy, compared with baselines and other runs."""
     from adaptsky.evaluation import api
-    from adaptsky.progress import WorkProgress
     from adaptsky.store.atomic import fresh_path
     from adaptsky.store.eval_file import write_eval
+    from adaptsky_cli.cli.progress_display import RichReporter
     start = time.monotonic()
     path = out_file if out_file is not None else fresh_path(checkpoint.parent,
                                                             f"{checkpoint.stem}-eval")
     if out_file is not None or path.parent.is_dir():  # else the run file is missing: said next
         _writable_new_file(path)
     methods = [item.strip() for item in compare.split(",") if item.strip()]
-    with WorkProgress(err) as progress:
-        results, traces = api.evaluate(checkpoint=checkpoint, seed=seed, scenario_path=scenario,
-                                       layouts=layouts, layout_seed=layout_seed, steps=steps,
-                                       compare_with=methods, progress=progress,
-                                       policy=policy)
+    results, traces = api.evaluate(checkpoint=checkpoint, seed=seed, scenario_path=scenario,
+                                   layouts=layouts, layout_seed=layout_seed, steps=steps,
+                                   compare_with=methods, progress=RichReporter(err),
+                                   policy=policy)
     write_eval(path, results, traces, provenance={
         "command_line": json.dumps(command_line(ctx)), "wall_time_s": time.monotonic() - start})
     if as_json:
@@ -111,15 +110,14 @@ def baseline(
 ) -> None:
     """Run one baseline on a scenario; the oracle also reports its optimum."""
     from adaptsky.evaluation import api
-    from adaptsky.progress import WorkProgress
     from adaptsky.units import format_rate
+    from adaptsky_cli.cli.progress_display import RichReporter
     if method not in api.BASELINES:
         raise AdaptskyError(f"--method: unknown method '{method}'; choose from "
                             f"{', '.join(api.BASELINES)}")
-    with WorkProgress(err) as progress:
-        results, (result,) = api.baseline(scenario_path=scenario, method=method,
-                                          layouts=layouts, layout_seed=layout_seed, steps=steps,
-                                          progress=progress)
+    results, (result,) = api.baseline(scenario_path=scenario, method=method, layouts=layouts,
+                                      layout_seed=layout_seed, steps=steps,
+                                      progress=RichReporter(err))
     if method == "oracle":
         results["optimum"] = [
             {"uav_m": result.trace.uav_m[-1, i].tolist(),

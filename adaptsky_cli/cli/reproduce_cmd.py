@@ -44,6 +44,7 @@ def reproduce(
     # training and evaluation import torch: only when the command runs, not for --help
     from adaptsky.experiment.plan import shipped_experiments
     from adaptsky.experiment.reproduce import reproduce_many
+    from adaptsky_cli.cli.progress_display import RichReporter
 
     if experiment == "all":
         names = list(shipped_experiments())
@@ -53,7 +54,8 @@ def reproduce(
     results = reproduce_many(experiments=names, outs=outs, seeds=seeds, episodes=episodes,
                              steps=steps, workers=workers, scheduler=scheduler,
                              set_values=set_values, runs_only=runs_only,
-                             report_only=report_only, device=device, quiet=quiet, console=err)
+                             report_only=report_only, device=device, quiet=quiet,
+                             progress=RichReporter(err, quiet=quiet))
     if any(result.interrupted for result in results):
         folders = ", ".join(str(result.plan.out) for result in results)
         err.print(f"interrupted; every run keeps its last checkpoint. Continue with the same "

@@ -52,19 +52,21 @@ def train(
     seeds as one stack; on a GPU every seed in one stack."""
     from adaptsky.report.summary import summarize, summary_table
     from adaptsky.training import api
+    from adaptsky_cli.cli.progress_display import RichReporter
+    progress = RichReporter(err, quiet=quiet)
     if resume is not None:
         if scenario is not None or seeds or steps or checkpoint_every or out_file or set_values:
             raise AdaptskyError("--resume continues a run as it was configured: give only "
                                 "--episodes, --workers, --device and --quiet with it")
         path, outcome = api.resume(run_path=resume, episodes=episodes, workers=workers,
-                                   device=device, quiet=quiet, console=err)
+                                   device=device, quiet=quiet, progress=progress)
     elif scenario is None:
         raise AdaptskyError("give a scenario file, or --resume RUN.h5")
     else:
         path, outcome = api.train(scenario_path=scenario, out=out_file, seeds=_seeds(seeds),
                                   episodes=episodes, steps=steps, workers=workers,
                                   checkpoint_every=checkpoint_every, set_values=set_values,
-                                  device=device, quiet=quiet, console=err)
+                                  device=device, quiet=quiet, progress=progress)
     out.print(summary_table(summarize(path)))
     if outcome.interrupted:
         err.print(f"interrupted; checkpoints saved. Continue with: adaptsky train --resume {path}")

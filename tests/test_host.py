@@ -1,0 +1,87 @@
+"""The one host of local worker processes (``train`` and ``reproduce``): jobs, typed messages,
+stops and quits; and reproduce's second Ctrl-C, which quits at once like train's."""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+from adaptsky.errors import AdaptskyError
+from adaptsky.training.host import Job, ProcessHost
+from adaptsky.training.messages import Done, Failed, WorkerLost
+from tests.test_reproduce import _episodes, _start, _wait_for, curves_experiment
+
+
+def _answer(value: object, emit, stop, orphaned) -> None:
+    emit(Done("answer", value))
+
+
+def _fail(emit, stop, orphaned) -> None:
+    raise AdaptskyError("no such thing")
+
+
+def _die(emit, stop, orphaned) -> None:
+    os._exit(3)
+
+
+def _until_stopped(key: str, emit, stop, orphaned) -> None:
+    while not stop():
+        time.sleep(0.05)
+    emit(Done(key, "stopped"))
+
+
+def _drain(host: ProcessHost) -> list[object]:
+    heard: list[object] = []
+    while host.pump(heard.append, timeout_s=1.0):
+        pass
+    return heard
+
+
+def test_jobs_report_results_failures_and_lost_processes(tmp_path):
+    host = ProcessHost(workers=2)
+    host.submit([Job(_answer, (42,), ("answer",)), Job(_fail, (), ("fail",)),
+                 Job(_die, (), ("die",))])
+    try:
+        heard = _drain(host)
+    finally:
+        host.close(5.0)
+    assert Done("answer", 42) in heard
+    assert Failed("fail", "no such thing") in heard
+    assert WorkerLost(("die",), 3) in heard
+
+
+def test_a_stop_ends_running_jobs_and_drops_queued_ones():
+    dropped = []
+    host = ProcessHost(workers=1, on_drop=dropped.append)
+    first, second = (Job(_until_stopped, (key,), (key,)) for key in ("first", "second"))
+    host.submit([first, second])
+    try:
+        host.pump(lambda message: None, timeout_s=0.5)
+        host.request_stop()
+        heard = _drain(host)
+    finally:
+        host.close(5.0)
+    assert heard == [Done("first", "stopped")] and dropped == [second]
+
+
+def test_reproduce_quits_at_once_on_a_second_ctrl_c(tmp_path):
+    # the second Ctrl-C waited for every running stack to reach its checkpoint
+    experiment = curves_experiment(tmp_path)
+    out = tmp_path / "out"
+    runs = [out / "runs" / f"agent-seed{s}.h5" for s in (0, 1)]
+    # episodes of seconds: a checkpoint at the end of the current one would take that long
+    process = _start(["reproduce", str(experiment), "--out", str(out), "--episodes", "10",
+                      "--steps", "20000", "--workers", "2", "--runs-only"], tmp_path / "log")
+    _wait_for(lambda: all(run.exists() for run in runs))
+    time.sleep(2.0)
+    os.killpg(process.pid, signal.SIGINT)
+    time.sleep(0.3)
+    os.killpg(process.pid, signal.SIGINT)
+    began = time.monotonic()
+    code = process.wait(timeout=30)
+    log = (tmp_path / "log").read_text()
+    assert code == 130, log
+    assert time.monotonic() - began < 5.0, log
+    assert "quit: the run files keep agent-seed0 " in log and "Traceback" not in log, log
+    assert [_episodes(run) for run in runs] == [0, 0]  # no checkpoint was waited for
