@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from adaptsky_cli.cli.main import main
-from tests.test_reproduce import (
+from tests.e2e.test_reproduce import (
     EPISODES,
     STEPS,
     _episodes,

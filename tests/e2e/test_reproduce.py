@@ -21,8 +21,8 @@ from adaptsky.experiment.plan import load_experiment, plan_experiment
 from adaptsky.experiment.runs import execute_run
 from adaptsky.store.run_file import RunReader
 from adaptsky_cli.cli.main import main
+from tests.conftest import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 ADAPTSKY = Path(sys.executable).with_name("adaptsky")
 SMALL_AGENT = ['"agent.hidden_sizes=[32, 32]"', '"agent.batch_size=32"',
                '"agent.memory_size=2000"']
