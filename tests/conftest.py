@@ -1,7 +1,11 @@
-"""Shared fixtures: scenarios built in memory from the paper's defaults."""
+"""Shared fixtures: scenarios built in memory from the paper's defaults, and the tiny trained
+run every test that needs *a* run file reads (tests/README.md)."""
 
 from __future__ import annotations
 
+import hashlib
+import shutil
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -42,3 +46,31 @@ def mmwave() -> Scenario:
 @pytest.fixture
 def sub6() -> Scenario:
     return make_scenario(radio=SUB6_RADIO, channel={"model": "sub6-al-hourani"})
+
+
+# the tiny run: the paper's scenario and network, 2 seeds, 2 episodes of 5 steps
+TINY_RUN_ARGS = ["--seeds", "0,1", "--episodes", "2", "--steps", "5", "--workers", "1",
+                 "--quiet"]
+
+
+@pytest.fixture(scope="session")
+def tiny_run(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    """One small real run file, trained once per session in this process: nyc_mmwave.toml
+    (the paper's network), seeds 0 and 1, 2 episodes of 5 steps, one worker. Shared: read it,
+    never change it; a test that damages, extends or resumes a run uses ``tiny_run_copy``.
+    The session fails at its end if a test changed it."""
+    from adaptsky_cli.cli.main import main
+
+    path = tmp_path_factory.mktemp("tiny_run") / "run.h5"
+    assert main(["train", str(SCENARIOS / "nyc_mmwave.toml"), *TINY_RUN_ARGS,
+                 "--out", str(path)]) == 0
+    digest = hashlib.sha256(path.read_bytes()).hexdigest()
+    yield path
+    assert hashlib.sha256(path.read_bytes()).hexdigest() == digest, (
+        f"{path}: a test changed the shared tiny run; use tiny_run_copy")
+
+
+@pytest.fixture
+def tiny_run_copy(tiny_run: Path, tmp_path: Path) -> Path:
+    """A copy of the tiny run in this test's tmp_path, to change as the test likes."""
+    return Path(shutil.copyfile(tiny_run, tmp_path / "tiny-run.h5"))

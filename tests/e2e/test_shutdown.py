@@ -27,11 +27,12 @@ from adaptsky.store.run_file import RunReader
 from adaptsky.training import host, interrupts
 from adaptsky_cli.cli import entry
 from adaptsky_cli.cli.main import main
-from tests.test_faults import assert_same_run, leftovers, resume, stub
-from tests.test_train import small_scenario
+from tests.conftest import SCENARIOS
+from tests.e2e.test_faults import assert_same_run, leftovers, resume, stub
+from tests.unit.training.test_train import small_scenario
 
 ADAPTSKY = Path(sys.executable).with_name("adaptsky")
-SCENARIO = Path(__file__).parents[1] / "scenarios" / "nyc_mmwave.toml"
+SCENARIO = SCENARIOS / "nyc_mmwave.toml"
 EPISODES, STEPS = 6, 50  # the paper's network: checkpoints of about 400 kB, more than a pipe holds
 
 

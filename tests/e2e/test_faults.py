@@ -24,7 +24,8 @@ from adaptsky.store.run_file import RunReader
 from adaptsky.training import api
 from adaptsky.training.runner import RunFileWriter, SeedTask, train_stack
 from adaptsky_cli.cli.main import main
-from tests.test_train import assert_same_curves, curves, small_scenario
+from tests.conftest import SCENARIOS
+from tests.unit.training.test_train import assert_same_curves, curves, small_scenario
 
 ADAPTSKY = Path(sys.executable).with_name("adaptsky")
 RUN = ["--seeds", "0,1", "--episodes", "2", "--steps", "10", "--checkpoint-every", "1",
@@ -329,7 +330,7 @@ def test_commands_that_do_not_train_start_without_torch():
             "    main(argv)\n"
             "print('torch' in sys.modules, file=sys.stderr)")
     done = subprocess.run([sys.executable, "-c", code,
-                           str(Path(__file__).parents[1] / "scenarios/nyc_mmwave.toml")],
+                           str(SCENARIOS / "nyc_mmwave.toml")],
                           capture_output=True, text=True, timeout=60)
     assert done.stderr.strip().splitlines()[-1] == "False", done.stderr
 

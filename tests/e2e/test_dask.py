@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from adaptsky_cli.cli.main import main
-from tests.test_reproduce import (
+from tests.e2e.test_reproduce import (
     EPISODES,
     STEPS,
     _episodes,
@@ -85,7 +85,7 @@ def test_shipped_experiment_through_a_scheduler(cluster, tmp_path, capsys):
     assert (out / "report.md").is_file() and (out / "e1a.png").is_file()
 
 
-def test_a_killed_worker_s_run_resumes_from_its_checkpoint(cluster, tmp_path):
+def test_a_killed_worker_s_run_resumes_from_its_checkpoint(cluster, tmp_path, uninterrupted):
     experiment = curves_experiment(tmp_path)
     out = tmp_path / "out"
     runs = [out / "runs" / f"agent-seed{s}.h5" for s in (0, 1)]
@@ -104,7 +104,8 @@ def test_a_killed_worker_s_run_resumes_from_its_checkpoint(cluster, tmp_path):
     text = log.read_text()
     resumed = [int(n) for n in re.findall(r"resumed from episode (\d+)", text)]
     assert len(resumed) == 1 and 2 <= resumed[0] < EPISODES, text
-    assert_equal_to_uninterrupted(experiment, runs, tmp_path / "fresh")  # bit for bit
+    assert_equal_to_uninterrupted(experiment, runs, tmp_path / "fresh",  # bit for bit
+                                  uninterrupted)
 
 
 def test_unreachable_scheduler_is_one_line(tmp_path, capsys):

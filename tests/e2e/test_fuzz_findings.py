@@ -16,18 +16,11 @@ from tests.conftest import SCENARIOS
 SCENARIO = str(SCENARIOS / "nyc_mmwave.toml")
 
 
-@pytest.fixture(scope="module")
-def run(tmp_path_factory) -> Path:
-    path = tmp_path_factory.mktemp("fuzz") / "run.h5"
-    assert main(["train", SCENARIO, "--seeds", "0", "--episodes", "2", "--steps", "5",
-                 "--workers", "1", "--quiet", "--out", str(path)]) == 0
-    return path
-
-
-def copy(run: Path, tmp_path: Path) -> Path:
-    path = tmp_path / "copy.h5"
-    path.write_bytes(run.read_bytes())
-    return path
+@pytest.fixture
+def run(tiny_run: Path) -> Path:
+    """The session's tiny run (tests/conftest.py), read only; tests that change it take
+    tiny_run_copy."""
+    return tiny_run
 
 
 def digest(path: Path) -> str:
@@ -41,9 +34,9 @@ def one_line(capsys: pytest.CaptureFixture[str]) -> str:
     return lines[0]
 
 
-def test_a_resume_refused_for_memory_leaves_the_file_as_it_was(run, tmp_path, capsys):
+def test_a_resume_refused_for_memory_leaves_the_file_as_it_was(tiny_run_copy, capsys):
     # the new episode target was written into the file before the memory check refused it
-    path = copy(run, tmp_path)
+    path = tiny_run_copy
     with h5py.File(path, "r+") as f:
         config = json.loads(f["config"][()])
         config["agent"]["memory_size"] = 2**53
@@ -55,14 +48,15 @@ def test_a_resume_refused_for_memory_leaves_the_file_as_it_was(run, tmp_path, ca
     assert digest(path) == before
 
 
-def test_an_attribute_a_later_version_adds_to_a_seed_is_left_alone(run, tmp_path, capsys):
+def test_an_attribute_a_later_version_adds_to_a_seed_is_left_alone(tiny_run_copy, capsys):
     # seed_attrs made every attribute an int: 'damaged' for inspect, and a resume that failed
     # after training
-    path = copy(run, tmp_path)
+    path = tiny_run_copy
     with h5py.File(path, "r+") as f:
         f["seeds/0"].attrs["note"] = "hello"
     assert main(["inspect", str(path)]) == 0
-    assert main(["train", "--resume", str(path), "--episodes", "3", "--quiet"]) == 0
+    assert main(["train", "--resume", str(path), "--episodes", "3", "--workers", "1",
+                 "--quiet"]) == 0
     with h5py.File(path, "r") as f:
         assert f["seeds/0"].attrs["episodes_done"] == 3 and f["seeds/0"].attrs["note"] == "hello"
 

@@ -3,14 +3,11 @@ get one line and exit 1."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 from adaptsky.experiment.plan import load_experiment, plan_experiment, shipped_experiments
 from adaptsky_cli.cli.main import main
-
-ROOT = Path(__file__).resolve().parents[1]
+from tests.conftest import ROOT
 
 # runs per shipped experiment: E1a and E1b 10, E2 6 x 8 thresholds, E3 6 + 6 (docs/model.md §5)
 RUNS = {"e1a": 10, "e1b": 10, "e2": 48, "e3": 12}

@@ -17,12 +17,12 @@ import h5py
 import numpy as np
 import pytest
 
-from adaptsky.experiment.plan import load_experiment, plan_experiment
+from adaptsky.experiment.plan import RunSpec, load_experiment, plan_experiment
 from adaptsky.experiment.runs import execute_run
 from adaptsky.store.run_file import RunReader
 from adaptsky_cli.cli.main import main
+from tests.conftest import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 ADAPTSKY = Path(sys.executable).with_name("adaptsky")
 SMALL_AGENT = ['"agent.hidden_sizes=[32, 32]"', '"agent.batch_size=32"',
                '"agent.memory_size=2000"']
@@ -139,7 +139,7 @@ def _wait_for(condition, timeout_s: float = 120) -> None:
         time.sleep(0.1)
 
 
-def test_kill_and_interrupt_lose_at_most_one_checkpoint_interval(tmp_path):
+def test_kill_and_interrupt_lose_at_most_one_checkpoint_interval(tmp_path, uninterrupted):
     """kill -9 of the whole process group, then Ctrl-C, then a restart: every run ends equal,
     bit for bit, to an uninterrupted run of the same spec."""
     experiment = curves_experiment(tmp_path)
@@ -171,19 +171,40 @@ def test_kill_and_interrupt_lose_at_most_one_checkpoint_interval(tmp_path):
     process = _start(args, tmp_path / "third.log")
     assert process.wait(timeout=120) == 0
     assert [_episodes(r) for r in runs] == [EPISODES, EPISODES]
-    assert_equal_to_uninterrupted(experiment, runs, tmp_path / "fresh")
+    assert_equal_to_uninterrupted(experiment, runs, tmp_path / "fresh", uninterrupted)
 
 
-def assert_equal_to_uninterrupted(experiment: Path, runs: list[Path], folder: Path) -> None:
-    """Each run file's curves equal those of the same run trained without a stop, in this
-    process (EPISODES x STEPS, a checkpoint every 2)."""
+def _plan(experiment: Path, folder: Path) -> list[RunSpec]:
+    """The runs of ``experiment`` at EPISODES x STEPS, a checkpoint every 2, into ``folder``."""
     model, path = load_experiment(str(experiment))
-    fresh = plan_experiment(model, path, folder, episodes=EPISODES, steps=STEPS,
-                            set_values=["train.checkpoint_every=2"])
-    for spec, stopped in zip(fresh.runs, runs, strict=True):
+    return plan_experiment(model, path, folder, episodes=EPISODES, steps=STEPS,
+                           set_values=["train.checkpoint_every=2"]).runs
+
+
+def train_uninterrupted(folder: Path) -> list[tuple[RunSpec, dict[str, np.ndarray]]]:
+    """curves_experiment's two runs trained without a stop, in this process (EPISODES x STEPS,
+    a checkpoint every 2): each run's spec and learning curves. The session fixture
+    ``uninterrupted`` (tests/e2e/conftest.py) trains them once for every test that stops and
+    restarts these runs."""
+    trained = []
+    for spec in _plan(curves_experiment(folder), folder / "fresh"):
         execute_run(spec)
-        with RunReader(spec.path) as a, RunReader(stopped) as b:
-            for name, values in a.episodes(spec.seed).items():
+        with RunReader(spec.path) as run:
+            trained.append((spec, run.episodes(spec.seed)))
+    return trained
+
+
+def assert_equal_to_uninterrupted(experiment: Path, runs: list[Path], folder: Path,
+                                  uninterrupted: list[tuple[RunSpec, dict[str, np.ndarray]]]
+                                  ) -> None:
+    """Each run file's curves equal those of the same run trained without a stop
+    (``uninterrupted``: the same spec, checked here, trained in this process)."""
+    specs = _plan(experiment, folder)
+    assert len(specs) == len(uninterrupted)
+    for spec, (fresh, curves), stopped in zip(specs, uninterrupted, runs, strict=True):
+        assert (spec.name, spec.seed, spec.config) == (fresh.name, fresh.seed, fresh.config)
+        with RunReader(stopped) as b:
+            for name, values in curves.items():
                 assert np.array_equal(values, b.episodes(spec.seed)[name], equal_nan=True), name
 
 

@@ -214,12 +214,11 @@ def test_existing_output_is_never_overwritten(tmp_path, capsys):
     assert out.read_text() == "keep me"
 
 
-@pytest.fixture(scope="module")
-def finished_run(tmp_path_factory):
-    tmp_path = tmp_path_factory.mktemp("finished")
-    path, _ = api.train(scenario_path=small_scenario(tmp_path), out=tmp_path / "done.h5",
-                        episodes=1, seeds=[0], workers=1, quiet=True)
-    return path
+@pytest.fixture
+def finished_run(tiny_run: Path) -> Path:
+    """The session's tiny run (tests/conftest.py): 2 episodes done. Read only: each damage
+    below writes a new file."""
+    return tiny_run
 
 
 def _truncated(path: Path, target: Path) -> None:
@@ -246,7 +245,7 @@ def _no_checkpoint(path: Path, target: Path) -> None:
 @pytest.mark.parametrize(("damage", "message"), [
     (_truncated, "damaged"), (_not_hdf5, "not an HDF5 file"),
     (_newer, "format version 99 is newer than this adaptsky"),
-    (_no_checkpoint, "/seeds/0/checkpoint: missing, but episodes_done is 1")])
+    (_no_checkpoint, "/seeds/0/checkpoint: missing, but episodes_done is 2")])
 def test_bad_run_files_give_one_line(finished_run, tmp_path, capsys, damage, message):
     target = tmp_path / "bad.h5"
     damage(finished_run, target)

@@ -18,7 +18,8 @@ import pytest
 from adaptsky.channels import ChannelModel, ChannelParams
 from adaptsky.channels.checker import check_channel_model, structural_problems
 from adaptsky.channels.registry import discover
-from tests.test_cli import ADAPTSKY, _fake_distribution
+from tests.conftest import ROOT
+from tests.e2e.test_cli import ADAPTSKY, _fake_distribution
 
 
 class Good(ChannelModel):
@@ -176,7 +177,7 @@ def test_plugins_show_prints_types_and_limits(capsys):
     assert "los_c │ float │ 9.6117 │ > 0, <= 100" in text
 
 
-GUIDE = Path(__file__).parent.parent / "docs" / "plugins.md"
+GUIDE = ROOT / "docs" / "plugins.md"
 
 # every fenced block of docs/plugins.md, by what it is; each is run (or, for the layout, built)
 # by the tests below, and a block that none of these names fails the first test

@@ -21,19 +21,16 @@ import pytest
 from adaptsky.store import run_file
 from adaptsky.store.run_file import RunFileError, RunReader
 from adaptsky_cli.cli.main import main
-from tests.conftest import SCENARIOS
 
 POLICY = "seeds/0/checkpoint/agent/policy"
 REPLAY = "seeds/0/checkpoint/replay"
 
 
-@pytest.fixture(scope="module")
-def run(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """One small real run: 2 seeds, 2 episodes of 5 steps (in-process, one worker)."""
-    path = tmp_path_factory.mktemp("run") / "run.h5"
-    assert main(["train", str(SCENARIOS / "nyc_mmwave.toml"), "--seeds", "0,1", "--episodes",
-                 "2", "--steps", "5", "--workers", "1", "--quiet", "--out", str(path)]) == 0
-    return path
+@pytest.fixture
+def run(tiny_run: Path) -> Path:
+    """The session's tiny run (tests/conftest.py): nyc_mmwave, 2 seeds, 2 episodes of 5 steps,
+    trained in-process with one worker. Read only: every test that damages it copies it."""
+    return tiny_run
 
 
 def _attr(name: str, value: object) -> Callable[[h5py.File], None]:

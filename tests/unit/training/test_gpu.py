@@ -14,8 +14,8 @@ from adaptsky.store.run_file import RunReader
 from adaptsky.training import api
 from adaptsky.training.stack_run import Member, StackRun
 from adaptsky_cli.cli.main import main
-from tests.test_stack import assert_same_results, scenario
-from tests.test_train import small_scenario
+from tests.unit.training.test_stack import assert_same_results, scenario
+from tests.unit.training.test_train import small_scenario
 
 cuda = pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device")
 
