@@ -16,8 +16,9 @@ SNR b = s g_w (a >= b, s = P_T G / sigma^2), the sum rate as a function of the s
 so it is largest at the largest x the weak user's constraint allows,
 x <= ((1 + b) / 2^m - 1) / b (m = min_se), taken on the alpha grid; the strong user's
 constraint x >= (2^m - 1) / a then decides feasibility. Positions are searched exhaustively,
-vectorised over the whole lattice in chunks of heights. ``tests/test_baselines.py`` checks the
-result against brute force over positions and every alpha combination on a reduced lattice.
+vectorised over the whole lattice in chunks of heights. ``tests/unit/rollouts/test_baselines.py``
+checks the result against brute force over positions and every alpha combination on a reduced
+lattice.
 """
 
 from __future__ import annotations

@@ -10,7 +10,7 @@ import time
 from adaptsky.errors import AdaptskyError
 from adaptsky.training.host import Job, ProcessHost
 from adaptsky.training.messages import Done, Failed, WorkerLost
-from tests.test_reproduce import _episodes, _start, _wait_for, curves_experiment
+from tests.e2e.test_reproduce import _episodes, _start, _wait_for, curves_experiment
 
 
 def _answer(value: object, emit, stop, orphaned) -> None:
