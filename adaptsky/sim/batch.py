@@ -211,6 +211,9 @@ class NomaUavBatch:
         self._users_above_ground = scenario.users.height_m > 0
         self._reward = noma.RewardFromSums(self.weights, self.num_users, self.bandwidth_hz)
         self._shape = (self.num_envs, self.num_users)
+        # the shapes of the features (4, B, N) and of the per-user terms summed over users
+        self._features_shape = (FEATURES_PER_USER, *self._shape)
+        self._terms_shape = (4 if self._reward.needs_gain_sum else 3, *self._shape)
         self._observer = Observer(scenario, self._shape)
         # numbers as 0-d arrays: numpy combines them with an array faster than Python floats
         self._snr_scale = np.array(self.snr_scale)
@@ -377,13 +380,13 @@ class NomaUavBatch:
         Eq. 2 (SINR) in user order, eq. 3 (rates), eq. 9 (Jain) and eq. 13 (reward); the sums
         over users of R, R^2, R/W (and g where the reward needs it) are one reduction.
         """
-        config, shape = state.config, self._shape
+        config = state.config
         uav_m = one_uav(config)[:, :3]
         # per user (5, B, N): its UAV's x, y, h and, twice, its cluster's alpha_k
         per_user = config.take(self._config_source)
         # the observation's features (4, B, N) [x_UAV - x_i, y_UAV - y_i, alpha_i, g_i], raw;
         # rows 2 and 3 first hold every user's share and its partner's (alpha_k, 1 - alpha_k)
-        features = np.empty((FEATURES_PER_USER, *shape))
+        features = np.empty(self._features_shape)
         delta = np.subtract(per_user[:2], users_xy(state.users_m), out=features[:2])
         height_m = per_user[2]
         geometry = LinkGeometry._from_offsets(
@@ -399,7 +402,7 @@ class NomaUavBatch:
         strong = (first_second[0] >= first_second[1]) ^ self._is_second
         sinr = noma.user_sinr(alpha, shares[1], gain, strong, self._snr_scale)
         bandwidth_hz, reward = self._bandwidth_hz, self._reward
-        terms = np.empty((4 if reward.needs_gain_sum else 3, *shape))
+        terms = np.empty(self._terms_shape)
         rates = np.multiply(bandwidth_hz, np.log2(_ONE + sinr), out=terms[0])  # eq. 3
         np.square(rates, out=terms[1])
         np.divide(rates, bandwidth_hz, out=terms[2])      # spectral efficiency R/W
@@ -475,8 +478,8 @@ class NomaUavBatch:
         Feasible set (alg. 1 line 7): |x|, |y| <= L/2, h_min <= h <= h_max,
         power_step <= alpha <= 1 - power_step.
         """
-        state = self.sim_state
-        config = self._dynamics.moved(state.config, self._dynamics.checked(actions))
+        state, dynamics = self.sim_state, self._dynamics
+        config = dynamics.moved(state.config, dynamics.checked(actions))
         self.sim_state = SimState._new(config, state.users_m, state.t)
 
     def step(self, actions: NDArray[np.integer]
@@ -488,8 +491,9 @@ class NomaUavBatch:
         """
         if self.state is None:
             raise RuntimeError("call reset() before step()")
-        actions = self._dynamics.checked(actions)    # before anything is drawn
-        sim_state = self.sim_state = step(self.sim_state, actions, self._dynamics,
+        dynamics = self._dynamics
+        actions = dynamics.checked(actions)    # before anything is drawn
+        sim_state = self.sim_state = step(self.sim_state, actions, dynamics,
                                           self._headings() if self._speed_m else None)
         state = self.state = self._evaluate(sim_state)
         return self._obs, state.reward, sim_state.t >= self.max_steps, state

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -40,8 +41,7 @@ def stack_weights(weights: list[RewardWeights]) -> RewardWeights:
                             for name in fields})
 
 
-@dataclass(frozen=True)
-class RewardInputs:
+class RewardInputs(NamedTuple):
     """What the terms of eq. 13 read from one step; arrays (B,) unless marked (B, N).
 
     ``se_sum`` is sum_i R_i/W (bit/s/Hz, eq. 8 over W), ``fairness`` Jain's index J (eq. 9),
@@ -49,6 +49,9 @@ class RewardInputs:
     ``num_users`` N. ``se`` (B, N) R_i/W, ``satisfied`` (B, N) R_i >= R_min and
     ``min_rate_bps`` R_min ((B,) or a number) are None when R_min = 0 in every environment:
     then every user is satisfied (a rate is never negative) and every indicator is 1.
+
+    A named tuple, not a frozen dataclass: one is made every step, and a tuple is made
+    faster.
     """
 
     se_sum: FloatArray
@@ -58,17 +61,6 @@ class RewardInputs:
     se: FloatArray | None = None
     satisfied: NDArray[np.bool_] | None = None
     min_rate_bps: FloatArray | None = None
-
-    @classmethod
-    def from_sums(cls, se_sum: FloatArray, fairness: FloatArray, gain_sum: FloatArray | None,
-                  num_users: int) -> RewardInputs:
-        """The inputs where R_min = 0 everywhere, from sums the caller already has (made
-        without the frozen dataclass's ``__init__``: once per step)."""
-        inputs = object.__new__(cls)
-        inputs.__dict__.update(se_sum=se_sum, fairness=fairness, gain_sum=gain_sum,
-                               num_users=num_users, se=None, satisfied=None,
-                               min_rate_bps=None)
-        return inputs
 
     @classmethod
     def from_rates(cls, rates_bps: FloatArray, gains: FloatArray, fairness: FloatArray,
@@ -86,8 +78,8 @@ Indicator = Callable[[RewardInputs], NDArray[np.bool_]]
 
 @dataclass(frozen=True)
 class RewardTerm:
-    """One summand of eq. 13: ``weight_key``'s weight times ``value``, times ``indicator``
-    (where eq. 13 has one) unless every user is satisfied (R_min = 0: the indicator is 1).
+    """One summand of eq. 13: the weight named ``weight_key`` times ``value``, times
+    ``indicator`` where eq. 13 has one (see :func:`weighted_sum`).
 
     ``vanishes_when_satisfied``: the value is 0 when every user is satisfied.
     """
@@ -97,15 +89,6 @@ class RewardTerm:
     value: Callable[[RewardInputs], FloatArray | int]
     indicator: Indicator | None = None
     vanishes_when_satisfied: bool = False
-
-    def weighted(self, weight: float | FloatArray, inputs: RewardInputs) -> FloatArray:
-        """w value (times the indicator where ``inputs`` has R_min), in eq. 13's order."""
-        value = weight * self.value(inputs)
-        if self.indicator is None or inputs.satisfied is None:
-            return value
-        # value * 1[.]: the product with a bool array; for a finite value >= 0 it is the
-        # value or +0.0 (as np.where(1[.], value, 0.0) would give)
-        return value * self.indicator(inputs)
 
 
 def rate_se(inputs: RewardInputs) -> FloatArray:
@@ -160,13 +143,23 @@ REWARD_TERMS: tuple[RewardTerm, ...] = (RATE, FAIRNESS, GAIN, SATISFIED, UNSATIS
 
 def weighted_sum(terms: tuple[RewardTerm, ...], weights: tuple[float | FloatArray, ...],
                  inputs: RewardInputs) -> FloatArray:
-    """sum_t w_t v_t over ``terms`` (at least one) with their ``weights``, added left to
-    right from the first term (not from 0: no bit depends on an extra addition)."""
+    """sum_t (w_t v_t) 1_t over ``terms`` (at least one) with their ``weights``: the weight
+    times the value, times the term's indicator 1_t where it has one and ``inputs`` has
+    R_min (else every indicator is 1 and is left out), added left to right from the first
+    term (not from 0: no bit depends on an extra addition).
+
+    (w v) 1 is the product with a bool array: for the finite values >= 0 of eq. 13 it is
+    w v or +0.0, as ``np.where(1, w v, 0.0)`` would give.
+    """
     value = None
+    indicators = inputs.satisfied is not None
     for term, weight in zip(terms, weights, strict=True):
-        weighted = term.weighted(weight, inputs)
+        weighted = weight * term.value(inputs)
+        if indicators and term.indicator is not None:
+            weighted = weighted * term.indicator(inputs)
         value = weighted if value is None else value + weighted
-    assert value is not None, "no reward term"
+    if value is None:
+        raise ValueError("no reward term")
     return value
 
 
@@ -219,5 +212,5 @@ class RewardFromSums:
         ``needs_gain_sum``) sum g_i, each (B,)."""
         if not self.all_satisfied:
             return reward(rates_bps, gains, fairness, self.bandwidth_hz, self.weights)
-        inputs = RewardInputs.from_sums(se_sum, fairness, gain_sum, self.num_users)
-        return weighted_sum(self.terms, self._weights, inputs)
+        return weighted_sum(self.terms, self._weights,
+                            RewardInputs(se_sum, fairness, gain_sum, self.num_users))

@@ -99,19 +99,22 @@ def users_xy(users_m: FloatArray) -> FloatArray:
 class Dynamics:
     """The rules of a step that do not change (docs/model.md §3) for B environments of U UAVs.
 
-    ``actions``: the action set; ``action_step`` (3 + K,): delta_x, delta_y, delta_h (m) and
-    delta_alpha K times; ``action_moves`` (A, U, 3 + K): the change of the configuration by
-    each of the A actions (None for sets over ``TABLE_MAX_ACTIONS``, decoded instead);
-    ``config_low`` and ``config_high`` (B, U, 3 + K): the feasible set (alg. 1 line 7),
-    |x|, |y| <= L/2, h_min <= h <= h_max, delta_alpha <= alpha <= 1 - delta_alpha; users walk
+    ``actions``: the action set of ``action_count`` actions; ``action_step`` (3 + K,):
+    delta_x, delta_y, delta_h (m) and delta_alpha K times; ``action_moves`` (A, U, 3 + K):
+    the change of the configuration by each of the A actions (None for sets over
+    ``TABLE_MAX_ACTIONS``, decoded instead); ``config_low`` and ``config_high``
+    (B, U, 3 + K): the feasible set (alg. 1 line 7), |x|, |y| <= L/2, h_min <= h <= h_max,
+    delta_alpha <= alpha <= 1 - delta_alpha, for ``num_envs`` B environments; users walk
     ``speed_m_per_step`` per step inside |x|, |y| <= ``half_side_m``.
     """
 
     actions: ActionSet
+    action_count: int
     action_step: FloatArray
     action_moves: FloatArray | None
     config_low: FloatArray
     config_high: FloatArray
+    num_envs: int
     speed_m_per_step: float
     half_side_m: float
 
@@ -132,17 +135,18 @@ class Dynamics:
         if action_set.count <= TABLE_MAX_ACTIONS:
             moves = (action_set.table() * action_step).reshape(action_set.count, num_uavs,
                                                                 3 + k)
-        return cls(action_set, action_step, moves, np.broadcast_to(low, config_shape).copy(),
-                   np.broadcast_to(high, config_shape).copy(), scenario.users.speed_m_per_step,
-                   half_m)
+        return cls(action_set, action_set.count, action_step, moves,
+                   np.broadcast_to(low, config_shape).copy(),
+                   np.broadcast_to(high, config_shape).copy(), num_envs,
+                   scenario.users.speed_m_per_step, half_m)
 
     def checked(self, actions: NDArray[np.integer]) -> NDArray[np.integer]:
         """``actions`` (B,) as an array, after checking their shape and range."""
         actions = np.asarray(actions)
-        num_envs = self.config_low.shape[0]
+        num_envs = self.num_envs
         if actions.shape != (num_envs,):
             raise ValueError(f"expected {num_envs} actions, got shape {actions.shape}")
-        count = self.actions.count
+        count = self.action_count
         if actions.dtype.kind in "iu" and num_envs <= 16:   # cheaper than two reductions
             values = actions.tolist()
             valid = min(values) >= 0 and max(values) < count
