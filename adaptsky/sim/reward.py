@@ -141,19 +141,22 @@ REWARD_TERMS: tuple[RewardTerm, ...] = (RATE, FAIRNESS, GAIN, SATISFIED, UNSATIS
 """Eq. 13's terms in the order they are summed."""
 
 
-def weighted_sum(terms: tuple[RewardTerm, ...], weights: tuple[float | FloatArray, ...],
-                 inputs: RewardInputs) -> FloatArray:
-    """sum_t (w_t v_t) 1_t over ``terms`` (at least one) with their ``weights``: the weight
-    times the value, times the term's indicator 1_t where it has one and ``inputs`` has
-    R_min (else every indicator is 1 and is left out), added left to right from the first
-    term (not from 0: no bit depends on an extra addition).
+Weighted = tuple[tuple[RewardTerm, "float | FloatArray"], ...]
+"""Terms with their weights, ((term, w_t), ...): numbers, or arrays (B,)."""
+
+
+def weighted_sum(weighted_terms: Weighted, inputs: RewardInputs) -> FloatArray:
+    """sum_t (w_t v_t) 1_t over ``weighted_terms`` (at least one): each weight times its
+    term's value, times the term's indicator 1_t where it has one and ``inputs`` has R_min
+    (else every indicator is 1 and is left out), added left to right from the first term
+    (not from 0: no bit depends on an extra addition).
 
     (w v) 1 is the product with a bool array: for the finite values >= 0 of eq. 13 it is
     w v or +0.0, as ``np.where(1, w v, 0.0)`` would give.
     """
     value = None
     indicators = inputs.satisfied is not None
-    for term, weight in zip(terms, weights, strict=True):
+    for term, weight in weighted_terms:
         weighted = weight * term.value(inputs)
         if indicators and term.indicator is not None:
             weighted = weighted * term.indicator(inputs)
@@ -163,10 +166,9 @@ def weighted_sum(terms: tuple[RewardTerm, ...], weights: tuple[float | FloatArra
     return value
 
 
-def term_weights(terms: tuple[RewardTerm, ...], weights: RewardWeights
-                 ) -> tuple[float | FloatArray, ...]:
-    """Each term's weight from ``weights`` (by its ``weight_key``)."""
-    return tuple(getattr(weights, term.weight_key) for term in terms)
+def with_weights(terms: tuple[RewardTerm, ...], weights: RewardWeights) -> Weighted:
+    """Each term with its weight from ``weights`` (by its ``weight_key``)."""
+    return tuple((term, getattr(weights, term.weight_key)) for term in terms)
 
 
 def reward(rates_bps: FloatArray, gains: FloatArray, fairness: FloatArray, bandwidth_hz: float,
@@ -174,7 +176,7 @@ def reward(rates_bps: FloatArray, gains: FloatArray, fairness: FloatArray, bandw
     """Reward of eq. 13 over the last (user) axis: every term of :data:`REWARD_TERMS`."""
     inputs = RewardInputs.from_rates(rates_bps, gains, fairness, bandwidth_hz,
                                      weights.min_rate_bps)
-    return weighted_sum(REWARD_TERMS, term_weights(REWARD_TERMS, weights), inputs)
+    return weighted_sum(with_weights(REWARD_TERMS, weights), inputs)
 
 
 class RewardFromSums:
@@ -203,8 +205,8 @@ class RewardFromSums:
         self.needs_gain_sum = self.all_satisfied and GAIN in terms
         # the weights as arrays: numbers as 0-d arrays, which numpy combines with an array
         # faster than Python floats (the same numbers)
-        self._weights = tuple(np.asarray(weight, dtype=np.float64)
-                              for weight in term_weights(terms, weights))
+        self._weighted_terms = tuple((term, np.asarray(weight, dtype=np.float64))
+                                     for term, weight in with_weights(terms, weights))
 
     def __call__(self, rates_bps: FloatArray, gains: FloatArray, fairness: FloatArray,
                  se_sum: FloatArray, gain_sum: FloatArray | None) -> FloatArray:
@@ -212,5 +214,5 @@ class RewardFromSums:
         ``needs_gain_sum``) sum g_i, each (B,)."""
         if not self.all_satisfied:
             return reward(rates_bps, gains, fairness, self.bandwidth_hz, self.weights)
-        return weighted_sum(self.terms, self._weights,
+        return weighted_sum(self._weighted_terms,
                             RewardInputs(se_sum, fairness, gain_sum, self.num_users))
