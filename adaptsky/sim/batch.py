@@ -86,11 +86,19 @@ class NetworkState:
              sum_rate_bps: FloatArray, fairness: FloatArray, reward: FloatArray
              ) -> NetworkState:
         """The state with these fields, made without the frozen dataclass's ``__init__``,
-        which sets each field through ``object.__setattr__`` (for the environment's step)."""
+        which sets each field through ``object.__setattr__`` (for the environment's step):
+        each field is written straight into the instance's ``__dict__``, the cheapest way."""
         state = object.__new__(cls)
-        state.__dict__.update(uav_m=uav_m, alpha=alpha, gain=gain, los=los, p_los=p_los,
-                              rate_bps=rate_bps, sum_rate_bps=sum_rate_bps,
-                              fairness=fairness, reward=reward)
+        fields = state.__dict__
+        fields["uav_m"] = uav_m
+        fields["alpha"] = alpha
+        fields["gain"] = gain
+        fields["los"] = los
+        fields["p_los"] = p_los
+        fields["rate_bps"] = rate_bps
+        fields["sum_rate_bps"] = sum_rate_bps
+        fields["fairness"] = fairness
+        fields["reward"] = reward
         return state
 
     def for_env(self, index: int) -> dict[str, np.ndarray | float]:

@@ -81,6 +81,7 @@ class Observer:
             np.multiply(self._ten, gain_db, out=gain_db)
             np.subtract(gain_db, self._center, out=gain_db)
             np.divide(features, self._divisor, out=features)
+            height_m = height_m / self._max_height_m
         else:
             features[3] = gain
         _, num_envs, num_users = features.shape
@@ -90,10 +91,7 @@ class Observer:
         obs = np.empty((num_envs, self._size), dtype=np.float32)
         obs[:, :-1].reshape(num_envs, num_users, FEATURES_PER_USER)[...] = features.transpose(
             1, 2, 0)
-        if self.scaled:   # h / h_max in float64, rounded to float32 as it is written
-            np.divide(height_m, self._max_height_m, out=obs[:, -1])
-        else:
-            obs[:, -1] = height_m
+        obs[:, -1] = height_m
         return obs
 
 

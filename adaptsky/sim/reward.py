@@ -214,5 +214,8 @@ class RewardFromSums:
         ``needs_gain_sum``) sum g_i, each (B,)."""
         if not self.all_satisfied:
             return reward(rates_bps, gains, fairness, self.bandwidth_hz, self.weights)
-        return weighted_sum(self._weighted_terms,
-                            RewardInputs(se_sum, fairness, gain_sum, self.num_users))
+        # RewardInputs(se_sum, fairness, gain_sum, N), made without the named tuple's
+        # __new__ and its defaults (once per step)
+        inputs = tuple.__new__(RewardInputs, (se_sum, fairness, gain_sum, self.num_users,
+                                              None, None, None))
+        return weighted_sum(self._weighted_terms, inputs)

@@ -53,9 +53,13 @@ class SimState:
     @classmethod
     def _new(cls, config: FloatArray, users_m: FloatArray, t: int) -> SimState:
         """The state with these fields, made without the frozen dataclass's ``__init__``
-        (which sets each field through ``object.__setattr__``): once per step."""
+        (which sets each field through ``object.__setattr__``): once per step, so its fields
+        are written straight into the instance's ``__dict__``, the cheapest way."""
         state = object.__new__(cls)
-        state.__dict__.update(config=config, users_m=users_m, t=t)
+        fields = state.__dict__
+        fields["config"] = config
+        fields["users_m"] = users_m
+        fields["t"] = t
         return state
 
     @property
