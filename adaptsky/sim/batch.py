@@ -228,6 +228,8 @@ class NomaUavBatch:
         self._bandwidth_hz = np.array(self.bandwidth_hz)
         self._num_users = np.array(float(self.num_users))
         self._all_los = np.ones(self._shape, dtype=bool)
+        self._users_seen: FloatArray | None = None      # see _users_xy
+        self._users_seen_xy: FloatArray | None = None
 
     def _user_index(self) -> None:
         """Index arrays that put a step in user order, each (..., B, N).
@@ -395,7 +397,7 @@ class NomaUavBatch:
         # the observation's features (4, B, N) [x_UAV - x_i, y_UAV - y_i, alpha_i, g_i], raw;
         # rows 2 and 3 first hold every user's share and its partner's (alpha_k, 1 - alpha_k)
         features = np.empty(self._features_shape)
-        delta = np.subtract(per_user[:2], users_xy(state.users_m), out=features[:2])
+        delta = np.subtract(per_user[:2], self._users_xy(state.users_m), out=features[:2])
         height_m = per_user[2]
         geometry = LinkGeometry._from_offsets(
             delta[0], delta[1], height_m, self._user_height_m, uav_m, state.users_m,
@@ -426,6 +428,13 @@ class NomaUavBatch:
         self._obs = self._observer(features, gain, uav_m[:, 2], self._order_flat)
         return NetworkState._new(uav_m.copy(), alpha, gain, los, p_los, rates, total,
                                  fairness, rewards)
+
+    def _users_xy(self, users_m: FloatArray) -> FloatArray:
+        """:func:`~adaptsky.sim.state.users_xy` of ``users_m``, kept until the users move
+        (made once per move, not once per step)."""
+        if users_m is not self._users_seen:
+            self._users_seen, self._users_seen_xy = users_m, users_xy(users_m)
+        return self._users_seen_xy
 
     def evaluate_at(self, uav_m: FloatArray, alpha_first: FloatArray) -> NetworkState:
         """The network with every UAV at ``uav_m`` (B, 3) and first users' shares
