@@ -21,9 +21,9 @@ from adaptsky.channels.contract import (
 from adaptsky.channels.registry import get_model_class
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim import noma
-from adaptsky.sim.actions import TABLE_MAX_ACTIONS, ActionSet
 from adaptsky.sim.layout import pair_users, user_layouts
 from adaptsky.sim.observation import FEATURES_PER_USER, Observer, observe
+from adaptsky.sim.state import Dynamics, SimState, one_uav, step, user_positions, users_xy
 
 FloatArray = NDArray[np.float64]
 
@@ -86,11 +86,19 @@ class NetworkState:
              sum_rate_bps: FloatArray, fairness: FloatArray, reward: FloatArray
              ) -> NetworkState:
         """The state with these fields, made without the frozen dataclass's ``__init__``,
-        which sets each field through ``object.__setattr__`` (for the environment's step)."""
+        which sets each field through ``object.__setattr__`` (for the environment's step):
+        each field is written straight into the instance's ``__dict__``, the cheapest way."""
         state = object.__new__(cls)
-        state.__dict__.update(uav_m=uav_m, alpha=alpha, gain=gain, los=los, p_los=p_los,
-                              rate_bps=rate_bps, sum_rate_bps=sum_rate_bps,
-                              fairness=fairness, reward=reward)
+        fields = state.__dict__
+        fields["uav_m"] = uav_m
+        fields["alpha"] = alpha
+        fields["gain"] = gain
+        fields["los"] = los
+        fields["p_los"] = p_los
+        fields["rate_bps"] = rate_bps
+        fields["sum_rate_bps"] = sum_rate_bps
+        fields["fairness"] = fairness
+        fields["reward"] = reward
         return state
 
     def for_env(self, index: int) -> dict[str, np.ndarray | float]:
@@ -116,13 +124,19 @@ class NomaUavBatch:
     its own, so its numbers do not depend on B or on its neighbours (a stack of training
     seeds). ``weights`` gives each environment its own reward weights (eq. 13).
 
+    The state between steps is ``sim_state``, a :class:`~adaptsky.sim.state.SimState` with a
+    UAV axis (U = 1); :meth:`step` advances it with :func:`adaptsky.sim.state.step`, drawing
+    the users' headings from this batch's generators, then evaluates the channel, rates and
+    reward there (``state``, a :class:`NetworkState`).
+
     For small B a step costs what its numpy calls cost, not what they compute, so a step
     makes a fixed number of them whatever B (about 50; with per-environment seeds, plus one
     draw per environment where something is drawn). Every call is elementwise or reduces
     over users only, so environment b's numbers never depend on B or on its neighbours. The
-    UAV position and first users' shares live in one array (B, 3 + K), the configuration
-    [x, y, h, alpha_1 .. alpha_K], so an action is a table lookup, an addition and a clip;
-    eq. 2 is evaluated in user order through index arrays built once from the pairing.
+    UAV positions and first users' shares live in one array (B, U, 3 + K), the configuration
+    [x, y, h, alpha_1 .. alpha_K] of every UAV, so an action is a table lookup, an addition
+    and a clip; eq. 2 is evaluated in user order through index arrays into the flattened
+    configuration, built once from the pairing.
     """
 
     def __init__(self, scenario: Scenario, num_envs: int = 1,
@@ -135,8 +149,10 @@ class NomaUavBatch:
         self.num_envs = num_envs
         self.num_users = scenario.num_users
         self.num_clusters = scenario.num_clusters
+        self.num_uavs = 1
         self.channel = build_channel(scenario)
-        self.actions = ActionSet(self.num_clusters, scenario.uav.actions)
+        self._dynamics = Dynamics.of(scenario, num_envs, self.num_uavs)
+        self.actions = self._dynamics.actions
         self.weights = reward_weights(scenario) if weights is None else noma.stack_weights(
             weights)
         if weights is not None and len(weights) != num_envs:
@@ -149,12 +165,7 @@ class NomaUavBatch:
         if users_m.shape != (num_envs, self.num_users, 2):
             raise ValueError(f"users_m must have shape {(num_envs, self.num_users, 2)}, "
                              f"got {users_m.shape}")
-        uav = scenario.uav
-        self._start_m = np.array(uav.start_m, dtype=np.float64)
-        self._step_m = np.array(uav.step_m, dtype=np.float64)
-        half_m = scenario.area.side_m / 2
-        self._low_m = np.array([-half_m, -half_m, uav.min_height_m])
-        self._high_m = np.array([half_m, half_m, uav.max_height_m])
+        self._start_m = np.array(scenario.uav.start_m, dtype=np.float64)
         self._pair(users_m)
         self._prepare_step()
         self._seed(seed)
@@ -192,23 +203,9 @@ class NomaUavBatch:
 
     def _prepare_step(self) -> None:
         """Everything a step needs that does not change from step to step."""
-        scenario, k = self.scenario, self.num_clusters
-        power_step = scenario.uav.power_step
-        # the configuration [x, y, h, alpha_1 .. alpha_K] and its feasible set (alg. 1 line 7):
-        # |x|, |y| <= L/2, h_min <= h <= h_max, power_step <= alpha <= 1 - power_step
-        config_shape = (self.num_envs, 3 + k)
-        self._config_low = np.broadcast_to(np.concatenate(
-            [self._low_m, np.full(k, power_step)]), config_shape).copy()
-        self._config_high = np.broadcast_to(np.concatenate(
-            [self._high_m, np.full(k, 1.0 - power_step)]), config_shape).copy()
-        # an action changes the configuration by its directions times these steps
-        self._action_step = np.concatenate([self._step_m, np.full(k, power_step)])
-        self._action_count = self.actions.count
-        self._action_moves = (self.actions.table() * self._action_step
-                              if self._action_count <= TABLE_MAX_ACTIONS else None)
+        scenario = self.scenario
         self._user_index()
         self._speed_m = scenario.users.speed_m_per_step
-        self._half_side_m = scenario.area.side_m / 2
         self._los_mode = scenario.channel.los
         channel_type = type(self.channel)
         # the base class's sample_los and expected_gain, computed here from the p_los at hand
@@ -222,18 +219,24 @@ class NomaUavBatch:
         self._users_above_ground = scenario.users.height_m > 0
         self._reward = noma.RewardFromSums(self.weights, self.num_users, self.bandwidth_hz)
         self._shape = (self.num_envs, self.num_users)
+        # the shapes of the features (4, B, N) and of the per-user terms summed over users
+        self._features_shape = (FEATURES_PER_USER, *self._shape)
+        self._terms_shape = (4 if self._reward.needs_gain_sum else 3, *self._shape)
         self._observer = Observer(scenario, self._shape)
         # numbers as 0-d arrays: numpy combines them with an array faster than Python floats
         self._snr_scale = np.array(self.snr_scale)
         self._bandwidth_hz = np.array(self.bandwidth_hz)
         self._num_users = np.array(float(self.num_users))
         self._all_los = np.ones(self._shape, dtype=bool)
+        self._users_seen: FloatArray | None = None      # see _users_xy
+        self._users_seen_xy: FloatArray | None = None
 
     def _user_index(self) -> None:
         """Index arrays that put a step in user order, each (..., B, N).
 
         For user i of environment b in cluster k: ``_config_source`` (5, B, N) holds the flat
-        positions in the configuration (B, 3 + K) of its UAV's x, y, h and, twice, of alpha_k;
+        positions in the configuration (B, U, 3 + K) of its UAV's x, y, h and, twice, of
+        alpha_k (every user is served by UAV 0: U = 1);
         user i's share and its partner's are ``_share_offset + _share_sign`` alpha_k (2, B, N),
         i.e. alpha_k and 1 - alpha_k for a first user, the other way round for a second user.
         ``_cluster_users`` (2, B, N) holds the flat positions (b N + j) in a (B, N) array of
@@ -247,8 +250,9 @@ class NomaUavBatch:
         np.put_along_axis(cluster, self.second_user, np.arange(k), axis=1)
         is_second = np.zeros(shape, dtype=bool)
         np.put_along_axis(is_second, self.second_user, True, axis=1)
-        uav = np.broadcast_to(rows * (3 + k), shape)
-        alpha_k = rows * (3 + k) + 3 + cluster
+        serving_uav = np.zeros(shape, dtype=np.intp)
+        uav = rows * (self.num_uavs * (3 + k)) + serving_uav * (3 + k)
+        alpha_k = uav + 3 + cluster
         self._config_source = np.stack([uav, uav + 1, uav + 2, alpha_k, alpha_k])
         self._cluster_users = np.stack([
             rows * n + np.take_along_axis(self.first_user, cluster, axis=1),
@@ -282,9 +286,14 @@ class NomaUavBatch:
         return self.scenario.train.steps
 
     @property
+    def t(self) -> int:
+        """Steps since the episode started."""
+        return self.sim_state.t
+
+    @property
     def uav_m(self) -> FloatArray:
         """UAV positions (B, 3) [x, y, h], m (a view of the configuration)."""
-        return self._config[:, :3]
+        return one_uav(self.sim_state.config)[:, :3]
 
     @uav_m.setter
     def uav_m(self, value: FloatArray) -> None:
@@ -293,19 +302,24 @@ class NomaUavBatch:
     @property
     def alpha_first(self) -> FloatArray:
         """Power shares (B, K) of every cluster's first user (a view of the configuration)."""
-        return self._config[:, 3:]
+        return one_uav(self.sim_state.config)[:, 3:]
 
     @alpha_first.setter
     def alpha_first(self, value: FloatArray) -> None:
         self._set_config(self.uav_m, value)
 
+    def _config(self, uav_m: FloatArray, alpha_first: FloatArray) -> FloatArray:
+        """The configuration (B, U, 3 + K) of one UAV at ``uav_m`` (B, 3) with first users'
+        shares ``alpha_first`` (B, K), each broadcast to B."""
+        config = np.empty((self.num_envs, self.num_uavs, 3 + self.num_clusters))
+        one_uav(config)[:, :3] = uav_m
+        one_uav(config)[:, 3:] = alpha_first
+        return config
+
     def _set_config(self, uav_m: FloatArray, alpha_first: FloatArray) -> None:
-        """A new configuration (B, 3 + K) [x, y, h, alpha_1 .. alpha_K]; a configuration is
-        never changed in place, so views of it stay valid."""
-        config = np.empty((self.num_envs, 3 + self.num_clusters))
-        config[:, :3] = uav_m
-        config[:, 3:] = alpha_first
-        self._config = config
+        """A new state with the UAV at ``uav_m`` (B, 3) and shares ``alpha_first`` (B, K)."""
+        state = self.sim_state
+        self.sim_state = SimState._new(self._config(uav_m, alpha_first), state.users_m, state.t)
 
     def _link_gains(self, geometry: LinkGeometry) -> tuple[FloatArray, NDArray[np.bool_],
                                                            FloatArray]:
@@ -370,22 +384,23 @@ class NomaUavBatch:
         """alpha (B, N) of every user from the first users' shares (B, K)."""
         return self._to_users(alpha_first, 1.0 - alpha_first)
 
-    def _evaluate(self) -> NetworkState:
-        """The state at the current configuration and user positions; also sets ``_obs``.
+    def _evaluate(self, state: SimState) -> NetworkState:
+        """The network in ``state``; also sets ``_obs``.
 
         Eq. 2 (SINR) in user order, eq. 3 (rates), eq. 9 (Jain) and eq. 13 (reward); the sums
         over users of R, R^2, R/W (and g where the reward needs it) are one reduction.
         """
-        config, shape = self._config, self._shape
+        config = state.config
+        uav_m = one_uav(config)[:, :3]
         # per user (5, B, N): its UAV's x, y, h and, twice, its cluster's alpha_k
         per_user = config.take(self._config_source)
         # the observation's features (4, B, N) [x_UAV - x_i, y_UAV - y_i, alpha_i, g_i], raw;
         # rows 2 and 3 first hold every user's share and its partner's (alpha_k, 1 - alpha_k)
-        features = np.empty((FEATURES_PER_USER, *shape))
-        delta = np.subtract(per_user[:2], self._users_xy, out=features[:2])
+        features = np.empty(self._features_shape)
+        delta = np.subtract(per_user[:2], self._users_xy(state.users_m), out=features[:2])
         height_m = per_user[2]
         geometry = LinkGeometry._from_offsets(
-            delta[0], delta[1], height_m, self._user_height_m, config[:, :3], self._users_m,
+            delta[0], delta[1], height_m, self._user_height_m, uav_m, state.users_m,
             self._carrier_hz, self.bandwidth_hz,
             height_m - self._user_height_m if self._users_above_ground else height_m)
         gain, los, p_los = self._link_gains(geometry)
@@ -397,7 +412,7 @@ class NomaUavBatch:
         strong = (first_second[0] >= first_second[1]) ^ self._is_second
         sinr = noma.user_sinr(alpha, shares[1], gain, strong, self._snr_scale)
         bandwidth_hz, reward = self._bandwidth_hz, self._reward
-        terms = np.empty((4 if reward.needs_gain_sum else 3, *shape))
+        terms = np.empty(self._terms_shape)
         rates = np.multiply(bandwidth_hz, np.log2(_ONE + sinr), out=terms[0])  # eq. 3
         np.square(rates, out=terms[1])
         np.divide(rates, bandwidth_hz, out=terms[2])      # spectral efficiency R/W
@@ -410,16 +425,23 @@ class NomaUavBatch:
                          sums[3] if reward.needs_gain_sum else None)
         # the observer writes the gains over the partners' shares and scales every row in
         # place (alpha is divided by 1, which leaves it as it is)
-        self._obs = self._observer(features, gain, config[:, 2], self._order_flat)
-        return NetworkState._new(config[:, :3].copy(), alpha, gain, los, p_los, rates, total,
+        self._obs = self._observer(features, gain, uav_m[:, 2], self._order_flat)
+        return NetworkState._new(uav_m.copy(), alpha, gain, los, p_los, rates, total,
                                  fairness, rewards)
+
+    def _users_xy(self, users_m: FloatArray) -> FloatArray:
+        """:func:`~adaptsky.sim.state.users_xy` of ``users_m``, kept until the users move
+        (made once per move, not once per step)."""
+        if users_m is not self._users_seen:
+            self._users_seen, self._users_seen_xy = users_m, users_xy(users_m)
+        return self._users_seen_xy
 
     def evaluate_at(self, uav_m: FloatArray, alpha_first: FloatArray) -> NetworkState:
         """The network with every UAV at ``uav_m`` (B, 3) and first users' shares
         ``alpha_first`` (B, K), taken as given (no clipping); LoS is drawn as in a step.
         Baselines use this to hold a configuration."""
         self._set_config(uav_m, alpha_first)
-        self.state = self._evaluate()
+        self.state = self._evaluate(self.sim_state)
         return self.state
 
     def observation(self) -> NDArray[np.float32]:
@@ -437,76 +459,45 @@ class NomaUavBatch:
         if seed is not None:
             self._seed(seed)
         self._to_start()
-        self.state = self._evaluate()
+        self.state = self._evaluate(self.sim_state)
         return self._obs, self.state
 
     def _to_start(self) -> None:
         """Step 0: UAV at the start, first users' shares at start_alpha, users at home."""
-        self.t = 0
-        self._set_config(self._start_m, self.scenario.uav.start_alpha)
-        self.users_m = self.layouts_m
+        self.sim_state = SimState(self._config(self._start_m, self.scenario.uav.start_alpha),
+                                  user_positions(self.layouts_m), 0)
 
     @property
     def users_m(self) -> FloatArray:
-        """User positions (B, N, 2), m (a view of the positions kept as x and y, (2, B, N))."""
-        return self._users_m
+        """User positions (B, N, 2), m (``sim_state.users_m``)."""
+        return self.sim_state.users_m
 
     @users_m.setter
     def users_m(self, value: FloatArray) -> None:
-        self._set_users_xy(np.array(np.moveaxis(value, -1, 0), dtype=np.float64, order="C"))
+        state = self.sim_state
+        self.sim_state = SimState._new(state.config, user_positions(value), state.t)
 
-    def _set_users_xy(self, users_xy: FloatArray) -> None:
-        """New user positions (2, B, N), and their (B, N, 2) view, made once per move."""
-        self._users_xy = users_xy
-        self._users_m = np.moveaxis(users_xy, 0, -1)
-
-    def _move_users(self) -> None:
-        """Every user walks ``speed_m_per_step`` in a uniform random heading, clipped to the
-        area."""
-        speed = self._speed_m
-        if speed == 0:
-            return
+    def _headings(self) -> FloatArray:
+        """The step's user headings (B, N), rad, uniform: from the shared generator, or row b
+        from environment b's."""
         shape = (self.num_envs, self.num_users)
         if self.rngs is None:
-            heading = self.rng.uniform(0.0, 2 * np.pi, size=shape)
-        else:
-            heading = np.empty(shape)
-            for row, rng in zip(heading, self.rngs, strict=True):
-                row[...] = rng.uniform(0.0, 2 * np.pi, size=self.num_users)
-        moved = np.empty((2, *shape))     # x and y of every user
-        np.cos(heading, out=moved[0])
-        np.sin(heading, out=moved[1])
-        moved *= speed
-        moved += self._users_xy
-        half_m = self._half_side_m
-        # np.clip(moved, -L/2, L/2)
-        self._set_users_xy(np.minimum(np.maximum(moved, -half_m, out=moved), half_m, out=moved))
-
-    def _action_changes(self, actions: NDArray[np.integer]) -> FloatArray:
-        """Checked actions (B,) as changes (B, 3 + K) of the configuration."""
-        actions = np.asarray(actions)
-        if actions.shape != (self.num_envs,):
-            raise ValueError(f"expected {self.num_envs} actions, got shape {actions.shape}")
-        count = self._action_count
-        if actions.dtype.kind in "iu" and self.num_envs <= 16:   # cheaper than two reductions
-            values = actions.tolist()
-            valid = min(values) >= 0 and max(values) < count
-        else:
-            valid = bool(actions.min() >= 0 and actions.max() < count)
-        if not valid:
-            raise ValueError(f"actions must lie in [0, {count})")
-        if self._action_moves is not None and actions.dtype.kind in "iu":
-            return self._action_moves.take(actions, axis=0)
-        return self.actions.decode(actions) * self._action_step
+            return self.rng.uniform(0.0, 2 * np.pi, size=shape)
+        heading = np.empty(shape)
+        for row, rng in zip(heading, self.rngs, strict=True):
+            row[...] = rng.uniform(0.0, 2 * np.pi, size=self.num_users)
+        return heading
 
     def apply(self, actions: NDArray[np.integer]) -> None:
-        """Move every UAV and change every alpha by its action, clipped to the feasible set.
+        """Move every UAV and change every alpha by its action, clipped to the feasible set
+        (:meth:`adaptsky.sim.state.Dynamics.moved`); users and the step count stay.
 
         Feasible set (alg. 1 line 7): |x|, |y| <= L/2, h_min <= h <= h_max,
         power_step <= alpha <= 1 - power_step.
         """
-        config = self._config + self._action_changes(actions)
-        self._config = np.minimum(np.maximum(config, self._config_low), self._config_high)
+        state, dynamics = self.sim_state, self._dynamics
+        config = dynamics.moved(state.config, dynamics.checked(actions))
+        self.sim_state = SimState._new(config, state.users_m, state.t)
 
     def step(self, actions: NDArray[np.integer]
              ) -> tuple[NDArray[np.float32], FloatArray, bool, NetworkState]:
@@ -517,9 +508,9 @@ class NomaUavBatch:
         """
         if self.state is None:
             raise RuntimeError("call reset() before step()")
-        self.apply(actions)
-        if self._speed_m:
-            self._move_users()
-        self.t += 1
-        state = self.state = self._evaluate()
-        return self._obs, state.reward, self.t >= self.max_steps, state
+        dynamics = self._dynamics
+        actions = dynamics.checked(actions)    # before anything is drawn
+        sim_state = self.sim_state = step(self.sim_state, actions, dynamics,
+                                          self._headings() if self._speed_m else None)
+        state = self.state = self._evaluate(sim_state)
+        return self._obs, state.reward, sim_state.t >= self.max_steps, state

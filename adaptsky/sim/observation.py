@@ -56,6 +56,7 @@ class Observer:
 
     def __init__(self, scenario: Scenario, shape: tuple[int, int]) -> None:
         self.scaled = scenario.agent.observation == "scaled"
+        self._size = observation_size(shape[1])
         # 0-d arrays: numpy combines them with an array faster than Python floats
         self._ten = np.array(10.0)
         self._center = np.array(GAIN_DB_CENTER)
@@ -87,7 +88,7 @@ class Observer:
         if order_flat is not None:
             features = features.reshape(FEATURES_PER_USER, -1).take(order_flat, axis=1).reshape(
                 FEATURES_PER_USER, num_envs, num_users)
-        obs = np.empty((num_envs, observation_size(num_users)), dtype=np.float32)
+        obs = np.empty((num_envs, self._size), dtype=np.float32)
         obs[:, :-1].reshape(num_envs, num_users, FEATURES_PER_USER)[...] = features.transpose(
             1, 2, 0)
         obs[:, -1] = height_m

@@ -22,6 +22,18 @@ UNIFORM = {"positions_m": None, "count": 6, "placement": "uniform", "layout_seed
            "pairing": "near-far"}
 
 
+def _reward(rates, gains, fairness, bandwidth_hz, weights):
+    """Eq. 13 written plainly, term after term (as noma.reward was before its terms)."""
+    min_rate_bps = np.asarray(weights.min_rate_bps)
+    satisfied = rates >= min_rate_bps[..., None]
+    se = rates / bandwidth_hz
+    value = weights.w_rate * se.sum(axis=-1) * satisfied.all(axis=-1)
+    value = value + np.where(min_rate_bps == 0, weights.w_fairness * fairness, 0.0)
+    value = value + weights.w_gain * gains.sum(axis=-1)
+    value = value + weights.w_satisfied * satisfied.sum(axis=-1)
+    return value + weights.w_unsatisfied * np.where(satisfied, 0.0, se).sum(axis=-1)
+
+
 def _geometry(uav_m, users_m):
     """LinkGeometry.between as first written."""
     delta = users_m - uav_m[:, None, :2]
@@ -117,7 +129,7 @@ class Reference:
                  "alpha": self._to_users(self.alpha_first, 1.0 - self.alpha_first),
                  "gain": gain, "los": los, "p_los": p_los, "rate_bps": rates,
                  "sum_rate_bps": rates.sum(axis=1), "fairness": fairness,
-                 "reward": noma.reward(rates, gain, fairness, bandwidth_hz, self.weights)}
+                 "reward": _reward(rates, gain, fairness, bandwidth_hz, self.weights)}
         return self.observe(state), state
 
     def observe(self, state):

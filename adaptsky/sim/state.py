@@ -1,0 +1,197 @@
+"""The simulation's explicit state and its step (docs/model.md §3), in the style of gymnax:
+:func:`step` is a pure function ``(state, actions, dynamics, headings) -> state'``.
+
+Several UAVs are an axis, not a loop: every UAV array has the UAV axis U after the
+environments' axis B. Today U = 1 (several UAVs, SPEC section 8.1, are future work). Code that
+knows one UAV per environment (training, rollouts, environments, baselines) sees positions
+(B, 3) and shares (B, K) through :func:`one_uav`, the one place where the UAV axis is dropped.
+
+A step's randomness (the users' headings) is drawn by the caller, which owns the generators,
+and handed to :func:`step`; the channel, rates and reward of the new state are evaluated by
+:class:`adaptsky.sim.batch.NomaUavBatch`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from adaptsky.scenario.models import Scenario
+from adaptsky.sim.actions import TABLE_MAX_ACTIONS, ActionSet
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class SimState:
+    """Where everything is between two steps.
+
+    ``config`` (B, U, 3 + K): every UAV's configuration [x_m, y_m, h_m, alpha_1 .. alpha_K],
+    its position (m) and the power shares of its K clusters' first users (the second user of
+    cluster k has 1 - alpha_k, docs/model.md §1); one array, so that an action is a table
+    lookup, an addition and a clip. ``users_m`` (B, N, 2): user positions [x, y], m.
+    ``t``: steps since the episode started.
+
+    A state is never changed in place: a step makes a new one, so views of it stay valid.
+    """
+
+    config: FloatArray
+    users_m: FloatArray
+    t: int
+
+    @classmethod
+    def of(cls, uav_m: FloatArray, alpha_first: FloatArray, users_m: FloatArray, t: int = 0
+           ) -> SimState:
+        """A state from UAV positions ``uav_m`` (B, U, 3), first users' shares
+        ``alpha_first`` (B, U, K) and user positions ``users_m`` (B, N, 2) (all copied)."""
+        config = np.concatenate([np.asarray(uav_m, dtype=np.float64),
+                                 np.asarray(alpha_first, dtype=np.float64)], axis=-1)
+        return cls(config, user_positions(users_m), t)
+
+    @classmethod
+    def _new(cls, config: FloatArray, users_m: FloatArray, t: int) -> SimState:
+        """The state with these fields, made without the frozen dataclass's ``__init__``
+        (which sets each field through ``object.__setattr__``): once per step, so its fields
+        are written straight into the instance's ``__dict__``, the cheapest way."""
+        state = object.__new__(cls)
+        fields = state.__dict__
+        fields["config"] = config
+        fields["users_m"] = users_m
+        fields["t"] = t
+        return state
+
+    @property
+    def uav_m(self) -> FloatArray:
+        """UAV positions (B, U, 3) [x, y, h], m (a view of the configuration)."""
+        return self.config[..., :3]
+
+    @property
+    def alpha_first(self) -> FloatArray:
+        """First users' power shares (B, U, K) (a view of the configuration)."""
+        return self.config[..., 3:]
+
+    @property
+    def num_uavs(self) -> int:
+        """U."""
+        return self.config.shape[1]
+
+
+def one_uav(values: FloatArray) -> FloatArray:
+    """``values`` (B, U, ...) of the only UAV (U = 1), (B, ...): a view.
+
+    The one place where the UAV axis meets code that knows one UAV per environment
+    (``NomaUavBatch.uav_m`` and ``alpha_first``, ``NetworkState.uav_m``, the geometry the
+    channel plugins see, the observation's height).
+    """
+    return values[:, 0]
+
+
+def user_positions(users_m: FloatArray) -> FloatArray:
+    """A copy of ``users_m`` (B, N, 2), m, laid out as x and y arrays (2, B, N): a (B, N, 2)
+    view whose :func:`users_xy` is C-contiguous, the layout a step computes with."""
+    return np.array(np.moveaxis(users_m, -1, 0), dtype=np.float64, order="C").transpose(1, 2, 0)
+
+
+def users_xy(users_m: FloatArray) -> FloatArray:
+    """User positions (B, N, 2) as x and y (2, B, N): a view."""
+    return users_m.transpose(2, 0, 1)
+
+
+@dataclass(frozen=True)
+class Dynamics:
+    """The rules of a step that do not change (docs/model.md §3) for B environments of U UAVs.
+
+    ``actions``: the action set of ``action_count`` actions; ``action_step`` (3 + K,):
+    delta_x, delta_y, delta_h (m) and delta_alpha K times; ``action_moves`` (A, U, 3 + K):
+    the change of the configuration by each of the A actions (None for sets over
+    ``TABLE_MAX_ACTIONS``, decoded instead); ``config_low`` and ``config_high``
+    (B, U, 3 + K): the feasible set (alg. 1 line 7), |x|, |y| <= L/2, h_min <= h <= h_max,
+    delta_alpha <= alpha <= 1 - delta_alpha, for ``num_envs`` B environments; users walk
+    ``speed_m_per_step`` per step inside |x|, |y| <= ``half_side_m``.
+    """
+
+    actions: ActionSet
+    action_count: int
+    action_step: FloatArray
+    action_moves: FloatArray | None
+    config_low: FloatArray
+    config_high: FloatArray
+    num_envs: int
+    speed_m_per_step: float
+    half_side_m: float
+
+    @classmethod
+    def of(cls, scenario: Scenario, num_envs: int, num_uavs: int = 1) -> Dynamics:
+        """The dynamics of ``scenario`` for ``num_envs`` environments of ``num_uavs`` UAVs."""
+        uav, k = scenario.uav, scenario.num_clusters
+        half_m = scenario.area.side_m / 2
+        power_step = uav.power_step
+        config_shape = (num_envs, num_uavs, 3 + k)
+        low = np.concatenate([[-half_m, -half_m, uav.min_height_m], np.full(k, power_step)])
+        high = np.concatenate([[half_m, half_m, uav.max_height_m],
+                               np.full(k, 1.0 - power_step)])
+        action_set = ActionSet(k, uav.actions)
+        action_step = np.concatenate([np.array(uav.step_m, dtype=np.float64),
+                                      np.full(k, power_step)])
+        moves = None
+        if action_set.count <= TABLE_MAX_ACTIONS:
+            moves = (action_set.table() * action_step).reshape(action_set.count, num_uavs,
+                                                                3 + k)
+        return cls(action_set, action_set.count, action_step, moves,
+                   np.broadcast_to(low, config_shape).copy(),
+                   np.broadcast_to(high, config_shape).copy(), num_envs,
+                   scenario.users.speed_m_per_step, half_m)
+
+    def checked(self, actions: NDArray[np.integer]) -> NDArray[np.integer]:
+        """``actions`` (B,) as an array, after checking their shape and range."""
+        actions = np.asarray(actions)
+        num_envs = self.num_envs
+        if actions.shape != (num_envs,):
+            raise ValueError(f"expected {num_envs} actions, got shape {actions.shape}")
+        count = self.action_count
+        if actions.dtype.kind in "iu" and num_envs <= 16:   # cheaper than two reductions
+            values = actions.tolist()
+            valid = min(values) >= 0 and max(values) < count
+        else:
+            valid = bool(actions.min() >= 0 and actions.max() < count)
+        if not valid:
+            raise ValueError(f"actions must lie in [0, {count})")
+        return actions
+
+    def changes(self, actions: NDArray[np.integer]) -> FloatArray:
+        """Checked actions (B,) as changes (B, U, 3 + K) of the configuration."""
+        if self.action_moves is not None and actions.dtype.kind in "iu":
+            return self.action_moves.take(actions, axis=0)
+        shape = self.config_low.shape
+        return (self.actions.decode(actions) * self.action_step).reshape(shape)
+
+    def moved(self, config: FloatArray, actions: NDArray[np.integer]) -> FloatArray:
+        """The configuration (B, U, 3 + K) after checked ``actions`` (B,): every UAV moved and
+        every alpha changed by its action, clipped to the feasible set (alg. 1 line 7)."""
+        return np.minimum(np.maximum(config + self.changes(actions), self.config_low),
+                          self.config_high)
+
+    def walked(self, users_m: FloatArray, headings_rad: FloatArray) -> FloatArray:
+        """User positions (B, N, 2) after each walked ``speed_m_per_step`` along its heading
+        (B, N), rad, clipped to the area."""
+        moved = np.empty((2, *headings_rad.shape))     # x and y of every user
+        np.cos(headings_rad, out=moved[0])
+        np.sin(headings_rad, out=moved[1])
+        moved *= self.speed_m_per_step
+        moved += users_xy(users_m)
+        half_m = self.half_side_m
+        # np.clip(moved, -L/2, L/2)
+        np.minimum(np.maximum(moved, -half_m, out=moved), half_m, out=moved)
+        return moved.transpose(1, 2, 0)
+
+
+def step(state: SimState, actions: NDArray[np.integer], dynamics: Dynamics,
+         headings_rad: FloatArray | None = None) -> SimState:
+    """The state after one step (docs/model.md §3): UAVs and shares moved by the checked
+    ``actions`` (B,) and clipped (:meth:`Dynamics.moved`), users walked along
+    ``headings_rad`` (B, N) where they move (None: they stand), the step count plus one."""
+    users_m = state.users_m if headings_rad is None else dynamics.walked(state.users_m,
+                                                                         headings_rad)
+    return SimState._new(dynamics.moved(state.config, actions), users_m, state.t + 1)
