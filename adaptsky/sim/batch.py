@@ -146,6 +146,7 @@ class NomaUavBatch:
         if num_envs < 1:
             raise ValueError(f"num_envs must be >= 1, got {num_envs}")
         self.scenario = scenario
+        self._max_steps = scenario.train.steps
         self.num_envs = num_envs
         self.num_users = scenario.num_users
         self.num_clusters = scenario.num_clusters
@@ -283,7 +284,8 @@ class NomaUavBatch:
 
     @property
     def max_steps(self) -> int:
-        return self.scenario.train.steps
+        """T, the time limit of an episode (``train.steps``)."""
+        return self._max_steps
 
     @property
     def t(self) -> int:
@@ -323,11 +325,12 @@ class NomaUavBatch:
 
     def _link_gains(self, geometry: LinkGeometry) -> tuple[FloatArray, NDArray[np.bool_],
                                                            FloatArray]:
-        """Gain, LoS state and LoS probability of every link under the scenario's LoS mode."""
+        """Gain, LoS state and LoS probability of every link under the scenario's LoS mode
+        (the large-scale gains themselves where the channel draws no fading)."""
+        if not self._fading:
+            return self._large_scale_gains(geometry)
         gain, los, p_los = self._large_scale_gains(geometry)
-        if self._fading:
-            gain = gain * self._sample_fading(geometry, los)
-        return gain, los, p_los
+        return gain * self._sample_fading(geometry, los), los, p_los
 
     def _large_scale_gains(self, geometry: LinkGeometry) -> tuple[FloatArray,
                                                                   NDArray[np.bool_], FloatArray]:
@@ -397,13 +400,16 @@ class NomaUavBatch:
         # the observation's features (4, B, N) [x_UAV - x_i, y_UAV - y_i, alpha_i, g_i], raw;
         # rows 2 and 3 first hold every user's share and its partner's (alpha_k, 1 - alpha_k)
         features = np.empty(self._features_shape)
-        delta = np.subtract(per_user[:2], self._users_xy(state.users_m), out=features[:2])
+        users_m = state.users_m  # their (2, B, N) view, made anew only when they moved
+        xy = self._users_seen_xy if users_m is self._users_seen else self._users_xy(users_m)
+        delta = np.subtract(per_user[:2], xy, out=features[:2])
         height_m = per_user[2]
         geometry = LinkGeometry._from_offsets(
             delta[0], delta[1], height_m, self._user_height_m, uav_m, state.users_m,
             self._carrier_hz, self.bandwidth_hz,
             height_m - self._user_height_m if self._users_above_ground else height_m)
-        gain, los, p_los = self._link_gains(geometry)
+        gain, los, p_los = (self._link_gains(geometry) if self._fading
+                            else self._large_scale_gains(geometry))
         shares = np.add(self._share_offset, self._share_sign * per_user[3:],
                         out=features[2:])
         alpha = shares[0]
@@ -513,4 +519,4 @@ class NomaUavBatch:
         sim_state = self.sim_state = step(self.sim_state, actions, dynamics,
                                           self._headings() if self._speed_m else None)
         state = self.state = self._evaluate(sim_state)
-        return self._obs, state.reward, sim_state.t >= self.max_steps, state
+        return self._obs, state.reward, sim_state.t >= self._max_steps, state

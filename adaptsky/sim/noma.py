@@ -52,7 +52,9 @@ def user_sinr(alpha: FloatArray, alpha_partner: FloatArray, gain: FloatArray,
     partner's share as interference, SINR = alpha_i s g_i / (alpha_p s g_i + 1).
     """
     signal = snr_scale * gain
-    return alpha * signal / np.where(strong, _ONE, alpha_partner * signal + _ONE)
+    interference = alpha_partner * signal + _ONE
+    interference[strong] = 1.0  # np.where's numbers, without its Python dispatcher
+    return alpha * signal / interference
 
 
 def rate_bps(sinr: FloatArray, bandwidth_hz: float) -> FloatArray:
@@ -71,6 +73,6 @@ def jain_from_sums(total: FloatArray, squares: FloatArray, n_users: int | FloatA
                    ) -> FloatArray:
     """Jain's index (eq. 9) from sum R and sum R^2 over the N = ``n_users`` users: 1 where
     sum R^2 = 0 (no division there)."""
-    fairness = np.empty_like(squares)
+    fairness = np.empty(squares.shape, dtype=squares.dtype)  # empty_like, without dispatch
     fairness.fill(1.0)
     return np.divide(total**2, n_users * squares, out=fairness, where=squares > _ZERO)
