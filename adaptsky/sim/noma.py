@@ -52,9 +52,7 @@ def user_sinr(alpha: FloatArray, alpha_partner: FloatArray, gain: FloatArray,
     partner's share as interference, SINR = alpha_i s g_i / (alpha_p s g_i + 1).
     """
     signal = snr_scale * gain
-    interference = alpha_partner * signal + _ONE
-    interference[strong] = 1.0  # np.where's numbers, without its Python dispatcher
-    return alpha * signal / interference
+    return alpha * signal / np.where(strong, _ONE, alpha_partner * signal + _ONE)
 
 
 def rate_bps(sinr: FloatArray, bandwidth_hz: float) -> FloatArray:
