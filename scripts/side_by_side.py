@@ -5,10 +5,11 @@ both alike).
     .venv/bin/python scripts/side_by_side.py REV --rounds 3 -- benchmarks/env_throughput.py
 
 Each round runs the benchmark script of REV with REV's code first on PYTHONPATH (and its
-built-in channel models), then the working tree's script with the working tree's code; both in
-this environment. Prints every output under its label, then the figures side by side: for
-every line that both outputs share but for its numbers (a table row, by its first number),
-the other numbers of each round.
+built-in channel models) and the working tree's script with the working tree's code, both in
+this environment; REV first in odd rounds, the working tree first in even ones. Prints every
+output under its label, then the figures side by side: for every line that both outputs
+share but for its numbers (a table row, by its first number), the other numbers of each
+round.
 """
 
 from __future__ import annotations
@@ -68,8 +69,11 @@ def main() -> int:
         subprocess.run(["git", "worktree", "add", "-q", "--detach", str(tree), args.rev],
                        cwd=ROOT, check=True)
         try:
+            sides = [(args.rev, tree), ("working tree", ROOT)]
             for round_ in range(1, args.rounds + 1):
-                for label, code in ((args.rev, tree), ("working tree", ROOT)):
+                # ABBA: the side that runs first alternates, so a drift of the machine's
+                # speed during the rounds hits both alike
+                for label, code in sides if round_ % 2 else sides[::-1]:
                     output = run(code, argv)
                     print(f"--- round {round_}, {label} ---\n{output.rstrip()}\n", flush=True)
                     for key, numbers in rows(output).items():
