@@ -213,6 +213,9 @@ class NomaUavBatch:
         self._own_sample_los = channel_type.sample_los is ChannelModel.sample_los
         self._own_expected_gain = channel_type.expected_gain is ChannelModel.expected_gain
         self._fading = fading_active(self.channel)
+        # gain, LoS state and LoS probability of every link under the scenario's LoS mode,
+        # with the step's fading where the channel draws it (chosen once, not every step)
+        self._link_gains = self._faded_gains if self._fading else self._large_scale_gains
         self._carrier_hz = carrier_hz(scenario)
         # user antenna heights (B, N), and h - h_UT needs a subtraction only where they are > 0
         self._user_height_m = np.full((self.num_envs, self.num_users), scenario.users.height_m)
@@ -323,12 +326,10 @@ class NomaUavBatch:
         state = self.sim_state
         self.sim_state = SimState._new(self._config(uav_m, alpha_first), state.users_m, state.t)
 
-    def _link_gains(self, geometry: LinkGeometry) -> tuple[FloatArray, NDArray[np.bool_],
-                                                           FloatArray]:
-        """Gain, LoS state and LoS probability of every link under the scenario's LoS mode
-        (the large-scale gains themselves where the channel draws no fading)."""
-        if not self._fading:
-            return self._large_scale_gains(geometry)
+    def _faded_gains(self, geometry: LinkGeometry) -> tuple[FloatArray, NDArray[np.bool_],
+                                                            FloatArray]:
+        """The large-scale gains times the step's fading factors, with their LoS states and
+        probabilities (``_link_gains`` where the channel draws fading)."""
         gain, los, p_los = self._large_scale_gains(geometry)
         return gain * self._sample_fading(geometry, los), los, p_los
 
@@ -400,16 +401,13 @@ class NomaUavBatch:
         # the observation's features (4, B, N) [x_UAV - x_i, y_UAV - y_i, alpha_i, g_i], raw;
         # rows 2 and 3 first hold every user's share and its partner's (alpha_k, 1 - alpha_k)
         features = np.empty(self._features_shape)
-        users_m = state.users_m  # their (2, B, N) view, made anew only when they moved
-        xy = self._users_seen_xy if users_m is self._users_seen else self._users_xy(users_m)
-        delta = np.subtract(per_user[:2], xy, out=features[:2])
+        delta = np.subtract(per_user[:2], self._users_xy(state.users_m), out=features[:2])
         height_m = per_user[2]
         geometry = LinkGeometry._from_offsets(
             delta[0], delta[1], height_m, self._user_height_m, uav_m, state.users_m,
             self._carrier_hz, self.bandwidth_hz,
             height_m - self._user_height_m if self._users_above_ground else height_m)
-        gain, los, p_los = (self._link_gains(geometry) if self._fading
-                            else self._large_scale_gains(geometry))
+        gain, los, p_los = self._link_gains(geometry)
         shares = np.add(self._share_offset, self._share_sign * per_user[3:],
                         out=features[2:])
         alpha = shares[0]

@@ -218,9 +218,4 @@ class RewardFromSums:
         # __new__ and its defaults (once per step)
         inputs = tuple.__new__(RewardInputs, (se_sum, fairness, gain_sum, self.num_users,
                                               None, None, None))
-        # weighted_sum without indicators (every user is satisfied), inline: once per step
-        value = None
-        for term, weight in self._weighted_terms:
-            weighted = weight * term.value(inputs)
-            value = weighted if value is None else value + weighted
-        return value
+        return weighted_sum(self._weighted_terms, inputs)

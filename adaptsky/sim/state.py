@@ -170,10 +170,8 @@ class Dynamics:
     def moved(self, config: FloatArray, actions: NDArray[np.integer]) -> FloatArray:
         """The configuration (B, U, 3 + K) after checked ``actions`` (B,): every UAV moved and
         every alpha changed by its action, clipped to the feasible set (alg. 1 line 7)."""
-        moves = self.action_moves  # changes(), inline: this runs once per step
-        change = (moves.take(actions, axis=0) if moves is not None and actions.dtype.kind in "iu"
-                  else self.changes(actions))
-        return np.minimum(np.maximum(config + change, self.config_low), self.config_high)
+        return np.minimum(np.maximum(config + self.changes(actions), self.config_low),
+                          self.config_high)
 
     def walked(self, users_m: FloatArray, headings_rad: FloatArray) -> FloatArray:
         """User positions (B, N, 2) after each walked ``speed_m_per_step`` along its heading

@@ -28,7 +28,7 @@ from adaptsky.arrays import Field
 from adaptsky.channels.registry import get_model_class
 from adaptsky.errors import AdaptskyError, PluginError
 from adaptsky.scenario import Scenario, parse_scenario
-from adaptsky.scenario.agents import DEFAULT_ALGORITHM
+from adaptsky.scenario.agents import algorithm_tag
 from adaptsky.sim.actions import ActionSet
 from adaptsky.sim.observation import observation_size
 
@@ -326,9 +326,9 @@ class Validator:
                 self.fail("/config", f"section '{section}' is missing",
                           "the resolved scenario with every section")
             keys = CONFIG_KEYS.get(section, ())
-            if section == "agent":
-                spec = ALGORITHMS.get(config["agent"].get("algorithm", DEFAULT_ALGORITHM))
-                keys = spec.config_keys if spec is not None else ()
+            if section == "agent":  # an unknown algorithm is parse_scenario's one line
+                name = algorithm_tag(config["agent"])
+                keys = ALGORITHMS[name].config_keys if name is not None else ()
             for key in keys:
                 if key not in config[section]:
                     self.fail("/config", f"{section}.{key} is missing",

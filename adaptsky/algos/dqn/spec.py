@@ -68,18 +68,16 @@ class DqnSpec:
 
     # ---- the checkpoint -------------------------------------------------------------------
 
-    def _weights(self, check: LayoutCheck, group: Node, name: str,
-                 shapes: dict[str, tuple[int, ...]]) -> None:
-        weights = check.group(group, name)
-        check.exact_members(weights, shapes)
+    @staticmethod
+    def _weights(check: LayoutCheck, group: Node, shapes: dict[str, tuple[int, ...]]) -> None:
+        """A group of network weights: every parameter of ``shapes``, nothing else."""
+        check.exact_members(group, shapes)
         for param, shape in shapes.items():
-            check.dataset(weights, Field(param, "float", ()), {}, shape)
+            check.dataset(group, Field(param, "float", ()), {}, shape)
 
     def check_policy(self, check: LayoutCheck, group: Node, scenario: Scenario) -> None:
         """A stored policy network: every parameter of :func:`network`, nothing else."""
-        check.exact_members(group, network(scenario))
-        for param, shape in network(scenario).items():
-            check.dataset(group, Field(param, "float", ()), {}, shape)
+        self._weights(check, group, network(scenario))
 
     def check_checkpoint(self, check: LayoutCheck, group: Node, scenario: Scenario,
                          episodes_done: int) -> None:
@@ -88,7 +86,7 @@ class DqnSpec:
         check.exact_members(agent, ("policy", "target", "optimizer"), extra_ok=("torch_rng",))
         shapes = network(scenario)
         for name in ("policy", "target"):
-            self._weights(check, agent, name, shapes)
+            self._weights(check, check.group(agent, name), shapes)
         rows, position = replay_rows(scenario, episodes_done)
         optimizer = check.group(agent, "optimizer")
         check.attr(optimizer, "param_groups_json", "json")

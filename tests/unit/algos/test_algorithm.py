@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import h5py
 import numpy as np
 import pytest
 import torch
@@ -20,9 +21,8 @@ from adaptsky.algos.protocol import Algorithm
 from adaptsky.errors import ScenarioError
 from adaptsky.rollouts.rollout import checkpoint_policy
 from adaptsky.scenario import parse_scenario
-from adaptsky.scenario.agents import DqnAgent
+from adaptsky.scenario.agents import AGENT_MODELS, DqnAgent
 from adaptsky.store.layout import validate_run
-from adaptsky.store.run_file import RunReader
 from adaptsky.training.stack_run import Member, StackRun
 from adaptsky_cli.cli.main import main
 from tests.conftest import make_scenario
@@ -60,6 +60,13 @@ def test_validate_refuses_an_unknown_algorithm_in_one_line(tmp_path: Path, capsy
     printed = capsys.readouterr()
     lines = (printed.out + printed.err).strip().splitlines()
     assert lines == [f"{path}: agent.algorithm: unknown algorithm 'a2c'; choose from dqn"]
+
+
+def test_every_agent_model_has_its_algorithm_and_back():
+    """The [agent] models (scenario layer) and the algorithms (algos layer) name the same set."""
+    assert set(AGENT_MODELS) == set(registry.ALGORITHMS)
+    for name, spec in registry.ALGORITHMS.items():
+        assert spec.name == name
 
 
 def test_unknown_algorithm_lookup_names_the_known_ones():
@@ -116,28 +123,12 @@ def test_training_validation_and_evaluation_go_through_the_registry(monkeypatch,
     assert policy(observations).shape == (3,)
 
 
-def test_the_validator_delegates_the_checkpoint_to_the_algorithm(monkeypatch, trained_run):
+def test_the_validator_delegates_the_checkpoint_to_the_algorithm(monkeypatch, tiny_run):
     spy = Recording()
     monkeypatch.setitem(registry.ALGORITHMS, "dqn", spy)
-    with RunReader(trained_run) as reader:
-        assert reader.seeds
-    assert "check_checkpoint" in spy.calls
-    import h5py
-    with h5py.File(trained_run) as file:
-        validate_run(file, trained_run)
-
-
-@pytest.fixture
-def trained_run(tmp_path: Path) -> Path:
-    from adaptsky.training.api import train
-
-    path = tmp_path / "run.h5"
-    scenario_path = tmp_path / "s.toml"
-    scenario_path.write_text('name = "tiny"\n[agent]\nhidden_sizes = [8]\nbatch_size = 4\n'
-                             'memory_size = 40\n[train]\nsteps = 6\nepisodes = 2\n'
-                             'eval_every = 0\nseeds = [1]\n')
-    train(scenario_path=scenario_path, out=path, workers=1, quiet=True)
-    return path
+    with h5py.File(tiny_run) as file:
+        validate_run(file, tiny_run)
+    assert spy.calls.count("check_checkpoint") == 2  # one checkpoint per seed (0 and 1)
 
 
 # ---- one forward pass ----------------------------------------------------------------------
