@@ -1,5 +1,6 @@
-"""Evaluating a plan: greedy rollouts of every run of the evaluated groups and the baselines
-on the same layouts, one eval file each in ``DIR/evals/``.
+"""Evaluating a plan: greedy rollouts of every run of the evaluated groups (its last policy,
+and its best one where the experiment asks) and the baselines on the same layouts, one eval
+file each in ``DIR/evals/`` (``<run>.h5``, ``<run>-best.h5``, ``<baseline>[-<value>].h5``).
 
 An eval file records what it evaluated (scenario, layouts, steps and, for a policy, the
 episodes its run had done); a later call reuses it when that record matches, so a finished
@@ -9,7 +10,7 @@ folder is not evaluated twice.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -21,11 +22,12 @@ from adaptsky.evaluation.api import (
     eval_layouts,
     results_json,
     run_baseline,
+    with_policy,
 )
 from adaptsky.experiment.plan import Plan, RunSpec
 from adaptsky.progress import Reporter, WorkProgress
 from adaptsky.rollouts.metrics import Method
-from adaptsky.rollouts.rollout import checkpoint_policy, rollout
+from adaptsky.rollouts.rollout import greedy_policy, rollout
 from adaptsky.scenario import Scenario, parse_scenario
 from adaptsky.scenario.variants import eval_scenario
 from adaptsky.store.eval_file import read_eval_metrics, write_eval
@@ -37,12 +39,20 @@ Metrics = dict[str, np.ndarray]
 
 @dataclass
 class Evaluations:
-    """Per-layout metrics of every evaluated run (by run name) and baseline (by method and
-    sweep value); ``missing`` says what could not be evaluated and why."""
+    """Per-layout metrics of every evaluated run's last policy (``runs``) and best policy
+    (``best``), by run name, and of every baseline (by method and sweep value); ``missing``
+    says what could not be evaluated and why; ``no_best`` names the runs without a greedy
+    evaluation during training, whose best policy is their last."""
 
     runs: dict[str, Metrics] = field(default_factory=dict)
     baselines: dict[tuple[str, Any], Metrics] = field(default_factory=dict)
     missing: dict[str, str] = field(default_factory=dict)
+    best: dict[str, Metrics] = field(default_factory=dict)
+    no_best: list[str] = field(default_factory=list)
+
+    def of(self, policy: str) -> Evaluations:
+        """The same evaluations with ``policy``'s ("last" or "best") metrics as ``runs``."""
+        return self if policy == "last" else replace(self, runs=self.best)
 
 
 def _cached(path: Path, record: dict[str, Any]) -> Metrics | None:
@@ -84,7 +94,8 @@ def _evaluate_plan(plan: Plan, progress: WorkProgress) -> Evaluations:
     evaluations = Evaluations()
     folder = plan.out / "evals"
     points: dict[Any, RunSpec] = {}
-    for group in (spec.policy, *spec.compare_groups):
+    layouts: dict[Any, np.ndarray] = {}
+    for group in (spec.policy, *spec.compare_groups, *spec.also):
         for run in plan.group_runs(group):
             state = run_state(run)
             if state.status != "done":
@@ -94,21 +105,38 @@ def _evaluate_plan(plan: Plan, progress: WorkProgress) -> Evaluations:
             trained = parse_scenario(run.config, run.name)
             scenario = eval_scenario(trained, spec.layouts, spec.layout_seed)
             users_m = eval_layouts(scenario, spec.layouts)
+            first = layouts.setdefault(run.sweep_value, users_m)
+            if not np.array_equal(first, users_m):
+                raise AdaptskyError(f"{plan.experiment_path}: group '{group}' is evaluated on "
+                                    f"other layouts than group '{spec.policy}' (another area "
+                                    "or number of users); the groups of one experiment share "
+                                    "its layouts")
             record = {"kind": "policy", "run": run.name, "episodes_done": state.episodes_done,
                       "scenario": scenario.model_dump(mode="json"), "steps": spec.steps,
                       "layouts": spec.layouts, "layout_seed": spec.layout_seed}
-            path = folder / f"{run.name}.h5"
-            metrics = _cached(path, record)
-            if metrics is None:
-                with RunReader(run.path) as reader:
-                    policy = checkpoint_policy(trained, reader.checkpoint(run.seed))
-                stage = f"evaluating {run.name} on {plural(len(users_m), 'layout')}"
-                with progress.stage(stage, spec.steps, "step") as tick:
-                    method = Method.of("policy", scenario, rollout(
-                        scenario, policy, spec.steps, users_m, on_step=tick))
-                metrics = _store(path, scenario, method, record, spec.steps, spec.layouts,
-                                 spec.layout_seed, users_m)
-            evaluations.runs[run.name] = metrics
+            for which in spec.policies:
+                # the last policy's record is the one eval files have always had
+                mine = record if which == "last" else {**record, "policy": which}
+                suffix = "" if which == "last" else f"-{which}"
+                path = folder / f"{run.name}{suffix}.h5"
+                if which == "best":
+                    with RunReader(run.path) as reader:
+                        if reader.best(run.seed) is None:
+                            evaluations.no_best.append(run.name)
+                metrics = _cached(path, mine)
+                if metrics is None:
+                    with RunReader(run.path) as reader:
+                        checkpoint = reader.checkpoint(run.seed)
+                        best = reader.best(run.seed) if which == "best" else None
+                    policy = greedy_policy(trained, with_policy(trained, checkpoint, best))
+                    stage = (f"evaluating {run.name}{suffix} on "
+                             f"{plural(len(users_m), 'layout')}")
+                    with progress.stage(stage, spec.steps, "step") as tick:
+                        method = Method.of("policy", scenario, rollout(
+                            scenario, policy, spec.steps, users_m, on_step=tick))
+                    metrics = _store(path, scenario, method, mine, spec.steps, spec.layouts,
+                                     spec.layout_seed, users_m)
+                (evaluations.runs if which == "last" else evaluations.best)[run.name] = metrics
             if group == spec.policy:
                 points.setdefault(run.sweep_value, run)
     for value, run in points.items():

@@ -15,6 +15,7 @@ from adaptsky.scenario.models import NAME_MAX_LENGTH, Section, safe_name
 
 FigureKind = Literal["learning-curves", "min-se-sweep", "layout-gains"]
 Baseline = Literal["soa", "oracle", "random"]
+PolicyKind = Literal["last", "best"]
 
 # Quantities each figure kind measures; a claim names one (``vs_<method>`` stands for a
 # baseline or another group of the experiment).
@@ -75,8 +76,22 @@ class Evaluation(Section):
                                       description="baselines evaluated on the same layouts")
     compare_groups: list[str] = Field(default_factory=list, description="other groups whose "
                                       "policies are evaluated too, paired by seed")
+    also: list[str] = Field(default_factory=list, description="other groups measured as the "
+                            "policy is (against the baselines, on the same layouts), each in "
+                            "rows of its own")
+    policies: list[PolicyKind] = Field(default_factory=lambda: ["last"], min_length=1,
+                                       description="which weights of each run are evaluated: "
+                                       "the last (the paper's), the best kept during training, "
+                                       "or both (one row each)")
     served_share: float = Field(0.95, gt=0, le=1, description="a greedy run serves R_min "
                                 "when every user meets it in this share of its last 100 steps")
+
+    @field_validator("policies")
+    @classmethod
+    def _distinct_policies(cls, value: list[str]) -> list[str]:
+        if len(set(value)) != len(value):
+            raise ValueError(f"policies must be distinct, got {value}")
+        return value
 
 
 class Claim(Section):
@@ -112,10 +127,18 @@ class Experiment(Section):
         names = [group.name for group in self.groups]
         if len(set(names)) != len(names):
             raise ValueError(f"group names must be distinct, got {names}")
-        for name in (self.evaluation.policy, *self.evaluation.compare_groups):
+        spec = self.evaluation
+        for name in (spec.policy, *spec.compare_groups, *spec.also):
             if name not in names:
                 raise ValueError(f"evaluation names group '{name}'; the groups are "
                                  f"{', '.join(names)}")
+        evaluated = [spec.policy, *spec.compare_groups, *spec.also]
+        if len(set(evaluated)) != len(evaluated):
+            raise ValueError("evaluation: a group is named twice in policy, compare_groups and "
+                             f"also ({', '.join(evaluated)})")
+        if spec.also and self.figure.kind != "layout-gains":
+            raise ValueError(f"evaluation.also: other groups are measured in a layout-gains "
+                             f"figure only, not in a {self.figure.kind} one")
         for claim in self.claims:
             if not quantity_known(claim.quantity, self):
                 allowed = ", ".join(QUANTITIES[self.figure.kind])

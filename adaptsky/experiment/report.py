@@ -11,6 +11,8 @@ from __future__ import annotations
 import csv
 import io
 import math
+import os
+import platform
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,7 +21,9 @@ from typing import Any
 import numpy as np
 
 from adaptsky import __version__
-from adaptsky.experiment.evaluation import Evaluations
+from adaptsky.experiment.calls import read_calls
+from adaptsky.experiment.evaluation import Evaluations, Metrics
+from adaptsky.experiment.models import Claim
 from adaptsky.experiment.plan import Plan, RunSpec, shipped_experiments
 from adaptsky.report import figures
 from adaptsky.report.curves import LAST_EPISODES, band, curve_window
@@ -27,18 +31,35 @@ from adaptsky.report.plot_runs import BAND_NOTES, curve_series, write_curves_csv
 from adaptsky.rollouts.metrics import compare
 from adaptsky.store.atomic import utc_timestamp, write_text_atomic
 from adaptsky.store.run_file import RunReader
-from adaptsky.units import format_rate, rate_unit
+from adaptsky.units import format_duration, format_rate, plural, rate_unit
 
 
 @dataclass
 class Analysis:
-    """What one figure kind measured: per quantity a list of per-run values (or one value),
-    notes for the report, and the files written."""
+    """What one figure kind measured. Per row (a group's last or best policy: ``rows`` keeps
+    their order) and quantity: a list of per-run values (or one value), the same quantity for
+    the oracle (``bounds``: the most any policy can reach), and details replacing the per-run
+    list; notes for the report, and the files written."""
 
-    quantities: dict[str, list[float]] = field(default_factory=dict)
-    details: dict[str, str] = field(default_factory=dict)
+    rows: list[str] = field(default_factory=list)
+    quantities: dict[str, dict[str, list[float]]] = field(default_factory=dict)
+    bounds: dict[str, dict[str, list[float]]] = field(default_factory=dict)
+    details: dict[str, dict[str, str]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     files: list[Path] = field(default_factory=list)
+
+    def add(self, row: str, quantity: str, value: float, bound: float | None = None) -> None:
+        """One run's ``value`` (and the oracle's ``bound`` for the same run) in ``row``."""
+        if row not in self.rows:
+            self.rows.append(row)
+        self.quantities.setdefault(row, {}).setdefault(quantity, []).append(value)
+        if bound is not None:
+            self.bounds.setdefault(row, {}).setdefault(quantity, []).append(bound)
+
+
+def row_label(title: str, policy: str, policies: list[str]) -> str:
+    """'AdaptSky, last policy': the policy named where the experiment evaluates several."""
+    return f"{title}, {policy} policy" if len(policies) > 1 else title
 
 
 def _done_runs(runs: list[RunSpec]) -> list[RunSpec]:
@@ -55,6 +76,12 @@ def _curves(run: RunSpec) -> dict[str, np.ndarray]:
 def _last_mean(values: np.ndarray) -> float:
     """R_e^tot or J_e: the mean of the last 100 episodes' values (all, for shorter runs)."""
     return float(np.mean(values[-LAST_EPISODES:]))
+
+
+def _window(episodes: int) -> str:
+    """"100 episodes'" or, for a shorter run, all of them: "20 episodes'"."""
+    count = min(LAST_EPISODES, episodes)
+    return plural(count, "episode") + ("'s" if count == 1 else "'")
 
 
 def _write_csv(path: Path, header: list[str], rows: list[list[Any]]) -> None:
@@ -85,16 +112,18 @@ def learning_curves(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis
     soa = _baseline(evaluations, "soa", None, "mean_sum_rate_bps")
     soa_j = _baseline(evaluations, "soa", None, "fairness")
     oracle = _baseline(evaluations, "oracle", None, "mean_sum_rate_bps")
-    r_e = [_last_mean(r) for r in rates]
-    j_e = [_last_mean(c["fairness"]) for c in curves]
-    analysis.quantities["sum_rate_bps"] = r_e
-    analysis.quantities["fairness"] = j_e
-    if soa:
-        analysis.quantities["gain_vs_soa_pct"] = [100 * (r - soa) / soa for r in r_e]
-    if soa_j is not None:
-        analysis.quantities["fairness_minus_soa"] = [100 * (j - soa_j) for j in j_e]
-    if oracle:
-        analysis.quantities["pct_of_oracle"] = [100 * r / oracle for r in r_e]
+    row = experiment.group(group).title
+    for curve in curves:
+        r_e, j_e = _last_mean(curve["sum_rate_bps"]), _last_mean(curve["fairness"])
+        analysis.add(row, "sum_rate_bps", r_e, oracle)
+        analysis.add(row, "fairness", j_e)
+        if soa:
+            analysis.add(row, "gain_vs_soa_pct", 100 * (r_e - soa) / soa,
+                         100 * (oracle - soa) / soa if oracle else None)
+        if soa_j is not None:
+            analysis.add(row, "fairness_minus_soa", 100 * (j_e - soa_j))
+        if oracle:
+            analysis.add(row, "pct_of_oracle", 100 * r_e / oracle, 100.0)
     levels = [figures.Level(label, value, style) for label, value, style in
               (("SoA", soa, "--"), ("oracle (best reachable)", oracle, ":"))
               if value is not None]
@@ -123,47 +152,58 @@ def _highest_served(values: list[Any], served: list[bool]) -> float | None:
     return max(below) if below else None
 
 
+def _serves(evaluations: Evaluations, name: str, share: float) -> bool | None:
+    metrics = evaluations.runs.get(name)
+    return None if metrics is None else float(metrics["steady_satisfied_share"][0]) >= share
+
+
 def min_se_sweep(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
     """Fig. 3: R_e^tot against the required minimum SE for the policy and SoA, and the
-    highest threshold each serves for every user."""
+    highest threshold each serves for every user (the policy's per evaluated policy: last,
+    best), beside the oracle's."""
     experiment, analysis = plan.experiment, Analysis()
     spec = experiment.evaluation
     group = experiment.group(spec.policy)
     assert group.sweep is not None, "a min-se-sweep figure needs a swept group"
     values = sorted({run.sweep_value for run in plan.group_runs(group.name)})
-    means, lows, highs, counts, served_runs, xs = [], [], [], [], [], []
-    per_seed: dict[int, list[bool]] = {}
-    soa_rates, soa_served, oracle_rates, rows = [], [], [], []
+    means, lows, highs, counts, xs = [], [], [], [], []
+    served_runs: dict[str, list[int]] = {policy: [] for policy in spec.policies}
+    soa_rates, soa_served, oracle_rates, oracle_served, rows = [], [], [], [], []
     for value in values:
         runs = _done_runs([r for r in plan.group_runs(group.name) if r.sweep_value == value])
         if not runs:
             continue
         r_e = np.array([[_last_mean(_curves(run)["sum_rate_bps"])] for run in runs])
         mean, low, high = band(r_e, experiment.figure.band)
-        serves = [float(evaluations.runs[run.name]["steady_satisfied_share"][0])
-                  >= spec.served_share for run in runs if run.name in evaluations.runs]
-        for run, ok in zip(runs, serves, strict=False):
-            per_seed.setdefault(run.seed, []).append(ok)
+        for policy in spec.policies:
+            serves = [_serves(evaluations.of(policy), run.name, spec.served_share)
+                      for run in runs]
+            served_runs[policy].append(sum(ok for ok in serves if ok))
         soa = _baseline(evaluations, "soa", value, "mean_sum_rate_bps")
         soa_share = _baseline(evaluations, "soa", value, "steady_satisfied_share")
         oracle = _baseline(evaluations, "oracle", value, "mean_sum_rate_bps")
+        oracle_share = _baseline(evaluations, "oracle", value, "steady_satisfied_share")
         xs.append(float(value))
         means.append(mean[0])
         lows.append(low[0])
         highs.append(high[0])
         counts.append(len(runs))
-        served_runs.append(sum(serves))
         soa_rates.append(soa)
         soa_served.append(soa_share is not None and soa_share >= spec.served_share)
         oracle_rates.append(oracle)
-        rows.append([value, mean[0], low[0], high[0], len(runs), sum(serves), soa,
-                     soa_served[-1], oracle])
+        oracle_served.append(oracle_share is not None and oracle_share >= spec.served_share)
+        rows.append([value, mean[0], low[0], high[0], len(runs), served_runs[spec.policies[0]][-1],
+                     soa, soa_served[-1], oracle])
     if not xs:
         analysis.notes.append("no run has finished: nothing to draw")
         return analysis
-    policy_served = _highest_served(xs, [2 * s >= c for s, c in zip(served_runs, counts,
+    served = {policy: _highest_served(xs, [2 * s >= c for s, c in zip(runs_served, counts,
                                                                      strict=True)])
+              for policy, runs_served in served_runs.items()}
     soa_max = _highest_served(xs, soa_served)
+    oracle_max = _highest_served(xs, oracle_served) if all(
+        v is not None for v in oracle_rates) else None
+    first = spec.policies[0]
     x = np.array(xs)
     series = [figures.Series(f"{group.title}", x, np.array(means), np.array(lows),
                              np.array(highs), min(counts))]
@@ -175,82 +215,115 @@ def min_se_sweep(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
         series.append(figures.Series("oracle", x, flat, flat, flat, 1))
     scale, unit = rate_unit([float(np.max(s.high)) for s in series])
     png = out / f"{experiment.id}.png"
-    figures.min_se_sweep(png, series, {series[0].label: policy_served,
+    figures.min_se_sweep(png, series, {series[0].label: served[first],
                                        **({"SoA": soa_max} if len(series) > 1 else {})},
                          title=_title(plan), ylabel=f"R_e^tot ({unit})", scale=scale)
     _write_csv(out / f"{experiment.id}.csv",
                ["min_se", "policy_mean_bps", "policy_low_bps", "policy_high_bps", "runs",
                 "runs_serving", "soa_bps", "soa_serves", "oracle_bps"], rows)
-    analysis.quantities["max_min_se_served"] = [] if policy_served is None else [policy_served]
-    analysis.quantities["soa_max_min_se_served"] = [] if soa_max is None else [soa_max]
-    analysis.details["max_min_se_served"] = "runs serving each threshold: " + ", ".join(
-        f"{v:g}: {s}/{c}" for v, s, c in zip(xs, served_runs, counts, strict=True))
+    for policy in spec.policies:
+        row = row_label(group.title, policy, spec.policies)
+        if row not in analysis.rows:
+            analysis.rows.append(row)
+        mine = analysis.quantities.setdefault(row, {})
+        mine["max_min_se_served"] = [] if served[policy] is None else [served[policy]]
+        if oracle_max is not None:
+            analysis.bounds.setdefault(row, {})["max_min_se_served"] = [oracle_max]
+        analysis.details.setdefault(row, {})["max_min_se_served"] = (
+            "runs serving each threshold: " + ", ".join(
+                f"{v:g}: {s}/{c}" for v, s, c in zip(xs, served_runs[policy], counts,
+                                                     strict=True)))
+    analysis.rows.append("SoA")
+    analysis.quantities["SoA"] = {"soa_max_min_se_served": [] if soa_max is None else [soa_max]}
     analysis.notes.append(
-        f"a run serves a threshold when its greedy policy (1000 steps on the training layout) "
-        f"keeps every user at or above R_min in at least {100 * spec.served_share:.0f}% of "
-        "its last 100 steps; the policy serves it when at least half of its runs do")
+        f"a run serves a threshold when its greedy policy ({spec.steps} steps on the training "
+        f"layout) keeps every user at or above R_min in at least "
+        f"{100 * spec.served_share:.0f}% of its last 100 steps; the policy serves it when at "
+        "least half of its runs do; the oracle's highest threshold is the reachable bound")
     analysis.files += [png, out / f"{experiment.id}.csv"]
     return analysis
 
 
+GAIN_QUANTITIES = (("beats_share", "beats_share_pct", 100), ("mean_improvement_pct",
+                   "mean_gain_pct", 1), ("median_improvement_pct", "median_gain_pct", 1),
+                   ("max_improvement_pct", "max_gain_pct", 1))
+
+
+def _gain_pct(mine: Metrics, theirs: Metrics) -> np.ndarray:
+    rate = theirs["mean_sum_rate_bps"]
+    positive = rate > 0
+    return 100 * (mine["mean_sum_rate_bps"][positive] - rate[positive]) / rate[positive]
+
+
 def layout_gains(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
     """Fig. 4: per-layout sum rate of the policy as a gain over each baseline and compared
-    group (paired by seed)."""
+    group (paired by seed), for every evaluated policy (last, best) and every group measured
+    as the policy is (``evaluation.also``); the oracle's gain over the same methods is the
+    reachable bound."""
     experiment, analysis = plan.experiment, Analysis()
     spec = experiment.evaluation
-    gains: dict[str, list[np.ndarray]] = {}
-    rows: list[list[Any]] = []
-    others = [m for m in (*spec.baselines, *spec.compare_groups) if m != "oracle"]
+    pooled: dict[str, list[np.ndarray]] = {}
+    rows: list[dict[str, Any]] = []
+    baselines = [m for m in spec.baselines if m != "oracle"]
     oracle = evaluations.baselines.get(("oracle", None))
-    for run in plan.group_runs(spec.policy):
-        mine = evaluations.runs.get(run.name)
-        if mine is None:
-            continue
-        columns: dict[str, np.ndarray] = {"policy": mine["mean_sum_rate_bps"]}
-        for method in others:
-            if method in spec.compare_groups:
-                partner = plan.run(method, run.seed, run.sweep_value)
-                theirs = evaluations.runs.get(partner.name) if partner else None
-            else:
-                theirs = evaluations.baselines.get((method, None))
-            if theirs is None:
-                continue
-            rate = theirs["mean_sum_rate_bps"]
-            columns[method] = rate
-            result = compare(mine, theirs)
-            for key, name in (("beats_share", "beats_share_pct"),
-                              ("mean_improvement_pct", "mean_gain_pct"),
-                              ("median_improvement_pct", "median_gain_pct"),
-                              ("max_improvement_pct", "max_gain_pct")):
-                scale = 100 if key == "beats_share" else 1
-                analysis.quantities.setdefault(f"{name}_vs_{method}", []).append(
-                    scale * result[key])
-            positive = rate > 0
-            gains.setdefault(method, []).append(
-                100 * (mine["mean_sum_rate_bps"][positive] - rate[positive]) / rate[positive])
-        if oracle is not None:
-            ceiling = oracle["mean_sum_rate_bps"]
-            share = mine["steady_sum_rate_bps"][ceiling > 0] / ceiling[ceiling > 0]
-            analysis.quantities.setdefault("steady_pct_of_oracle", []).append(
-                float(100 * share.mean()))
-            columns["oracle"] = ceiling
-        for layout in range(len(mine["mean_sum_rate_bps"])):
-            rows.append([run.seed, layout, *(float(c[layout]) for c in columns.values())])
-        header = ["seed", "layout", *(f"{name}_bps" for name in columns)]
-    if not gains:
+    labels = {m: f"vs {experiment.group(m).title if m in spec.compare_groups else NAMES[m]}"
+              for m in (*baselines, *spec.compare_groups)}
+    for group in (spec.policy, *spec.also):
+        others = [*baselines, *(spec.compare_groups if group == spec.policy else [])]
+        for policy in spec.policies:
+            row = row_label(experiment.group(group).title, policy, spec.policies)
+            measured = evaluations.of(policy)
+            for run in plan.group_runs(group):
+                mine = measured.runs.get(run.name)
+                if mine is None:
+                    continue
+                columns: dict[str, np.ndarray] = {"policy": mine["mean_sum_rate_bps"]}
+                for method in others:
+                    if method in spec.compare_groups:
+                        partner = plan.run(method, run.seed, run.sweep_value)
+                        theirs = measured.runs.get(partner.name) if partner else None
+                    else:
+                        theirs = evaluations.baselines.get((method, None))
+                    if theirs is None:
+                        continue
+                    columns[method] = theirs["mean_sum_rate_bps"]
+                    result = compare(mine, theirs)
+                    reachable = compare(oracle, theirs) if oracle is not None else {}
+                    for key, name, scale in GAIN_QUANTITIES:
+                        analysis.add(row, f"{name}_vs_{method}", scale * result[key],
+                                     scale * reachable[key] if reachable else None)
+                    if group == spec.policy and policy == spec.policies[0]:
+                        pooled.setdefault(labels[method], []).append(_gain_pct(mine, theirs))
+                    elif method == "soa" and policy == spec.policies[0]:
+                        pooled.setdefault(f"{experiment.group(group).title} vs SoA",
+                                          []).append(_gain_pct(mine, theirs))
+                if oracle is not None:
+                    ceiling = oracle["mean_sum_rate_bps"]
+                    share = mine["steady_sum_rate_bps"][ceiling > 0] / ceiling[ceiling > 0]
+                    analysis.add(row, "steady_pct_of_oracle", float(100 * share.mean()), 100.0)
+                    columns["oracle"] = ceiling
+                for layout in range(len(mine["mean_sum_rate_bps"])):
+                    rows.append({"group": group, "policy": policy, "seed": run.seed,
+                                 "layout": layout, **{f"{name}_bps": float(c[layout])
+                                                      for name, c in columns.items()}})
+    if not pooled:
         analysis.notes.append("no policy run has been evaluated: nothing to draw")
         return analysis
-    labels = {m: f"vs {experiment.group(m).title if m in spec.compare_groups else NAMES[m]}"
-              for m in gains}
-    pooled = {labels[m]: np.concatenate(g) for m, g in gains.items()}
-    paper = {labels[m]: text for m in gains if (text := _paper_summary(plan, m))}
+    soa = evaluations.baselines.get(("soa", None))
+    if oracle is not None and soa is not None:
+        pooled["oracle vs SoA (the reachable bound)"] = [_gain_pct(oracle, soa)]
+    gains = {label: np.concatenate(g) for label, g in pooled.items()}
+    paper = {labels[m]: text for m in labels if (text := _paper_summary(plan, m))}
     png = out / f"{experiment.id}.png"
-    figures.layout_gains(png, pooled, title=_title(plan), paper=paper or None)
-    _write_csv(out / f"{experiment.id}.csv", header, rows)
-    runs = len(next(iter(gains.values())))
-    analysis.notes.append(f"gains pooled over {runs} policy run(s) x "
-                          f"{spec.layouts or 1} layout(s); each run is compared with the "
-                          "compared group's run of the same seed")
+    figures.layout_gains(png, gains, title=_title(plan), paper=paper or None)
+    header = list(dict.fromkeys(key for row in rows for key in row))
+    _write_csv(out / f"{experiment.id}.csv", header,
+               [[row.get(key, "") for key in header] for row in rows])
+    runs = len(plan.group_runs(spec.policy))
+    analysis.notes.append(f"gains over {spec.layouts or 1} layout(s) for each of up to {runs} "
+                          "run(s) per group; each run is compared with the compared group's run "
+                          "of the same seed (and the same policy, last or best) and with the "
+                          "baselines; the figure pools the runs' layouts of the last policies")
     analysis.files += [png, out / f"{experiment.id}.csv"]
     return analysis
 
@@ -322,8 +395,60 @@ def command_line(plan: Plan) -> str:
     return " ".join(parts)
 
 
-def write_report(plan: Plan, evaluations: Evaluations) -> tuple[Path, list[Path]]:
-    """Draw the figure, write its CSV and ``report.md`` into the plan's folder."""
+def claims_table(claims: list[Claim], analysis: Analysis) -> list[str]:
+    """The rows of report.md's table: every claim, one row per measured policy (its group's
+    last or best), the paper's number, ours, the oracle's (the most any policy reaches)."""
+    lines = ["| claim | paper | policy | ours | reachable (oracle) | per run |",
+             "|---|---|---|---|---|---|"]
+    for claim in claims:
+        paper = claim.paper_text or (_format(claim.quantity, claim.paper)
+                                     if claim.paper is not None else "-")
+        rows = [row for row in analysis.rows
+                if claim.quantity in analysis.quantities.get(row, {})] or ["-"]
+        for index, row in enumerate(rows):
+            values = analysis.quantities.get(row, {}).get(claim.quantity, [])
+            ours, per_run = _ours(claim.quantity, values)
+            per_run = analysis.details.get(row, {}).get(claim.quantity, per_run)
+            bound = analysis.bounds.get(row, {}).get(claim.quantity, [])
+            reachable = ("-" if not bound else _format(claim.quantity, bound[0])
+                         if len(set(bound)) == 1 else _ours(claim.quantity, bound)[0])
+            first = index == 0
+            lines.append(f"| {claim.text if first else ''} | {paper if first else ''} | {row} | "
+                         f"{ours} | {reachable} | {per_run or '-'} |")
+    return lines
+
+
+def beyond_reach(claims: list[Claim], analysis: Analysis) -> list[str]:
+    """A sentence for each claim whose paper number is above what the oracle reaches (every
+    claimed quantity is better when higher)."""
+    notes = []
+    for claim in claims:
+        bounds = [v for row in analysis.rows[:1]
+                  for v in analysis.bounds.get(row, {}).get(claim.quantity, [])]
+        if claim.paper is None or not bounds:
+            continue
+        bound = float(np.mean(bounds))
+        if claim.paper > bound + 1e-9:
+            paper = claim.paper_text or _format(claim.quantity, claim.paper)
+            notes.append(f"{claim.text}: the paper's {paper} lies beyond the oracle's "
+                         f"{_format(claim.quantity, bound)}, the most any policy reaches under "
+                         "this model; no policy can match it")
+    return notes
+
+
+@dataclass(frozen=True)
+class WrittenReport:
+    """report.md, every file written with it, and its claims table (for the index)."""
+
+    path: Path
+    files: list[Path]
+    table: list[str]
+
+
+def write_report(plan: Plan, evaluations: Evaluations, wall_s: float | None = None
+                 ) -> WrittenReport:
+    """Draw the figure, write its CSV and ``report.md`` into the plan's folder; ``wall_s``:
+    the experiment's wall time so far (every call of ``reproduce`` on the folder)."""
     out, experiment = plan.out, plan.experiment
     analysis = ANALYSES[experiment.figure.kind](plan, evaluations, out)
     runs = plan.runs
@@ -337,29 +462,64 @@ def write_report(plan: Plan, evaluations: Evaluations) -> tuple[Path, list[Path]
               f"- runs: {len(done)} of {len(runs)} done, {first['episodes']} episodes x "
               f"{first['steps']} steps each; groups: " + ", ".join(
                   f"{g.title} ({len(plan.group_runs(g.name))})" for g in experiment.groups)]
+    if wall_s is not None:
+        calls = read_calls(out).rows
+        lines.append(f"- wall time: {format_duration(wall_s)}, training, evaluation and "
+                     f"report over {plural(len(calls) + 1, 'call')} of reproduce "
+                     f"(`calls.json`), on {_machine(calls)}")
     if experiment.scenario_note:
         lines.append(f"- scenario: {experiment.scenario_note}")
     lines.append("")
     if analysis.files:
         lines += [f"![{experiment.id}]({analysis.files[0].name})", "",
                   f"Plotted numbers: [{analysis.files[1].name}]({analysis.files[1].name}).", ""]
-    lines += ["| claim | paper | ours | per run |", "|---|---|---|---|"]
-    for claim in experiment.claims:
-        values = analysis.quantities.get(claim.quantity, [])
-        ours, per_run = _ours(claim.quantity, values)
-        per_run = analysis.details.get(claim.quantity, per_run)
-        paper = claim.paper_text or (_format(claim.quantity, claim.paper)
-                                     if claim.paper is not None else "-")
-        lines.append(f"| {claim.text} | {paper} | {ours} | {per_run or '-'} |")
-    lines.append("")
-    notes = list(analysis.notes)
+    table = claims_table(experiment.claims, analysis)
+    lines += [*table, ""]
+    notes = [*beyond_reach(experiment.claims, analysis), *analysis.notes]
     notes += [f"left out: {name} ({why})" for name, why in evaluations.missing.items()]
+    if evaluations.no_best:
+        notes.append(f"best policy: {plural(len(evaluations.no_best), 'run')} had no greedy "
+                     "evaluation during training (train.eval_every), so their best policy is "
+                     f"their last: {', '.join(evaluations.no_best)}")
     if notes:
         lines += ["Notes:", "", *(f"- {note}" for note in notes), ""]
     lines += ["Runs are in `runs/` (one HDF5 run file each), evaluations in `evals/`. "
-              "R_e^tot and J_e are the means of the last 100 episodes' per-episode means "
-              "(docs/model.md, section 5); ours: mean ± population standard deviation "
-              "(ddof = 0) over the runs.", ""]
+              f"R_e^tot and J_e are the means of the last {_window(first['episodes'])} "
+              "per-episode means (docs/model.md, section 5); ours: mean ± population "
+              "standard deviation (ddof = 0) over the runs; reachable: the same quantity "
+              "for the oracle, the best sum rate over every reachable position and power "
+              "split (docs/model.md, section 6).", ""]
     report = out / "report.md"
     write_text_atomic(report, "\n".join(lines))
-    return report, [*analysis.files, report]
+    return WrittenReport(report, [*analysis.files, report], table)
+
+
+def _machine(calls: list[dict[str, Any]]) -> str:
+    """This machine (the call being made), and how many others the earlier calls ran on."""
+    here = f"{os.cpu_count()} cores ({platform.machine()})"
+    others = {(c.get("platform"), c.get("cpu_count")) for c in calls} - {
+        (platform.platform(), os.cpu_count())}
+    return here + (f" and {plural(len(others), 'other machine')}" if others else "")
+
+
+def write_index(folder: Path, results: list[Any], wall_s: float) -> Path:
+    """``folder/report.md`` of ``reproduce all``: each experiment's report linked, its claims
+    table, its wall time in this call and the total."""
+    lines = ["# adaptsky reproduce all", "",
+             f"Every shipped experiment, reproduced by adaptsky {__version__} on "
+             f"{utc_timestamp()} on {os.cpu_count()} cores ({platform.platform()}).", "",
+             f"- wall time of this call: {format_duration(wall_s)} in all", "",
+             "| experiment | paper | runs done | wall time (this call) | report |",
+             "|---|---|---|---|---|"]
+    for result in results:
+        plan = result.plan
+        done = len(_done_runs(plan.runs))
+        link = f"{plan.out.name}/report.md"
+        lines.append(f"| {plan.experiment.title} | {plan.experiment.paper_figure or '-'} | "
+                     f"{done}/{len(plan.runs)} | {format_duration(result.wall_s)} | "
+                     f"[{link}]({link}) |")
+    for result in results:
+        lines += ["", f"## {result.plan.experiment.title}", "", *result.table]
+    path = folder / "report.md"
+    write_text_atomic(path, "\n".join(lines) + "\n")
+    return path

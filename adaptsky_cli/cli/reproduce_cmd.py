@@ -42,22 +42,20 @@ def reproduce(
     if runs_only and report_only:
         raise AdaptskyError("--runs-only and --report-only exclude each other")
     # training and evaluation import torch: only when the command runs, not for --help
-    from adaptsky.experiment.plan import shipped_experiments
-    from adaptsky.experiment.reproduce import reproduce_many
+    from adaptsky.experiment.reproduce import reproduce as run_experiment
+    from adaptsky.experiment.reproduce import reproduce_all
     from adaptsky_cli.cli.progress_display import RichReporter
 
+    options = dict(seeds=seeds, episodes=episodes, steps=steps, workers=workers,
+                   scheduler=scheduler, set_values=set_values, runs_only=runs_only,
+                   report_only=report_only, device=device, quiet=quiet,
+                   progress=RichReporter(err, quiet=quiet))
     if experiment == "all":
-        names = list(shipped_experiments())
-        outs: list[Path | None] = [out / name if out else None for name in names]
+        results, index = reproduce_all(out=out, **options)
     else:
-        names, outs = [experiment], [out]
-    results = reproduce_many(experiments=names, outs=outs, seeds=seeds, episodes=episodes,
-                             steps=steps, workers=workers, scheduler=scheduler,
-                             set_values=set_values, runs_only=runs_only,
-                             report_only=report_only, device=device, quiet=quiet,
-                             progress=RichReporter(err, quiet=quiet))
+        results, index = [run_experiment(experiment=experiment, out=out, **options)], None
     if any(result.interrupted for result in results):
-        folders = ", ".join(str(result.plan.out) for result in results)
+        folders = ", ".join(str(result.plan.out) for result in results if result.interrupted)
         err.print(f"interrupted; every run keeps its last checkpoint. Continue with the same "
                   f"command (output folder {folders})")
         raise typer.Exit(130)
@@ -66,3 +64,5 @@ def reproduce(
             err.print(f"report: {result.report}")
         else:
             err.print(f"runs are in {result.plan.out / 'runs'}")
+    if index is not None:
+        err.print(f"index of every report: {index}")

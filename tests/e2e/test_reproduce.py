@@ -19,6 +19,7 @@ import pytest
 
 from adaptsky.experiment.plan import RunSpec, load_experiment, plan_experiment
 from adaptsky.experiment.runs import execute_run
+from adaptsky.store.eval_file import read_eval_metrics
 from adaptsky.store.run_file import RunReader
 from adaptsky_cli.cli.main import main
 from tests.conftest import ROOT
@@ -84,8 +85,13 @@ def test_reproduce_writes_report_figure_csv_and_then_only_redraws(tmp_path, caps
     # R_e^tot in the report: the mean over runs of each run's mean of its last 100 episodes
     rates = [last_mean(out / "runs" / f"agent-seed{s}.h5") for s in (0, 1)]
     expected = f"{np.mean(rates) / 1e6:.2f} Mbit/s ± {np.std(rates) / 1e6:.2f} Mbit/s (n = 2)"
-    assert f"| sum rate | 400.00 Mbit/s | {expected} |" in report
     assert "--episodes 4 --steps 40" in report
+    assert "means of the last 4 episodes' per-episode means" in report  # not "last 100"
+    # the reachable column: the oracle's sum rate, read from its eval file
+    _, methods = read_eval_metrics(out / "evals" / "oracle.h5")
+    oracle = float(np.mean(next(iter(methods.values()))["mean_sum_rate_bps"]))
+    assert f"| sum rate | 400.00 Mbit/s | agent | {expected} | {oracle / 1e6:.2f} Mbit/s |" \
+        in report
     with (out / "tiny.csv").open() as handle:
         rows = list(csv.DictReader(handle))
     assert len(rows) == 4 and rows[0]["episode"] == "1"  # window 1 for 4 episodes
@@ -244,7 +250,8 @@ paper = 2.5
         rates = [last_mean(out / "runs" / f"agent-min_se-{value:g}-seed{s}.h5") for s in (0, 1)]
         assert float(row["policy_mean_bps"]) == pytest.approx(np.mean(rates), rel=1e-12)
         assert float(row["oracle_bps"]) >= float(row["soa_bps"])
-    assert "| SoA serves | 2.5 bit/s/Hz | 0 bit/s/Hz |" in (out / "report.md").read_text()
+    assert "| SoA serves | 2.5 bit/s/Hz | SoA | 0 bit/s/Hz | - | - |" in (
+        out / "report.md").read_text()
 
 
 def test_layout_gains_pairs_runs_by_seed(tmp_path):
@@ -255,18 +262,20 @@ title = "tiny gains"
 name = "duel"
 scenario = "../scenarios/nyc_mmwave.toml"
 runs = 2
-set = [{", ".join(SMALL_AGENT)}]
+set = [{", ".join(SMALL_AGENT)}, "train.eval_every=1", "train.eval_steps=20"]
 [[groups]]
 name = "plain"
 scenario = "../scenarios/nyc_mmwave.toml"
 runs = 2
-set = [{", ".join(SMALL_AGENT)}, "agent.dueling=false"]
+set = [{", ".join(SMALL_AGENT)}, "agent.dueling=false", "train.eval_every=1",
+       "train.eval_steps=20"]
 [evaluation]
 policy = "duel"
 layouts = 3
 steps = 20
 baselines = ["soa", "oracle"]
 compare_groups = ["plain"]
+policies = ["last", "best"]
 [figure]
 kind = "layout-gains"
 [[claims]]
@@ -281,15 +290,29 @@ quantity = "mean_gain_pct_vs_plain"
                  "--steps", "30"]) == 0
     with (out / "gains.csv").open() as handle:
         rows = list(csv.DictReader(handle))
-    assert [(r["seed"], r["layout"]) for r in rows] == [
-        (s, str(k)) for s in ("0", "1") for k in range(3)]
-    beats = [100 * np.mean([float(r["policy_bps"]) > float(r["soa_bps"]) for r in rows
-                            if r["seed"] == s]) for s in ("0", "1")]
-    gains = [np.mean([100 * (float(r["policy_bps"]) - float(r["plain_bps"]))
-                      / float(r["plain_bps"]) for r in rows if r["seed"] == s])
-             for s in ("0", "1")]
+    assert [(r["policy"], r["seed"], r["layout"]) for r in rows] == [
+        (p, s, str(k)) for p in ("last", "best") for s in ("0", "1") for k in range(3)]
     report = (out / "report.md").read_text()
-    assert f"| beats SoA | - | {np.mean(beats):.1f}% ± {np.std(beats):.1f}% (n = 2) |" in report
-    assert f"| beats plain | - | {np.mean(gains):+.1f}% ± {np.std(gains):.1f}% (n = 2) |" \
-        in report
+    for policy in ("last", "best"):
+        mine = [r for r in rows if r["policy"] == policy]
+        beats = [100 * np.mean([float(r["policy_bps"]) > float(r["soa_bps"]) for r in mine
+                                if r["seed"] == s]) for s in ("0", "1")]
+        gains = [np.mean([100 * (float(r["policy_bps"]) - float(r["plain_bps"]))
+                          / float(r["plain_bps"]) for r in mine if r["seed"] == s])
+                 for s in ("0", "1")]
+        label = f"duel, {policy} policy"
+        first = "beats SoA | -" if policy == "last" else " | "
+        assert re.search(rf"\| {re.escape(first)} \| {label} \| {np.mean(beats):.1f}% ± "
+                         rf"{np.std(beats):.1f}% \(n = 2\) \| 100.0% \|",
+                         report), report
+        assert f"| {label} | {np.mean(gains):+.1f}% ± {np.std(gains):.1f}% (n = 2) |" in report
     assert all(float(r["oracle_bps"]) >= float(r["soa_bps"]) for r in rows)
+    # the best rows evaluate the weights `adaptsky eval --policy best` picks
+    from adaptsky.evaluation.api import evaluate
+    results, methods = evaluate(checkpoint=out / "runs" / "duel-seed1.h5", layouts=3,
+                                layout_seed=0, steps=20, compare_with=[], policy="best")
+    assert results["policy"]["policy"] == "best"
+    _, stored = read_eval_metrics(out / "evals" / "duel-seed1-best.h5")
+    assert np.array_equal(methods[0].metrics["mean_sum_rate_bps"],
+                          next(iter(stored.values()))["mean_sum_rate_bps"])
+    assert "had no greedy evaluation" not in report

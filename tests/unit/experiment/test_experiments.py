@@ -10,7 +10,7 @@ from adaptsky_cli.cli.main import main
 from tests.conftest import ROOT
 
 # runs per shipped experiment: E1a and E1b 10, E2 6 x 8 thresholds, E3 6 + 6 (docs/model.md §5)
-RUNS = {"e1a": 10, "e1b": 10, "e2": 48, "e3": 12}
+RUNS = {"e1a": 10, "e1b": 10, "e2": 48, "e3": 18}
 
 
 def test_every_shipped_experiment_validates_and_plans(tmp_path):
@@ -57,6 +57,18 @@ GOOD = (ROOT / "experiments" / "e1a.toml").read_text()
     (lambda t: t.replace('kind = "learning-curves"', 'kind = "pie"'), "figure.kind"),
     (lambda t: t.replace("../scenarios/sub6", "../nowhere/sub6"), "no such file"),
     (lambda t: t + "\n[[[broken\n", "invalid TOML"),
+    (lambda t: t.replace('policy = "adaptsky"', 'policy = "adaptsky"\nalso = ["adaptsky"]'),
+     "a group is named twice"),
+    (lambda t: t.replace('policy = "adaptsky"', 'policy = "adaptsky"\nalso = ["x"]'),
+     "evaluation names group 'x'"),
+    (lambda t: t.replace('[[claims]]', '[[groups]]\nname = "b"\nscenario = '
+                         '"../scenarios/nyc_mmwave.toml"\nruns = 1\n\n[[claims]]', 1)
+     .replace('policy = "adaptsky"', 'policy = "adaptsky"\nalso = ["b"]'),
+     "other groups are measured in a layout-gains figure only"),
+    (lambda t: t.replace('policy = "adaptsky"', 'policy = "adaptsky"\n'
+                         'policies = ["best", "best"]'), "policies must be distinct"),
+    (lambda t: t.replace('policy = "adaptsky"', 'policy = "adaptsky"\npolicies = ["first"]'),
+     "evaluation.policies.0: Input should be 'last' or 'best'"),
 ])
 def test_malformed_experiment_is_one_line(tmp_path, capsys, change, message):
     folder = tmp_path / "experiments"

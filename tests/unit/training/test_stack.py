@@ -148,7 +148,7 @@ def test_reproduce_runs_a_min_se_sweep_as_one_stack(tmp_path):
                 assert np.array_equal(values, b.episodes(theirs.seed)[name], equal_nan=True)
 
 
-def test_reproduce_all_trains_every_experiment_in_one_sweep(tmp_path, capsys):
+def test_reproduce_all_runs_only_trains_every_experiment(tmp_path, capsys):
     from adaptsky_cli.cli.main import main
 
     code = main(["reproduce", "all", "--out", str(tmp_path), "--seeds", "1", "--episodes", "1",
@@ -157,4 +157,5 @@ def test_reproduce_all_trains_every_experiment_in_one_sweep(tmp_path, capsys):
     assert code == 0, capsys.readouterr().err
     counts = {folder.name: len(list((folder / "runs").glob("*.h5")))
               for folder in sorted(tmp_path.iterdir())}
-    assert counts == {"e1a": 1, "e1b": 1, "e2": 8, "e3": 2}
+    assert counts == {"e1a": 1, "e1b": 1, "e2": 8, "e3": 3}
+    assert not (tmp_path / "report.md").exists()  # --runs-only: no index
