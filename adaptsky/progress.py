@@ -1,12 +1,14 @@
 """Progress of long work through a small protocol: the library reports lines and counted
 stages to a :class:`Reporter`; a front end shows them (the command line: a Rich display on a
 terminal). Here: the rules every front end shares, plain timestamped lines (:class:`LogLines`,
-for a pipe, nohup, a batch job, CI) and :class:`Silent`."""
+for a pipe, nohup, a batch job, CI), :class:`Silent`, and the time left of counted work
+(:class:`Pace`)."""
 
 from __future__ import annotations
 
 import sys
 import time
+from collections import deque
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Literal, TextIO
@@ -28,15 +30,78 @@ def stamp(text: str) -> str:
     return f"{time.strftime('%Y-%m-%d %H:%M:%S')} {text}"
 
 
+def _per_unit(seconds: float) -> str:
+    return f"{seconds:.2f} s" if seconds >= 0.1 else f"{1000 * seconds:.1f} ms"
+
+
+def _left(seconds: float) -> str:
+    return "under 1 s left" if seconds < 1 else f"about {format_duration(seconds)} left"
+
+
+def _clock(seconds: float) -> str:
+    """'0:01:12', as a clock of hours, minutes and seconds."""
+    minutes, secs = divmod(round(seconds), 60)
+    return f"{minutes // 60}:{minutes % 60:02d}:{secs:02d}"
+
+
 def pace(seconds: float, done: int, total: int, unit: str) -> str:
     """'0.91 s/layout, about 1 min 12 s left' (empty before the first unit)."""
     if done <= 0:
         return ""
-    per_unit, left_s = seconds / done, seconds / done * (total - done)
-    left = "" if done >= total else (", under 1 s left" if left_s < 1 else
-                                     f", about {format_duration(left_s)} left")
-    each = f"{per_unit:.2f} s" if per_unit >= 0.1 else f"{1000 * per_unit:.1f} ms"
-    return f"{each}/{unit}{left}"
+    per_unit = seconds / done
+    left = "" if done >= total else f", {_left(per_unit * (total - done))}"
+    return f"{_per_unit(per_unit)}/{unit}{left}"
+
+
+PACE_WINDOW = 20
+"""How many of the latest updates a :class:`Pace` measures over."""
+
+PACE_MIN_UNITS = 2
+"""How many units a :class:`Pace` times (after the first) before it estimates."""
+
+ESTIMATING = "estimating time left"
+
+
+class Pace:
+    """The time per unit and the time left of work of ``total`` units, ``done`` of them
+    already, measured over its latest :data:`PACE_WINDOW` updates from the end of its first
+    unit on: the first (processes starting, imports, first allocations) is by far the slowest
+    and says little of the others. Until :data:`PACE_MIN_UNITS` are timed it is estimating."""
+
+    def __init__(self, total: int, done: int = 0, window: int = PACE_WINDOW) -> None:
+        self.total, self.done = total, done
+        self.samples: deque[tuple[float, int]] = deque(maxlen=window + 1)
+
+    def update(self, done: int, now: float | None = None) -> None:
+        """``done`` units are done (by ``now``, default the monotonic clock)."""
+        if done > self.done:
+            self.done = done
+            self.samples.append((time.monotonic() if now is None else now, done))
+
+    def per_unit_s(self) -> float | None:
+        """Seconds per unit over the window; None while estimating."""
+        if len(self.samples) < 2:
+            return None
+        (first_s, first), (last_s, last) = self.samples[0], self.samples[-1]
+        return (last_s - first_s) / (last - first) if last - first >= PACE_MIN_UNITS else None
+
+    def left(self, short: bool = False) -> str:
+        """'about 1 min 12 s left', 'under 1 s left', :data:`ESTIMATING`; empty once done.
+        ``short`` (a live row of 80 columns): '0:01:12', 'estimating'."""
+        if self.done >= self.total:
+            return ""
+        per_unit = self.per_unit_s()
+        if per_unit is None:
+            return "estimating" if short else ESTIMATING
+        seconds = per_unit * (self.total - self.done)
+        return _clock(seconds) if short else _left(seconds)
+
+    def text(self, unit: str) -> str:
+        """'0.91 s/episode, about 1 min 12 s left' (the time per unit, once measured, and
+        :meth:`left`)."""
+        per_unit = self.per_unit_s()
+        each = "" if per_unit is None else f"{_per_unit(per_unit)}/{unit}"
+        return ", ".join(part for part in (each, self.left()) if part)
 
 
 class Reporter:

@@ -1,7 +1,8 @@
 """Running the missing and unfinished runs of a plan on an executor, with progress.
 
 Progress counts runs done / running / left and estimates the time left from the episodes
-written to the run files since the start (the files are the only shared state, also on Dask).
+written to the run files lately (the files are the only shared state, also on Dask), those of
+the first checkpoints left out (:class:`adaptsky.progress.Pace`).
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from adaptsky.errors import AdaptskyError
-from adaptsky.progress import Reporter
+from adaptsky.progress import Pace, Reporter
 from adaptsky.store.run_file import RunFileError, RunReader
 from adaptsky.training.interrupts import StopOnInterrupt
 from adaptsky.units import format_duration
@@ -64,7 +65,7 @@ class _Display:
         self.reporter.advance(self, episodes, status=status, eta=eta)
         if time.monotonic() - self.last_log >= LOG_EVERY_S:
             self.last_log = time.monotonic()
-            self.reporter.log(f"{status}; {eta}")
+            self.reporter.log(f"{status}; {eta}" if eta else status)
 
 
 INTERRUPT_NOTICE = ("interrupted: checkpointing the running runs at the end of their current "
@@ -80,6 +81,7 @@ def run_sweep(todo: list[tuple[RunSpec, RunState]], executor: Executor, progress
     done_episodes = {spec.path: state.episodes_done for spec, state in todo}
     start_episodes = sum(done_episodes.values())
     total_episodes = sum(spec.episodes for spec, _ in todo)
+    pace = Pace(total_episodes, start_episodes)  # from the episodes written, the first left out
     futures: dict[Any, tuple[RunSpec, Any]] = {}
     outcome, failures = SweepOutcome(), []
     interrupts = StopOnInterrupt(executor.request_stop, progress.note, INTERRUPT_NOTICE)
@@ -105,12 +107,9 @@ def run_sweep(todo: list[tuple[RunSpec, RunState]], executor: Executor, progress
                 episodes = sum(done_episodes.values())
                 finished = total_runs - len(futures)
                 running = min(len(futures), executor.capacity)
-                elapsed = time.monotonic() - start
-                rate = (episodes - start_episodes) / elapsed if elapsed > 0 else 0.0
-                eta = (f"about {format_duration((total_episodes - episodes) / rate)} left"
-                       if rate > 0 else "estimating time left")
+                pace.update(episodes)
                 display.update(f"runs {finished} done · {running} running · "
-                               f"{len(futures) - running} left", episodes, eta)
+                               f"{len(futures) - running} left", episodes, pace.left())
                 if futures:
                     time.sleep(POLL_S)
     except BaseException:

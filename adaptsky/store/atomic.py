@@ -21,6 +21,7 @@ from pathlib import Path
 import h5py
 
 from adaptsky.errors import AdaptskyError
+from adaptsky.store.links import target
 
 _ADVICE = {
     errno.ENOSPC: "free space on its disk or write elsewhere",
@@ -49,6 +50,10 @@ class StorageError(AdaptskyError):
     def with_advice(self, advice: str) -> StorageError:
         """The same failure with other advice (the caller knows better what to do)."""
         return StorageError(self.path, self.action, self.reason, advice, self.code)
+
+    def named(self, path: Path) -> StorageError:
+        """The same failure said of ``path`` (the link the caller gave, not its target)."""
+        return StorageError(path, self.action, self.reason, self.advice, self.code)
 
 
 def error_code(error: BaseException) -> int | None:
@@ -115,13 +120,16 @@ def _identity_of(info: os.stat_result) -> Identity:
 @contextmanager
 def rewrite(path: Path, fresh: bool = False) -> Iterator[h5py.File]:
     """Open ``path`` as an in-memory HDF5 image for writing (with ``fresh``, a new file at a
-    path that must not exist yet); on success the image replaces ``path`` in one rename. Disk
+    path that must not exist yet); on success the image replaces ``path`` in one rename. A
+    symbolic link is followed: its target is replaced, the link stays (``store.links``). Disk
     faults raise :class:`StorageError` and leave ``path`` as it was; a file removed or
-    replaced meanwhile raises :class:`FileGoneError` (it is never created again)."""
+    replaced meanwhile raises :class:`FileGoneError` (it is never created again). Errors name
+    ``path`` as given."""
+    real = path if fresh else target(path)
     data, identity = b"", None
     if not fresh:
         try:
-            with open(path, "rb") as handle:
+            with open(real, "rb") as handle:
                 identity = _identity_of(os.fstat(handle.fileno()))
                 data = handle.read()
         except FileNotFoundError:
@@ -133,7 +141,20 @@ def rewrite(path: Path, fresh: bool = False) -> Iterator[h5py.File]:
     with h5py.File(image, "a" if image.getbuffer().nbytes else "w") as file:
         yield file
     with image.getbuffer() as view:
-        write_bytes_atomic(path, view, replaces=identity)
+        _write_named(real, view, identity, path)
+
+
+def _write_named(real: Path, data: memoryview, identity: Identity | None, path: Path) -> None:
+    """:func:`write_bytes_atomic` of ``real``, its failures said of ``path``."""
+    failure: AdaptskyError | None = None
+    try:
+        write_bytes_atomic(real, data, replaces=identity)
+    except FileGoneError:
+        failure = FileGoneError(path)
+    except StorageError as error:
+        failure = error.named(path)
+    if failure is not None:
+        raise failure  # outside the handler, as in write_bytes_atomic
 
 
 def _alive(pid: int) -> bool:

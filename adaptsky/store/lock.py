@@ -4,7 +4,9 @@ The run file itself is replaced by a rename at every checkpoint, so the lock liv
 ``fcntl.flock`` is released by the kernel when its holder dies (kill -9 included), so a lock
 is never stale; the file holds the writer's PID for the message a second writer gets.
 Readers (``inspect``, ``eval``) do not lock; :func:`writer_of` tells them whether a writer is
-at work.
+at work. A run file reached through a symbolic link is locked at the link's target, beside it
+(``store.links``): a writer through the link and one through the file's own path exclude each
+other.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from pathlib import Path
 
 from adaptsky.errors import AdaptskyError
 from adaptsky.store.atomic import remove_stale_copies, storage_error
+from adaptsky.store.links import pinned, target
 
 
 class RunLockedError(AdaptskyError):
@@ -38,7 +41,7 @@ def _holder(lock: Path) -> str:
 def writer_of(path: Path) -> str | None:
     """"process PID" (or "another process") while a writer holds the lock of ``path``, else
     None; the lock file is never created here."""
-    lock = lock_path(path)
+    lock = lock_path(target(path))
     try:
         fd = os.open(lock, os.O_RDONLY)
     except OSError:
@@ -54,9 +57,10 @@ def writer_of(path: Path) -> str | None:
     return None
 
 
-def _acquire(path: Path) -> int:
-    """An open descriptor holding the lock of ``path`` (refuses one held elsewhere)."""
-    lock = lock_path(path)
+def _acquire(path: Path, real: Path) -> int:
+    """An open descriptor holding the lock of ``real``, the file ``path`` names (refuses one
+    held elsewhere; messages name ``path``)."""
+    lock = lock_path(real)
     while True:
         try:
             fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
@@ -81,16 +85,19 @@ def _acquire(path: Path) -> int:
 @contextmanager
 def run_lock(path: Path) -> Iterator[None]:
     """Hold the writer's lock of the run file ``path`` while the block runs; copies left by a
-    writer killed earlier (only the lock holder writes them) are removed first."""
-    fd = _acquire(path)
-    try:
+    writer killed earlier (only the lock holder writes them) are removed first. Through a
+    symbolic link, the file locked is its target, and ``path`` names that file until the block
+    ends (:func:`adaptsky.store.links.pinned`)."""
+    with pinned(path) as real:
+        fd = _acquire(path, real)
         try:
-            os.ftruncate(fd, 0)
-            os.write(fd, f"{os.getpid()}\n".encode())
-        except OSError:
-            pass  # a full disk: the lock holds all the same, only its message lacks the PID
-        remove_stale_copies(path)
-        yield
-    finally:
-        lock_path(path).unlink(missing_ok=True)
-        os.close(fd)
+            try:
+                os.ftruncate(fd, 0)
+                os.write(fd, f"{os.getpid()}\n".encode())
+            except OSError:
+                pass  # a full disk: the lock holds all the same, only its message lacks the PID
+            remove_stale_copies(real)
+            yield
+        finally:
+            lock_path(real).unlink(missing_ok=True)
+            os.close(fd)

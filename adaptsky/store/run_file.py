@@ -38,6 +38,7 @@ from adaptsky.store.layout import (
     require_finite,
     validate_run,
 )
+from adaptsky.store.links import target
 from adaptsky.store.lock import writer_of
 from adaptsky.store.tree import read_tree, write_tree
 from adaptsky.units import plural
@@ -187,35 +188,49 @@ def record_session(path: Path, kind: str, argv: list[str], started_utc: str, wal
         string_dataset(file, "sessions", json.dumps(sessions))
 
 
-def open_run_file(path: Path) -> h5py.File:
-    """``path`` opened read-only: a regular, readable HDF5 file, never through a link."""
+def _dead_link(path: Path) -> str:
+    """What is wrong with ``path``, a symbolic link that leads to no file."""
     try:
-        info = os.lstat(path)
+        os.stat(path)
+    except FileNotFoundError:
+        return f"a symbolic link to {os.readlink(path)}, which does not exist"
+    except OSError:
+        pass
+    return "a symbolic link that points to itself or to nothing"
+
+
+def _status(path: Path, real: Path) -> os.stat_result:
+    """``real``'s own status (``real``: the file ``path`` names), or one line for the reader."""
+    try:
+        info = os.lstat(real)
     except FileNotFoundError:
         raise RunFileError(f"{path}: no such run file") from None
     except OSError as error:
         raise RunFileError(f"{path}: cannot read run file ({error.strerror})") from None
-    if stat.S_ISLNK(info.st_mode):
-        try:
-            what = f"a symbolic link to {os.path.realpath(path, strict=True)}"
-        except OSError:
-            what = "a symbolic link that points to itself or to nothing"
-        raise RunFileError(f"{path}: is {what}; run files are not opened through links, "
-                           "give the file's own path")
+    if stat.S_ISLNK(info.st_mode):  # a link that target() could not follow to a file
+        raise RunFileError(f"{path}: is {_dead_link(real)}; give a run file's path")
+    return info
+
+
+def open_run_file(path: Path) -> h5py.File:
+    """``path`` opened read-only: a regular, readable HDF5 file, or a symbolic link to one
+    (followed, ``store.links``; links inside the file are the validator's to refuse)."""
+    real = target(path)
+    info = _status(path, real)
     if stat.S_ISDIR(info.st_mode):
         raise RunFileError(f"{path}: is a directory, not a run file")
     if not stat.S_ISREG(info.st_mode):
         raise RunFileError(f"{path}: is not a regular file, not a run file")
     try:
-        os.close(os.open(path, os.O_RDONLY | os.O_NOFOLLOW))
-        hdf5 = h5py.is_hdf5(path)
+        os.close(os.open(real, os.O_RDONLY | os.O_NOFOLLOW))
+        hdf5 = h5py.is_hdf5(real)
     except OSError as error:
         raise RunFileError(f"{path}: cannot read run file ({error.strerror or error}); check "
                            "its permissions") from None
     if not hdf5:
         raise RunFileError(f"{path}: not an HDF5 file")
     try:
-        return h5py.File(path, "r")
+        return h5py.File(real, "r")
     except OSError as error:
         raise RunFileError(f"{path}: damaged or truncated HDF5 file "
                            f"({str(error).splitlines()[0]})") from None

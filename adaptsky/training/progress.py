@@ -1,6 +1,7 @@
 """Progress of training: one live row per seed where the reporter draws stages (a terminal);
 elsewhere (a pipe, nohup, a batch job, CI) one timestamped log line per seed at its first and
-last episode and at most one every ``log_every_s`` in between."""
+last episode and at most one every ``log_every_s`` in between. Both give the time left from
+the seed's latest episodes, its first left out (:class:`adaptsky.progress.Pace`)."""
 
 from __future__ import annotations
 
@@ -9,17 +10,17 @@ import time
 from collections import deque
 
 from adaptsky import progress as work_progress
-from adaptsky.progress import Reporter, pace
+from adaptsky.progress import Pace, Reporter
 from adaptsky.units import format_rate
 
 MOVING_WINDOW = 100
 
 
 class _SeedLog:
-    """When a seed last logged, and its pace since the display started."""
+    """When a seed last logged, and its pace."""
 
-    def __init__(self, done: int) -> None:
-        self.start_episode, self.start = done, time.monotonic()
+    def __init__(self, done: int, total: int) -> None:
+        self.pace = Pace(total, done)
         self.last_log: float | None = None
 
 
@@ -45,12 +46,14 @@ class TrainingProgress:
     def add_seed(self, seed: int, done: int, total: int) -> None:
         self.rates[seed] = deque(maxlen=MOVING_WINDOW)
         self.fairness[seed] = deque(maxlen=MOVING_WINDOW)
-        self.totals[seed], self.logs[seed] = total, _SeedLog(done)
+        self.totals[seed], self.logs[seed] = total, _SeedLog(done, total)
         self.reporter.start(seed, total, done, seed=seed, rate="-", fairness="-", epsilon="-",
-                            greedy="-")
+                            greedy="-", left=self.logs[seed].pace.left(short=True))
 
     def episode(self, seed: int, episode: int, metrics: dict[str, float]) -> None:
         """Seed ``seed`` has done ``episode`` episodes, the last with ``metrics``."""
+        pace = self.logs[seed].pace
+        pace.update(episode)
         self.rates[seed].append(metrics["sum_rate_bps"])
         self.fairness[seed].append(metrics["fairness"])
         rates, fairness = self.rates[seed], self.fairness[seed]
@@ -60,7 +63,8 @@ class TrainingProgress:
             self.greedy[seed] = metrics["greedy"]  # type: ignore[assignment]
         greedy = greedy_text(self.greedy[seed], short=True) if seed in self.greedy else "-"
         self.reporter.advance(seed, episode, rate=rate, fairness=f"{mean_fairness:.3f}",
-                              epsilon=f"{metrics['epsilon']:.3f}", greedy=greedy)
+                              epsilon=f"{metrics['epsilon']:.3f}", greedy=greedy,
+                              left=pace.left(short=True))
         if not self.reporter.live and not self.reporter.quiet:
             self._log(seed, episode, rate, mean_fairness, metrics["epsilon"])
 
@@ -71,13 +75,12 @@ class TrainingProgress:
         if not due:
             return
         log.last_log = now
-        speed = pace(now - log.start, episode - log.start_episode, total - log.start_episode,
-                     "episode")
+        speed = log.pace.text("episode")
         averaged = len(self.rates[seed])
         greedy = f"; greedy {greedy_text(self.greedy[seed])}" if seed in self.greedy else ""
         self.reporter.log(f"seed {seed}: episode {episode}/{total}, mean of the last "
                           f"{averaged}: sum rate {rate}, J {fairness:.3f}; eps {epsilon:.3f}"
-                          f"{greedy}, {speed}")
+                          f"{greedy}" + (f", {speed}" if speed else ""))
 
     def message(self, text: str) -> None:
         """A line above the live rows; timestamped where there are none (a log)."""

@@ -28,7 +28,7 @@ def _columns(layout: Layout) -> tuple[list[ProgressColumn], bool]:
         return [TextColumn("seed {task.fields[seed]:>3}"), MofNCompleteColumn(),
                 TextColumn("R {task.fields[rate]} J {task.fields[fairness]} "
                            "eps {task.fields[epsilon]} greedy {task.fields[greedy]}"),
-                TimeRemainingColumn()], False
+                TextColumn("{task.fields[left]}")], False
     return [TextColumn("{task.fields[status]}"), BarColumn(), MofNCompleteColumn(),
             TextColumn("episodes  {task.fields[eta]}")], False
 

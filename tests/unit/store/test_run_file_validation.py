@@ -219,12 +219,6 @@ def test_file_that_links_to_itself(tmp_path, capsys):
     _check_all_refuse(path, tmp_path, capsys, "is a symbolic link that points to itself")
 
 
-def test_link_to_a_run_file_is_not_followed(run, tmp_path, capsys):
-    path = tmp_path / "link.h5"
-    path.symlink_to(run)
-    _check_all_refuse(path, tmp_path, capsys, f"is a symbolic link to {run}")
-
-
 def test_directory_is_not_a_run_file(tmp_path, capsys):
     path = tmp_path / "dir.h5"
     path.mkdir()
