@@ -69,7 +69,7 @@ def show(name: PluginName, as_json: Json = False) -> None:
         return
     out.print(f"[bold]{name}[/] ({info.package} {info.version}): {model.description}")
     out.print(f"plugin contract {_contract(info)}", markup=False, highlight=False)
-    table = Table("parameter", "type", "default", "allowed", "description (unit)")
+    table = _parameter_table(list(fields))
     for key, field in fields.items():
         limits = _limits(field.metadata)
         allowed = ", ".join(f"{_SYMBOLS[bound]} {value:g}" for bound, value in limits.items())
@@ -82,6 +82,18 @@ def show(name: PluginName, as_json: Json = False) -> None:
 
 
 _SYMBOLS = {"gt": ">", "ge": ">=", "lt": "<", "le": "<="}
+
+
+def _parameter_table(keys: list[str]) -> Table:
+    """The columns of ``plugins show``: the keys a user types are never cut or wrapped (the
+    column is as wide as the longest); the description wraps into what is left."""
+    table = Table()
+    table.add_column("parameter", no_wrap=True, min_width=max(map(len, keys), default=0))
+    table.add_column("type", no_wrap=True)
+    table.add_column("default", no_wrap=True)
+    table.add_column("allowed")
+    table.add_column("description (unit)", ratio=1, overflow="fold")
+    return table
 
 
 def _limits(metadata: list[Any]) -> dict[str, float]:
