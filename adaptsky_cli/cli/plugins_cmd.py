@@ -91,7 +91,7 @@ def _parameter_table(keys: list[str]) -> Table:
     table.add_column("parameter", no_wrap=True, min_width=max(map(len, keys), default=0))
     table.add_column("type", no_wrap=True)
     table.add_column("default", no_wrap=True)
-    table.add_column("allowed")
+    table.add_column("allowed", overflow="fold")
     table.add_column("description (unit)", ratio=1, overflow="fold")
     return table
 
