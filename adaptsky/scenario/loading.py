@@ -15,11 +15,14 @@ from typing import Any, get_args
 from pydantic import BaseModel, ValidationError
 
 from adaptsky.channels.contract import (
-    DEFAULT_CARRIER_HZ,
     ChannelModel,
     ChannelParams,
     carrier_parameter_hz,
     contract_version_of,
+    default_carrier_hz,
+    quantity_text,
+    supported_range,
+    supported_text,
 )
 from adaptsky.channels.registry import get_model_class
 from adaptsky.errors import PluginError, ScenarioError
@@ -99,10 +102,35 @@ def parse_scenario(data: dict[str, Any], source: str = "<scenario>") -> Scenario
             f"plugin contract {contract_version_of(model_class)}, where users are on the "
             "ground; a user height needs a contract-2 model (docs/plugins.md, contract "
             "versions), or users.height_m = 0"])
+    _refuse_unsupported(scenario, model_class, scenario.radio.carrier_hz, source)
     params, carrier_hz = _channel_params(scenario, model_class, source)
+    if scenario.radio.carrier_hz is None:  # the carrier the model's defaults give
+        _refuse_unsupported(scenario, model_class, carrier_hz, source)
     channel = scenario.channel.model_copy(update={"params": params.model_dump()})
     radio = scenario.radio.model_copy(update={"carrier_hz": carrier_hz})
     return scenario.model_copy(update={"channel": channel, "radio": radio})
+
+
+def _refuse_unsupported(scenario: Scenario, model_class: type[ChannelModel],
+                        carrier_hz: float | None, source: str) -> None:
+    """One line for each shared setting outside what the channel model supports
+    (docs/plugins.md, ``Supports``; a ``carrier_hz`` parameter's range limits the carrier)."""
+    values = {"carrier_hz": ("radio.carrier_hz", carrier_hz),
+              "bandwidth_hz": ("radio.bandwidth_hz", scenario.radio.bandwidth_hz),
+              "user_height_m": ("users.height_m", scenario.users.height_m)}
+    lines = []
+    for setting, (key, value) in values.items():
+        allowed = supported_range(model_class, setting)
+        if value is None or allowed is None or allowed[0] <= value <= allowed[1]:
+            continue
+        unset = " (the default: radio.carrier_hz is not set)" if (
+            setting == "carrier_hz" and scenario.radio.carrier_hz is None) else ""
+        lines.append(f"{source}: {key}: {quantity_text(setting, value)}{unset}, but channel "
+                     f"model '{scenario.channel.model}' supports "
+                     f"{supported_text(setting, allowed)}; give {key} a value it supports, or "
+                     "choose another model (adaptsky plugins list)")
+    if lines:
+        raise ScenarioError(lines)
 
 
 def _channel_params(scenario: Scenario, model_class: type[ChannelModel], source: str
@@ -111,7 +139,7 @@ def _channel_params(scenario: Scenario, model_class: type[ChannelModel], source:
 
     A model with a ``carrier_hz`` parameter shares it with ``[radio]``: given in one place,
     the other takes it; given in both, they must agree. Otherwise f_c is ``radio.carrier_hz``
-    or, unset, the paper's 28 GHz.
+    or, unset, the one carrier the model declares (``Supports``), else the paper's 28 GHz.
     """
     data, radio_hz = dict(scenario.channel.params), scenario.radio.carrier_hz
     shared = "carrier_hz" in model_class.Params.model_fields
@@ -134,7 +162,7 @@ def _channel_params(scenario: Scenario, model_class: type[ChannelModel], source:
     value = carrier_parameter_hz(params)
     if value is not None:
         return params, value
-    return params, DEFAULT_CARRIER_HZ if radio_hz is None else radio_hz
+    return params, default_carrier_hz(model_class) if radio_hz is None else radio_hz
 
 
 def load_scenario(path: str | Path) -> Scenario:
