@@ -4,8 +4,10 @@ from adaptsky.channels.contract import (
     ChannelModel,
     ChannelParams,
     LinkGeometry,
+    Supports,
     db_to_linear,
     free_space_gain,
 )
 
-__all__ = ["ChannelModel", "ChannelParams", "LinkGeometry", "db_to_linear", "free_space_gain"]
+__all__ = ["ChannelModel", "ChannelParams", "LinkGeometry", "Supports", "db_to_linear",
+           "free_space_gain"]

@@ -22,14 +22,18 @@ from pydantic import ValidationError
 
 from adaptsky.channels.contract import (
     CONTRACT_VERSION,
-    DEFAULT_CARRIER_HZ,
+    SHARED_SETTINGS,
     SUPPORTED_CONTRACT_VERSIONS,
     ChannelModel,
     ChannelParams,
     LinkGeometry,
+    Supports,
     carrier_parameter_hz,
     contract_version_of,
+    default_carrier_hz,
     implements_fading,
+    supported_range,
+    supported_text,
 )
 
 ARRAY_METHODS = ("los_probability", "gain_los", "gain_nlos", "expected_gain")
@@ -49,7 +53,7 @@ def structural_problems(model: Any) -> list[str]:
     if not (isinstance(params, type) and issubclass(params, ChannelParams)):
         return [*problems, "params: Params is not a ChannelParams subclass"]
     try:
-        params()
+        problems += _supports_problems(model, params())
     except ValidationError:
         problems.append("params: a Params field has no default (every parameter needs one)")
     for key, field in params.model_fields.items():
@@ -102,13 +106,48 @@ def _contract_problems(model: type[ChannelModel]) -> list[str]:
     return problems
 
 
+def _supports_problems(model: type[ChannelModel], defaults: ChannelParams) -> list[str]:
+    """The ``supports`` declaration: a :class:`Supports` of ranges (low, high), low <= high,
+    of a contract-2 class, holding the default of a ``carrier_hz`` parameter."""
+    declared = model.supports
+    if declared is None:
+        return []
+    if not isinstance(declared, Supports):
+        return [f"supports: must be a Supports(...) declaration, not {type(declared).__name__}"]
+    if contract_version_of(model) < 2:
+        return ["contract: supports is a contract-2 declaration; declare contract_version = 2 "
+                "in the class to use it"]
+    problems = [f"supports: {setting} = {value!r} is not a range (low, high) of finite numbers "
+                f"with {'0 <=' if setting.endswith('_m') else '0 <'} low <= high"
+                for setting in SHARED_SETTINGS
+                if (value := getattr(declared, setting)) is not None
+                and not _is_range(value, positive=not setting.endswith("_m"))]
+    carrier = carrier_parameter_hz(defaults)
+    allowed = supported_range(model, "carrier_hz")
+    if not problems and carrier is not None and allowed and not (
+            allowed[0] <= carrier <= allowed[1]):
+        problems.append(f"supports: the carrier_hz parameter's default, {carrier:g} Hz, is "
+                        f"outside the model's {supported_text('carrier_hz', allowed)}")
+    return problems
+
+
+def _is_range(value: object, positive: bool) -> bool:
+    """Whether ``value`` is (low, high): two finite real numbers, 0 <(=) low <= high."""
+    if not (isinstance(value, tuple | list) and len(value) == 2 and all(
+            isinstance(v, int | float) and not isinstance(v, bool) for v in value)):
+        return False
+    low, high = value
+    return bool(np.isfinite([low, high]).all() and (low > 0 if positive else low >= 0)
+                and low <= high)
+
+
 def _carrier_hz(instance: ChannelModel, carrier_hz: float | None) -> float:
     """The carrier of the checks: as given, else the model's ``carrier_hz`` parameter, else
-    the paper's 28 GHz."""
+    the one carrier it declares it supports, else the paper's 28 GHz."""
     if carrier_hz is not None:
         return carrier_hz
     value = carrier_parameter_hz(instance.params)
-    return DEFAULT_CARRIER_HZ if value is None else value
+    return default_carrier_hz(type(instance)) if value is None else value
 
 
 def _links(user_height_m: float, carrier_hz: float, seed: int = 0) -> LinkGeometry:
@@ -165,7 +204,7 @@ def check_channel_model(model: Any, params: ChannelParams | None = None, *,
     contract-2 model is checked with users on the ground and, again, with user antennas
     ``user_height_m`` above it.
     """
-    failures = structural_problems(model)
+    failures = structural_problems(model) or _declared_carrier_problems(model, carrier_hz)
     if failures:
         return failures
     params, failures = _with_carrier(model, params, carrier_hz)
@@ -195,12 +234,48 @@ def checked_conditions(model: type[ChannelModel], params: ChannelParams | None =
                       if key != "carrier_hz")
     fading = ("fading hook checked" if implements_fading(model) and contract_version_of(model) >= 2
               else "no fading hook")
+    supports = "; ".join(supported_text(setting, value_range) for setting in SHARED_SETTINGS
+                         if model.supports is not None
+                         and (value_range := getattr(model.supports, setting)) is not None)
     return (f"f_c {_carrier_hz(instance, carrier_hz) / 1e9:g} GHz, users {heights}, "
-            f"{fading}, parameters: {given or 'defaults'}")
+            f"{fading}, parameters: {given or 'defaults'}"
+            + (f", supports {supports}" if supports else ""))
 
 
 def _user_heights(model: type[ChannelModel], user_height_m: float) -> tuple[float, ...]:
-    return (0.0, user_height_m) if contract_version_of(model) >= 2 else (0.0,)
+    """Users on the ground and ``user_height_m`` up (contract 2), each moved into the user
+    heights the model declares it supports."""
+    if contract_version_of(model) < 2:
+        return (0.0,)
+    low, high = supported_range(model, "user_height_m") or (0.0, np.inf)
+    return tuple(dict.fromkeys(float(np.clip(h, low, high)) for h in (0.0, user_height_m)))
+
+
+def _declared_carrier_problems(model: type[ChannelModel], carrier_hz: float | None
+                               ) -> list[str]:
+    """A carrier to check at outside the carriers the model declares (``supports``)."""
+    declared = model.supports.carrier_hz if model.supports is not None else None
+    if carrier_hz is None or declared is None or declared[0] <= carrier_hz <= declared[1]:
+        return []
+    return [f"carrier: carrier_hz = {carrier_hz:g} Hz is outside what the model supports "
+            f"({supported_text('carrier_hz', tuple(declared))})"]
+
+
+def ignored_carrier_note(model: type[ChannelModel], params: ChannelParams | None = None
+                         ) -> str:
+    """For a contract-2 model that declares no carriers and has no ``carrier_hz`` parameter
+    but gives the same numbers at 2 and 28 GHz, a note: it ignores the scenario's carrier and
+    should declare the one its constants hold; "" otherwise (contract 1: as before)."""
+    if (contract_version_of(model) < 2 or supported_range(model, "carrier_hz") is not None):
+        return ""
+    instance = model(params)
+    numbers = [[getattr(instance, method)(_links(0.0, carrier_hz))
+                for method in ARRAY_METHODS] for carrier_hz in (2e9, 28e9)]
+    if any(not np.array_equal(a, b) for a, b in zip(*numbers, strict=True)):
+        return ""
+    return ("its gains are the same at 2 and 28 GHz: it ignores radio.carrier_hz, which a "
+            "scenario may then set to anything; declare the carrier its constants hold, "
+            "supports = Supports(carrier_hz=(F, F)) (docs/plugins.md, shared settings)")
 
 
 def _with_carrier(model: type[ChannelModel], params: ChannelParams | None,

@@ -139,6 +139,27 @@ class LinkGeometry:
                             self.carrier_hz, self.bandwidth_hz)
 
 
+SHARED_SETTINGS = ("carrier_hz", "bandwidth_hz", "user_height_m")
+"""The scenario settings a geometry hands to every model (``LinkGeometry`` fields of the same
+names), which a model may declare in :class:`Supports`."""
+
+
+@dataclass(frozen=True)
+class Supports:
+    """What a model honours or is valid for of the settings a scenario shares with it
+    (docs/plugins.md §2): for each, the inclusive range ``(low, high)`` of values it models,
+    one value ``(f, f)`` where its constants hold only that one (``mmwave-nyc``'s 28 GHz: it
+    ignores any other); None: every value a scenario allows, as for a model that declares
+    nothing. A scenario outside a declared range is refused."""
+
+    carrier_hz: tuple[float, float] | None = None
+    """f_c, Hz (``radio.carrier_hz``)."""
+    bandwidth_hz: tuple[float, float] | None = None
+    """W of each cluster, Hz (``radio.bandwidth_hz``)."""
+    user_height_m: tuple[float, float] | None = None
+    """h_UT, the users' antenna height, m (``users.height_m``)."""
+
+
 class ChannelModel(ABC):
     """Large-scale channel of one UAV-user antenna pair (sec. II-C), and optional fading.
 
@@ -152,6 +173,8 @@ class ChannelModel(ABC):
     description: ClassVar[str] = ""
     contract_version: ClassVar[int | None] = None
     """The contract the class was written for (``CONTRACT_VERSION`` today); None: 1."""
+    supports: ClassVar[Supports | None] = None
+    """Contract 2, optional: the shared settings it honours (:class:`Supports`); None: any."""
 
     def __init__(self, params: ChannelParams | None = None) -> None:
         self.params = params if params is not None else self.Params()
@@ -207,6 +230,62 @@ def carrier_parameter_hz(params: BaseModel) -> float | None:
     if isinstance(value, int | float) and not isinstance(value, bool):
         return float(value)
     return None
+
+
+def parameter_limits(params: type[BaseModel], key: str) -> dict[str, float]:
+    """The numeric bounds of parameter ``key`` (its Field's gt, ge, lt, le) as
+    ``{"ge": 1e8, "le": 1e11}``; {} where it has none or no such parameter."""
+    field_info = params.model_fields.get(key)
+    metadata = field_info.metadata if field_info is not None else []
+    return {bound: getattr(item, bound) for item in metadata for bound in ("gt", "ge", "lt", "le")
+            if isinstance(getattr(item, bound, None), int | float)}
+
+
+def supported_range(model: Any, setting: str) -> tuple[float, float] | None:
+    """The values of the shared ``setting`` (one of SHARED_SETTINGS) a model class supports:
+    its declaration (``supports``), for the carrier narrowed to the range of a ``carrier_hz``
+    parameter (whose value the carrier is, in a run); None: any value."""
+    declared = getattr(getattr(model, "supports", None), setting, None)
+    low, high = declared if declared is not None else (-np.inf, np.inf)
+    if setting == "carrier_hz":
+        limits = parameter_limits(getattr(model, "Params", BaseModel), "carrier_hz")
+        low = max([low, *(limits[b] for b in ("gt", "ge") if b in limits)])
+        high = min([high, *(limits[b] for b in ("lt", "le") if b in limits)])
+    return None if (low, high) == (-np.inf, np.inf) else (float(low), float(high))
+
+
+SETTING_WORDS = {"carrier_hz": "carriers", "bandwidth_hz": "bandwidths",
+                 "user_height_m": "user antenna heights"}
+
+
+def quantity_text(setting: str, value: float) -> str:
+    """A value of a shared setting as a person reads it: ``3.5 GHz``, ``20 MHz``, ``1.5 m``."""
+    if setting.endswith("_m"):
+        return f"{value:g} m"
+    for scale, unit in ((1e9, "GHz"), (1e6, "MHz"), (1e3, "kHz")):
+        if abs(value) >= scale:
+            return f"{value / scale:g} {unit}"
+    return f"{value:g} Hz"
+
+
+def supported_text(setting: str, value_range: tuple[float, float] | None) -> str:
+    """``carriers of 28 GHz only``, ``carriers from 0.1 to 100 GHz``, ``any carriers``."""
+    words = SETTING_WORDS[setting]
+    if value_range is None:
+        return f"any {words}"
+    low, high = value_range
+    if low == high:
+        return f"{words} of {quantity_text(setting, low)} only"
+    return f"{words} from {quantity_text(setting, low)} to {quantity_text(setting, high)}"
+
+
+def default_carrier_hz(model: Any) -> float:
+    """f_c where a scenario gives none and the model has no ``carrier_hz`` parameter: the one
+    carrier a model declares it supports, else the paper's 28 GHz."""
+    declared = getattr(getattr(model, "supports", None), "carrier_hz", None)
+    if declared is not None and declared[0] == declared[1]:
+        return float(declared[0])
+    return DEFAULT_CARRIER_HZ
 
 
 def contract_version_of(model: Any) -> int | Any:

@@ -6,7 +6,9 @@ Action Space
     see :mod:`adaptsky.sim.actions` for the encoding.
 Observation Space
     ``Box`` of shape (4 N + 1,), float32: per user [dx, dy, alpha, g], then h; scaling in
-    :mod:`adaptsky.sim.observation`.
+    :mod:`adaptsky.sim.observation`. Its bounds are finite and hold every observation: g
+    between the weakest and strongest gain the scenario's geometry allows
+    (:mod:`adaptsky.sim.gain_bounds`; docs/environment.md, "Observation bounds").
 Rewards
     Eq. 13 with the scenario's ``[reward]`` weights.
 Starting State
@@ -56,7 +58,7 @@ def _resolve(scenario: Scenario | str | Path | None) -> Scenario:
 
 
 def _spaces(scenario: Scenario, batch: NomaUavBatch) -> tuple[spaces.Box, spaces.Discrete]:
-    low, high = observation_bounds(scenario)
+    low, high = observation_bounds(scenario, batch.gain_bounds())
     return spaces.Box(low, high, dtype=np.float32), spaces.Discrete(batch.actions.count)
 
 

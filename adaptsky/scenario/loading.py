@@ -5,20 +5,24 @@ Every problem becomes one ``file: field.path: message`` line in a :class:`Scenar
 
 from __future__ import annotations
 
+import difflib
 import os
 import stat
 import tomllib
 from pathlib import Path
-from typing import Any
+from typing import Any, get_args
 
-from pydantic import ValidationError
+from pydantic import BaseModel, ValidationError
 
 from adaptsky.channels.contract import (
-    DEFAULT_CARRIER_HZ,
     ChannelModel,
     ChannelParams,
     carrier_parameter_hz,
     contract_version_of,
+    default_carrier_hz,
+    quantity_text,
+    supported_range,
+    supported_text,
 )
 from adaptsky.channels.registry import get_model_class
 from adaptsky.errors import PluginError, ScenarioError
@@ -26,25 +30,57 @@ from adaptsky.scenario.agents import AGENT_MODELS, UNKNOWN_ALGORITHM
 from adaptsky.scenario.models import Scenario
 
 
-def _error_lines(source: str, error: ValidationError,
-                 prefix: tuple[str | int, ...] = ()) -> list[str]:
+def _models_in(annotation: Any) -> list[type[BaseModel]]:
+    """The Pydantic models an annotation names (through Optional, lists, Annotated, unions)."""
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return [annotation]
+    return [model for arg in get_args(annotation) for model in _models_in(arg)]
+
+
+def _keys_at(model: type[BaseModel] | None, where: tuple[str | int, ...]) -> list[str]:
+    """The keys a table at ``where`` (an error's location below ``model``) may hold; [] where
+    the location names no single model."""
+    models = [model] if model is not None else []
+    for part in where:
+        if isinstance(part, int) or len(models) != 1:
+            models = models if isinstance(part, int) else []
+            continue
+        fields = models[0].model_fields
+        if part in fields:
+            models = _models_in(fields[part].annotation)
+        elif part in AGENT_MODELS and AGENT_MODELS[part] in models:  # the [agent] union's tag
+            models = [AGENT_MODELS[part]]
+        else:
+            return []
+    return list(models[0].model_fields) if len(models) == 1 else []
+
+
+def _unknown_key(model: type[BaseModel] | None, where: tuple[str | int, ...]) -> str:
+    """"unknown key", with the closest allowed key where one is close (a typo)."""
+    close = difflib.get_close_matches(str(where[-1]), _keys_at(model, where[:-1]), n=1)
+    return f"unknown key; did you mean '{close[0]}'?" if close else "unknown key"
+
+
+def _error_lines(source: str, error: ValidationError, prefix: tuple[str | int, ...] = (),
+                 model: type[BaseModel] | None = None) -> list[str]:
+    """One ``source: field.path: message`` line per error; an unknown key of ``model`` (the
+    validated model, None: no suggestions) names the closest allowed key."""
     lines = []
     for item in error.errors(include_url=False):
-        where = item["loc"]
+        where, message = item["loc"], item["msg"].removeprefix("Value error, ")
+        if item["type"] == "extra_forbidden":
+            message = _unknown_key(model, where)
         if where[:1] == ("agent",) and where[1:2] and where[1] in AGENT_MODELS:
             where = where[:1] + where[2:]  # the union's tag: agent.dqn.lr is agent.lr
-        loc = ".".join(str(part) for part in (*prefix, *where))
-        message = item["msg"].removeprefix("Value error, ")
-        if item["type"] == "extra_forbidden":
-            message = "unknown key"
-        elif item["type"] == UNKNOWN_ALGORITHM:
-            loc = ".".join(str(part) for part in (*prefix, *where, "algorithm"))
+        if item["type"] == UNKNOWN_ALGORITHM:
+            where = (*where, "algorithm")
             message = (f"unknown algorithm {item['input'].get('algorithm')!r}; choose from "
                        f"{', '.join(AGENT_MODELS)}")
-        elif "input" in item and item["type"] not in ("missing",) and not isinstance(
-                item["input"], dict):
+        elif item["type"] not in ("missing", "extra_forbidden") and "input" in item and (
+                not isinstance(item["input"], dict)):
             shown = repr(item["input"])
             message = f"{message} (got {shown if len(shown) <= 60 else shown[:57] + '...'})"
+        loc = ".".join(str(part) for part in (*prefix, *where))
         lines.append(f"{source}: {loc}: {message}" if loc else f"{source}: {message}")
     return lines
 
@@ -55,7 +91,7 @@ def parse_scenario(data: dict[str, Any], source: str = "<scenario>") -> Scenario
     try:
         scenario = Scenario.model_validate(data)
     except ValidationError as error:
-        raise ScenarioError(_error_lines(source, error)) from None
+        raise ScenarioError(_error_lines(source, error, model=Scenario)) from None
     try:
         model_class = get_model_class(scenario.channel.model)
     except PluginError as error:
@@ -66,10 +102,35 @@ def parse_scenario(data: dict[str, Any], source: str = "<scenario>") -> Scenario
             f"plugin contract {contract_version_of(model_class)}, where users are on the "
             "ground; a user height needs a contract-2 model (docs/plugins.md, contract "
             "versions), or users.height_m = 0"])
+    _refuse_unsupported(scenario, model_class, scenario.radio.carrier_hz, source)
     params, carrier_hz = _channel_params(scenario, model_class, source)
+    if scenario.radio.carrier_hz is None:  # the carrier the model's defaults give
+        _refuse_unsupported(scenario, model_class, carrier_hz, source)
     channel = scenario.channel.model_copy(update={"params": params.model_dump()})
     radio = scenario.radio.model_copy(update={"carrier_hz": carrier_hz})
     return scenario.model_copy(update={"channel": channel, "radio": radio})
+
+
+def _refuse_unsupported(scenario: Scenario, model_class: type[ChannelModel],
+                        carrier_hz: float | None, source: str) -> None:
+    """One line for each shared setting outside what the channel model supports
+    (docs/plugins.md, ``Supports``; a ``carrier_hz`` parameter's range limits the carrier)."""
+    values = {"carrier_hz": ("radio.carrier_hz", carrier_hz),
+              "bandwidth_hz": ("radio.bandwidth_hz", scenario.radio.bandwidth_hz),
+              "user_height_m": ("users.height_m", scenario.users.height_m)}
+    lines = []
+    for setting, (key, value) in values.items():
+        allowed = supported_range(model_class, setting)
+        if value is None or allowed is None or allowed[0] <= value <= allowed[1]:
+            continue
+        unset = " (the default: radio.carrier_hz is not set)" if (
+            setting == "carrier_hz" and scenario.radio.carrier_hz is None) else ""
+        lines.append(f"{source}: {key}: {quantity_text(setting, value)}{unset}, but channel "
+                     f"model '{scenario.channel.model}' supports "
+                     f"{supported_text(setting, allowed)}; give {key} a value it supports, or "
+                     "choose another model (adaptsky plugins list)")
+    if lines:
+        raise ScenarioError(lines)
 
 
 def _channel_params(scenario: Scenario, model_class: type[ChannelModel], source: str
@@ -78,7 +139,7 @@ def _channel_params(scenario: Scenario, model_class: type[ChannelModel], source:
 
     A model with a ``carrier_hz`` parameter shares it with ``[radio]``: given in one place,
     the other takes it; given in both, they must agree. Otherwise f_c is ``radio.carrier_hz``
-    or, unset, the paper's 28 GHz.
+    or, unset, the one carrier the model declares (``Supports``), else the paper's 28 GHz.
     """
     data, radio_hz = dict(scenario.channel.params), scenario.radio.carrier_hz
     shared = "carrier_hz" in model_class.Params.model_fields
@@ -92,7 +153,7 @@ def _channel_params(scenario: Scenario, model_class: type[ChannelModel], source:
     try:
         params = model_class.Params.model_validate(data)
     except ValidationError as error:
-        lines = _error_lines(source, error, ("channel", "params"))
+        lines = _error_lines(source, error, ("channel", "params"), model_class.Params)
         if shared and radio_hz is not None and given_hz is None:  # the carrier came from [radio]
             lines = [line.replace(": channel.params.carrier_hz: ", ": radio.carrier_hz: ")
                      + f" (the range of channel model '{scenario.channel.model}')"
@@ -101,7 +162,7 @@ def _channel_params(scenario: Scenario, model_class: type[ChannelModel], source:
     value = carrier_parameter_hz(params)
     if value is not None:
         return params, value
-    return params, DEFAULT_CARRIER_HZ if radio_hz is None else radio_hz
+    return params, default_carrier_hz(model_class) if radio_hz is None else radio_hz
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -116,6 +177,15 @@ def load_scenario_with_text(path: str | Path) -> tuple[Scenario, str]:
 
 
 MAX_FILE_BYTES = 1 << 20  # scenario and experiment files are a few kB
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"  # the first bytes of every run and eval file
+
+
+def _hdf5_line(path: str | Path, what: str) -> str:
+    """The line for an HDF5 file (a run or eval file) given where TOML was expected."""
+    hint = (f"; to continue the run: adaptsky train --resume {_shown(path)}"
+            if what == "scenario file" else "")
+    return (f"{_shown(path)}: cannot read {what}: it is an HDF5 file (an adaptsky run or eval "
+            f"file), not TOML{hint}")
 
 
 def read_scenario_text(path: str | Path, what: str = "scenario file") -> str:
@@ -129,10 +199,13 @@ def read_scenario_text(path: str | Path, what: str = "scenario file") -> str:
                 kind = ("is a folder" if stat.S_ISDIR(info.st_mode) else
                         "is not a regular file (a pipe, device or socket)")
                 raise ScenarioError([f"{_shown(path)}: cannot read {what}: {kind}"])
+            data = os.read(handle, len(HDF5_SIGNATURE))
+            if data == HDF5_SIGNATURE:
+                raise ScenarioError([_hdf5_line(path, what)])
             if info.st_size > MAX_FILE_BYTES:
                 raise ScenarioError([f"{_shown(path)}: cannot read {what}: {info.st_size} bytes "
                                      f"is too large (at most {MAX_FILE_BYTES})"])
-            data = os.read(handle, MAX_FILE_BYTES + 1)
+            data += os.read(handle, MAX_FILE_BYTES + 1)
         finally:
             os.close(handle)
         return data.decode("utf-8")

@@ -23,8 +23,8 @@ from adaptsky.scenario.sections import (  # noqa: F401 (names of the scenario mo
     MAX_REWARD_WEIGHT,
     MAX_SEED,
     MIN_HEIGHT_M,
+    NAME_MAX_BYTES,
     NAME_MAX_LENGTH,
-    NAME_PATTERN,
     PAPER_TRAINING_LAYOUT_M,
     CoordinateM,
     LayerSize,
@@ -223,7 +223,7 @@ class Train(Section):
 
 class Scenario(Section):
     name: str = Field(min_length=1, description="short name, used in output file names "
-                      "(letters, digits, '-', '_', '.'; at most 64)")
+                      "(letters and digits of any script, '-', '_', '.'; at most 64)")
     description: str = ""
     area: Area = Field(default_factory=Area)
     users: Users = Field(default_factory=_default_users)

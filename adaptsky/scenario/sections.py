@@ -3,7 +3,7 @@ every step of a run finite, and the field types used in several sections."""
 
 from __future__ import annotations
 
-import re
+import unicodedata
 from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field
@@ -11,8 +11,9 @@ from pydantic import BaseModel, ConfigDict, Field
 PAPER_TRAINING_LAYOUT_M = [[4.0, 15.0], [-44.0, -49.0], [-5.0, 21.0], [47.0, 49.0]]
 
 # names become file names (runs/<name>-<time>.h5, DIR/runs/<group>-...): see safe_name
-NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
-NAME_MAX_LENGTH = 64
+NAME_MAX_LENGTH = 64          # characters
+NAME_MAX_BYTES = 128          # in UTF-8: with the longest suffix, well inside 255-byte names
+NAME_PUNCTUATION = "-_."
 # the replay memory stores an action index as float32, exact up to 2^24: the dense action space
 # (2^(3+K) or 3^(3+K) actions) may not be larger
 MAX_DENSE_ACTIONS = 2**24
@@ -41,12 +42,22 @@ def max_users(mode: str) -> int:
     return 2 * (components - 3)
 
 
+def _name_character(char: str) -> bool:
+    """A letter, digit or combining mark of any script (Unicode categories L, N, M), or one of
+    ``- _ .``: never a path separator, control or format character, space or shell symbol."""
+    return char in NAME_PUNCTUATION or unicodedata.category(char)[0] in "LNM"
+
+
 def safe_name(value: str) -> str:
     """``value`` if it can be a file name's stem on every system, else a ValueError saying what
-    is allowed."""
-    if len(value) > NAME_MAX_LENGTH or not NAME_PATTERN.fullmatch(value):
-        raise ValueError(f"not a safe file name: use 1 to {NAME_MAX_LENGTH} letters, digits, "
-                         "'-', '_' or '.', starting with a letter or digit")
+    is allowed: 1 to NAME_MAX_LENGTH letters, digits (any script), '-', '_' or '.', at most
+    NAME_MAX_BYTES in UTF-8, starting with a letter or digit (so no leading dot or dash)."""
+    if (not value or len(value) > NAME_MAX_LENGTH or not all(map(_name_character, value))
+            or value[0] in NAME_PUNCTUATION
+            or len(value.encode("utf-8", "surrogatepass")) > NAME_MAX_BYTES):
+        raise ValueError(f"not a safe file name: use 1 to {NAME_MAX_LENGTH} letters or digits "
+                         f"of any script, '-', '_' or '.' (at most {NAME_MAX_BYTES} bytes in "
+                         "UTF-8), starting with a letter or digit")
     return value
 
 

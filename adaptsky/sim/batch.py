@@ -21,6 +21,7 @@ from adaptsky.channels.contract import (
 from adaptsky.channels.registry import get_model_class
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim import noma
+from adaptsky.sim.gain_bounds import gain_range, reachable_heights
 from adaptsky.sim.layout import pair_users, user_layouts
 from adaptsky.sim.observation import FEATURES_PER_USER, Observer, observe
 from adaptsky.sim.state import Dynamics, SimState, one_uav, step, user_positions, users_xy
@@ -284,6 +285,16 @@ class NomaUavBatch:
         return LinkGeometry.between(uav_m, users_m, user_height_m=scenario.users.height_m,
                                     carrier_hz=carrier_hz(scenario),
                                     bandwidth_hz=scenario.radio.bandwidth_hz)
+
+    def gain_bounds(self) -> tuple[float, float] | None:
+        """The smallest and largest gain a step can give, linear (``gain_bounds.gain_range``:
+        the observation's bounds, docs/environment.md); None where the channel draws fading,
+        whose factors have no bound."""
+        if self._fading:
+            return None
+        scenario = self.scenario
+        return gain_range(self.channel, scenario.channel.los, self.geometry,
+                          reachable_heights(scenario.uav), scenario.area.side_m)
 
     @property
     def max_steps(self) -> int:

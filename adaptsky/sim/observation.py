@@ -95,18 +95,45 @@ class Observer:
         return obs
 
 
-def observation_bounds(scenario: Scenario) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
-    """Lower and upper bounds of every observation component (gains unbounded when scaled)."""
+FLOAT64_GAIN_RANGE = (float(np.finfo(np.float64).smallest_subnormal),
+                      float(np.finfo(np.float64).max))
+"""Where the gains have no bound from the scenario (per-step fading): every positive float64."""
+
+
+def observation_bounds(scenario: Scenario, gains: tuple[float, float] | None = None
+                       ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """Lower and upper bounds of every observation component, finite (docs/environment.md,
+    "Observation bounds"): dx, dy by the area, alpha in [0, 1], h in [h_min, h_max], and g_i
+    between ``gains`` (linear, e.g. ``NomaUavBatch.gain_bounds()``; None: every positive
+    float64), scaled as the observation is and rounded outward to float32."""
     side_m = scenario.area.side_m
+    gain_low, gain_high = gains or FLOAT64_GAIN_RANGE
     if scenario.agent.observation == "scaled":
-        delta, gain_low, gain_high = 2.0, -np.inf, np.inf
+        delta = 2.0
+        gain_low, gain_high = _scaled_gain(gain_low), _scaled_gain(gain_high)
         height = (scenario.uav.min_height_m / scenario.uav.max_height_m, 1.0)
     else:
-        delta, gain_low, gain_high = side_m, 0.0, np.inf
+        delta = side_m
+        gain_low, gain_high = 0.0, min(gain_high, float(np.finfo(np.float32).max))
         height = (scenario.uav.min_height_m, scenario.uav.max_height_m)
-    low_user = [-delta, -delta, 0.0, gain_low]
-    high_user = [delta, delta, 1.0, gain_high]
     n_users = scenario.num_users
-    low = np.array(low_user * n_users + [height[0]], dtype=np.float32)
-    high = np.array(high_user * n_users + [height[1]], dtype=np.float32)
-    return low, high
+    low = np.array([-delta, -delta, 0.0, gain_low] * n_users + [height[0]])
+    high = np.array([delta, delta, 1.0, gain_high] * n_users + [height[1]])
+    return _float32_outward(low, -np.inf), _float32_outward(high, np.inf)
+
+
+def _scaled_gain(gain: float) -> float:
+    """g as the observation scales it, with the same float64 operations (so that a gain
+    between two others is scaled between theirs): (10 log10 g - GAIN_DB_CENTER) /
+    GAIN_DB_SCALE."""
+    return float((np.array(10.0) * np.log10(np.float64(gain)) - np.array(GAIN_DB_CENTER))
+                 / np.array(GAIN_DB_SCALE))
+
+
+def _float32_outward(values: NDArray[np.float64], towards: float) -> NDArray[np.float32]:
+    """``values`` in float32, each moved one float32 step towards ``towards`` where rounding
+    moved it the other way (a bound then still holds every rounded observation)."""
+    rounded = values.astype(np.float32)
+    inward = rounded > values if towards < 0 else rounded < values
+    rounded[inward] = np.nextafter(rounded[inward], np.float32(towards))
+    return rounded

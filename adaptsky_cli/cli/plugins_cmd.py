@@ -52,26 +52,29 @@ def list_plugins(as_json: Json = False) -> None:
 @app.command()
 def show(name: PluginName, as_json: Json = False) -> None:
     """Print a channel model's parameters with defaults and units."""
+    from adaptsky.channels.contract import SHARED_SETTINGS, parameter_limits, supported_range
     from adaptsky.channels.registry import get_model_class, plugin
 
     model = get_model_class(name)
     info = plugin(name)
     fields = model.Params.model_fields
+    supports = {setting: supported_range(model, setting) for setting in SHARED_SETTINGS}
     if as_json:
         print(json.dumps({"name": name, "package": info.package, "version": info.version,
                           "contract_version": info.contract_version,
-                          "description": model.description,
+                          "description": model.description, "supports": supports,
                           "params": {key: {"type": _type_name(f.annotation),
                                            "default": f.default,
-                                           "limits": _limits(f.metadata),
+                                           "limits": parameter_limits(model.Params, key),
                                            "description": f.description}
                                      for key, f in fields.items()}}, indent=2))
         return
     out.print(f"[bold]{name}[/] ({info.package} {info.version}): {model.description}")
     out.print(f"plugin contract {_contract(info)}", markup=False, highlight=False)
-    table = Table("parameter", "type", "default", "allowed", "description (unit)")
+    out.print(f"supports {_supports(supports)}", markup=False, highlight=False)
+    table = _parameter_table(list(fields))
     for key, field in fields.items():
-        limits = _limits(field.metadata)
+        limits = parameter_limits(model.Params, key)
         allowed = ", ".join(f"{_SYMBOLS[bound]} {value:g}" for bound, value in limits.items())
         if not allowed and field.annotation is bool:
             allowed = "true, false"
@@ -84,10 +87,22 @@ def show(name: PluginName, as_json: Json = False) -> None:
 _SYMBOLS = {"gt": ">", "ge": ">=", "lt": "<", "le": "<="}
 
 
-def _limits(metadata: list[Any]) -> dict[str, float]:
-    """A field's numeric bounds (Pydantic's gt/ge/lt/le constraints) as {"gt": 0, ...}."""
-    return {bound: getattr(item, bound) for item in metadata for bound in _SYMBOLS
-            if isinstance(getattr(item, bound, None), int | float)}
+def _parameter_table(keys: list[str]) -> Table:
+    """The columns of ``plugins show``: the keys a user types are never cut or wrapped (the
+    column is as wide as the longest); the description wraps into what is left."""
+    table = Table()
+    table.add_column("parameter", no_wrap=True, min_width=max(map(len, keys), default=0))
+    table.add_column("type", no_wrap=True)
+    table.add_column("default", no_wrap=True)
+    table.add_column("allowed", overflow="fold")
+    table.add_column("description (unit)", ratio=1, overflow="fold")
+    return table
+
+
+def _supports(ranges: dict[str, tuple[float, float] | None]) -> str:
+    """``carriers of 28 GHz only, any bandwidths, any user antenna heights``."""
+    from adaptsky.channels.contract import supported_text
+    return ", ".join(supported_text(setting, value) for setting, value in ranges.items())
 
 
 def _params(name: str, model: Any, items: list[str]) -> Any:
@@ -164,6 +179,10 @@ def check(name: PluginName, carrier_hz: CarrierHz = None, param: Params = None) 
     out.print(f"ok  {name}: follows plugin contract {info.contract_version} ("
               f"{checked_conditions(model, params, carrier_hz)})", markup=False,
               soft_wrap=True)
+    from adaptsky.channels.checker import ignored_carrier_note
+    note = ignored_carrier_note(model, params)
+    if note:
+        out.print(f"note: {name}: {note}", markup=False, soft_wrap=True)
     if not info.contract_declared:
         out.print(f"note: {name} declares no contract_version and is taken as contract 1 "
                   "(users on the ground, no fading); declare contract_version = 2 "

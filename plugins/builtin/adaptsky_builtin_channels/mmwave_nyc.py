@@ -1,5 +1,9 @@
 """28 GHz mmWave channel, New York City measurements (Akdeniz et al. 2014), sec. II-C.1.
 
+Valid at 28 GHz only: the carrier is in the measured constants, so the model declares
+``Supports(carrier_hz=(28e9, 28e9))`` and a scenario with another ``radio.carrier_hz`` is
+refused.
+
 LoS probability, eq. 4:  P_LoS = 1 / (1 + C exp(-Y (theta - C))), theta in degrees.
 Gain, eq. 5:             g_k = C_k d^(-a_k),  k in {LoS, NLoS}, d in m.
 """
@@ -9,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from pydantic import Field
 
-from adaptsky.channels import ChannelModel, ChannelParams, LinkGeometry, db_to_linear
+from adaptsky.channels import ChannelModel, ChannelParams, LinkGeometry, Supports, db_to_linear
 
 _ONE = np.array(1.0)
 
@@ -32,6 +36,8 @@ class MmWaveNycParams(ChannelParams):
 class MmWaveNyc(ChannelModel):
     Params = MmWaveNycParams
     contract_version = 2
+    # the constants of eq. 4-5 are measured at 28 GHz (Table I): no other carrier is modelled
+    supports = Supports(carrier_hz=(28e9, 28e9))
     description = "28 GHz mmWave, NYC path loss (Akdeniz 2014), sigmoid LoS probability"
     params: MmWaveNycParams
 
