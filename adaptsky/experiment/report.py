@@ -418,9 +418,11 @@ def claims_table(claims: list[Claim], analysis: Analysis) -> list[str]:
     return lines
 
 
-def beyond_reach(claims: list[Claim], analysis: Analysis) -> list[str]:
+def beyond_reach(claims: list[Claim], analysis: Analysis, groups: dict[str, str]
+                 ) -> list[str]:
     """A sentence for each claim whose paper number is above what the oracle reaches (every
-    claimed quantity is better when higher)."""
+    claimed quantity is better when higher); ``groups``: the compared groups' titles by id,
+    for a bound that holds against our runs of that group."""
     notes = []
     for claim in claims:
         bounds = [v for row in analysis.rows[:1]
@@ -430,9 +432,13 @@ def beyond_reach(claims: list[Claim], analysis: Analysis) -> list[str]:
         bound = float(np.mean(bounds))
         if claim.paper > bound + 1e-9:
             paper = claim.paper_text or _format(claim.quantity, claim.paper)
+            against = next((title for name, title in groups.items()
+                            if claim.quantity.endswith(f"_vs_{name}")), None)
+            where = (f"against our runs of {against} (mean over the pairs)" if against
+                     else "under this model")
             notes.append(f"{claim.text}: the paper's {paper} lies beyond the oracle's "
-                         f"{_format(claim.quantity, bound)}, the most any policy reaches under "
-                         "this model; no policy can match it")
+                         f"{_format(claim.quantity, bound)}, the most any policy reaches "
+                         f"{where}; no policy can match it")
     return notes
 
 
@@ -445,10 +451,11 @@ class WrittenReport:
     table: list[str]
 
 
-def write_report(plan: Plan, evaluations: Evaluations, wall_s: float | None = None
-                 ) -> WrittenReport:
+def write_report(plan: Plan, evaluations: Evaluations, wall_s: float | None = None,
+                 trained_in_calls: int = 0) -> WrittenReport:
     """Draw the figure, write its CSV and ``report.md`` into the plan's folder; ``wall_s``:
-    the experiment's wall time so far (every call of ``reproduce`` on the folder)."""
+    the experiment's wall time so far (every call of ``reproduce`` on the folder), which
+    trained ``trained_in_calls`` runs."""
     out, experiment = plan.out, plan.experiment
     analysis = ANALYSES[experiment.figure.kind](plan, evaluations, out)
     runs = plan.runs
@@ -464,9 +471,12 @@ def write_report(plan: Plan, evaluations: Evaluations, wall_s: float | None = No
                   f"{g.title} ({len(plan.group_runs(g.name))})" for g in experiment.groups)]
     if wall_s is not None:
         calls = read_calls(out).rows
+        untracked = len(done) - trained_in_calls
         lines.append(f"- wall time: {format_duration(wall_s)}, training, evaluation and "
                      f"report over {plural(len(calls) + 1, 'call')} of reproduce "
-                     f"(`calls.json`), on {_machine(calls)}")
+                     f"(`calls.json`), on {_machine(calls)}" + (
+                         f"; {plural(untracked, 'run')} trained by calls not recorded there "
+                         "(by an earlier version, or by train)" if untracked > 0 else ""))
     if experiment.scenario_note:
         lines.append(f"- scenario: {experiment.scenario_note}")
     lines.append("")
@@ -475,7 +485,9 @@ def write_report(plan: Plan, evaluations: Evaluations, wall_s: float | None = No
                   f"Plotted numbers: [{analysis.files[1].name}]({analysis.files[1].name}).", ""]
     table = claims_table(experiment.claims, analysis)
     lines += [*table, ""]
-    notes = [*beyond_reach(experiment.claims, analysis), *analysis.notes]
+    compared = {name: experiment.group(name).title
+                for name in experiment.evaluation.compare_groups}
+    notes = [*beyond_reach(experiment.claims, analysis, compared), *analysis.notes]
     notes += [f"left out: {name} ({why})" for name, why in evaluations.missing.items()]
     if evaluations.no_best:
         notes.append(f"best policy: {plural(len(evaluations.no_best), 'run')} had no greedy "

@@ -92,8 +92,10 @@ def reproduce(*, experiment: str, out: Path | None = None, seeds: int | None = N
 
     evaluated = time.monotonic()
     evaluations = evaluate_plan(plan, progress)
-    written = write_report(plan, evaluations, wall_s=read_calls(plan.out).wall_s
-                           + time.monotonic() - start)
+    calls = read_calls(plan.out)
+    trained = sum(int(row.get("runs_trained", 0)) for row in calls.rows)
+    written = write_report(plan, evaluations, wall_s=calls.wall_s + time.monotonic() - start,
+                           trained_in_calls=trained + (len(todo) if sweep is not None else 0))
     progress.say(f"{plan.experiment.id}: evaluated and reported in "
                  f"{time.monotonic() - evaluated:.1f} s")
     return finish(ReproduceResult(plan, sweep, written.path, written.files, written.table))
