@@ -16,11 +16,11 @@ HEADER = ("adaptsky_version", "format_version", "created_utc", "command_line")
 
 
 def is_eval_file(path: Path) -> bool:
-    """Whether ``path`` is a readable HDF5 file of kind ``adaptsky-eval`` (anything else, or a
-    file that cannot be read, is left to the run-file reader to name)."""
+    """Whether ``path`` is a readable HDF5 file of kind ``adaptsky-eval`` with its results
+    (anything else, or a file that cannot be read, is left to the run-file reader to name)."""
     try:
         with open_run_file(path) as file:
-            return file.attrs.get("kind") in (KIND, KIND.encode())
+            return file.attrs.get("kind") in (KIND, KIND.encode()) and "results_json" in file
     except (AdaptskyError, OSError):
         return False
 
