@@ -102,7 +102,10 @@ def evaluate(
         "training (the last where a run has none); last: the last checkpoint")] = "best",
     as_json: Json = False,
 ) -> None:
-    """Greedy rollouts of a trained policy, compared with baselines and other runs."""
+    """Evaluate a trained policy against baselines and other runs.
+
+    Greedy rollouts of one seed's policy and of the methods compared, on the same layouts;
+    prints a table and writes an eval file."""
     from adaptsky.evaluation import api
     from adaptsky.store.atomic import fresh_path
     from adaptsky.store.eval_file import write_eval
@@ -152,7 +155,9 @@ def baseline(
     steps: Steps = 1000,
     as_json: Json = False,
 ) -> None:
-    """Run one baseline on a scenario (the oracle also reports its optimum)."""
+    """Run one baseline on a scenario.
+
+    The oracle also reports its optimum per layout."""
     from adaptsky.evaluation import api
     from adaptsky.units import format_rate
     from adaptsky_cli.cli.progress_display import RichReporter

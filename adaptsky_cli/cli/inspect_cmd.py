@@ -15,7 +15,10 @@ def inspect(
                                         show_default=False)],
     as_json: Json = False,
 ) -> None:
-    """Summarise a run file (seeds, episodes, R_e^tot and J_e) or an eval file (its table)."""
+    """Summarise a run file or an eval file.
+
+    A run file: seeds, episodes done, R_e^tot and J_e per seed and over seeds. An eval file:
+    what it evaluated and its comparison table, as eval printed them."""
     from adaptsky.report.eval_summary import is_eval_file
 
     if is_eval_file(run):

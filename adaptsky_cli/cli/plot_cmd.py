@@ -33,7 +33,9 @@ def plot(
     title: Annotated[str | None, typer.Option(metavar="TEXT", help="figure title",
                                               show_default=False)] = None,
 ) -> None:
-    """Draw the learning curves (R_e^tot, a trailing mean) of every seed of the run files."""
+    """Draw the learning curves of run files.
+
+    R_e^tot (a trailing mean) of every seed, with a band over seeds, as a PNG and a CSV."""
     from adaptsky.report.eval_summary import split_eval_files
     from adaptsky.report.plot_runs import default_figure_path, plot_runs  # matplotlib
 
