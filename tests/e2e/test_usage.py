@@ -204,12 +204,15 @@ def test_reproduce_seeds_chooses_planned_seeds_and_runs_counts_them(tmp_path, ca
     assert main(["reproduce", "e1a", "--seeds", "0,1", "--report-only", "--quiet",
                  "--out", str(tmp_path / "seeds")]) == 0
     assert _planned(tmp_path / "seeds") == {0, 1}
+    assert f"adaptsky reproduce e1a --out {tmp_path / 'seeds'} --seeds 0,1`" in (
+        tmp_path / "seeds" / "report.md").read_text()  # the report's command repeats them
     assert main(["reproduce", "e1a", "--seeds", "3", "--report-only", "--quiet",
                  "--out", str(tmp_path / "three")]) == 0
     assert _planned(tmp_path / "three") == {3}
     assert main(["reproduce", "e1a", "--runs", "2", "--report-only", "--quiet",
                  "--out", str(tmp_path / "runs")]) == 0
     assert _planned(tmp_path / "runs") == {0, 1}
+    assert "--runs 2`" in (tmp_path / "runs" / "report.md").read_text()
     capsys.readouterr()
     assert main(["reproduce", "e1a", "--seeds", "1,12", "--out", str(tmp_path / "x")]) == 1
     assert one_line(capsys).endswith("--seeds: 12 not planned; the experiment's seeds are 0-9")
