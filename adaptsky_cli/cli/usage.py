@@ -105,7 +105,7 @@ def usage_line(usage: UsageLine, argv: list[str]) -> str:
     extra = re.fullmatch(r"Got unexpected extra argument(?:s|\(s\))? \((.*)\)", error.message)
     if extra:
         return f"{command}: unexpected argument '{extra.group(1)}'; " + (
-            _set_fix(argv, extra.group(1).split()) or see)
+            _key_value_fix(argv, extra.group(1).split(), _key_value_options(ctx)) or see)
     if isinstance(error, click_errors.MissingParameter):
         return f"{command}: missing {_param_words(error)}; {see}"
     if isinstance(error, click_errors.BadParameter) and error.param is not None:
@@ -165,10 +165,18 @@ def _closest(word: str, choices: list[str]) -> str | None:
     return found[0] if found else None
 
 
-def _set_fix(argv: list[str], extra: list[str]) -> str | None:
+def _key_value_options(ctx: Any) -> set[str]:
+    """The options that take ``KEY=VALUE`` in one word (``--set``, ``--param``)."""
+    if ctx is None:
+        return {"--set"}
+    return {name for param in ctx.command.get_params(ctx) if param.metavar == "KEY=VALUE"
+            for name in param.opts}
+
+
+def _key_value_fix(argv: list[str], extra: list[str], options: set[str]) -> str | None:
     """``--set reward.min_se 1``: the value was given as a word of its own."""
     for index, word in enumerate(argv[:-2]):
         key, value = argv[index + 1], argv[index + 2]
-        if word == "--set" and "=" not in key and value == (extra or [None])[0]:
-            return f"did you mean --set {key}={value}?"
+        if word in options and "=" not in key and value == (extra or [None])[0]:
+            return f"did you mean {word} {key}={value}?"
     return None
