@@ -38,6 +38,9 @@ def one_line(capsys: pytest.CaptureFixture[str]) -> str:
     (["eval"], "adaptsky eval: missing argument RUN.h5"),
     (["train", SCENARIO, "--set", "reward.min_se", "1"],
      "adaptsky train: unexpected argument '1'; did you mean --set reward.min_se=1?"),
+    (["plugins", "check", "mmwave-nyc", "--param", "shadowing", "true"],
+     "adaptsky plugins check: unexpected argument 'true'; did you mean --param "
+     "shadowing=true?"),
     (["train", SCENARIO, "--episdoes", "3"],
      "adaptsky train: unknown option --episdoes; did you mean --episodes?"),
     (["trian"], "adaptsky: no such command 'trian'; did you mean 'train'?"),
