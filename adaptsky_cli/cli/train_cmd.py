@@ -8,9 +8,11 @@ import typer
 from adaptsky.errors import AdaptskyError
 from adaptsky_cli.cli.console import err, out
 from adaptsky_cli.cli.options import SEEDS_HELP, Device, Episodes, SetValues, Steps, parse_seeds
+from adaptsky_cli.cli.usage import click_errors
 
 
 def train(
+    ctx: typer.Context,
     scenario: Annotated[Path | None, typer.Argument(help="scenario file (TOML)",
                                                     show_default=False,
                                                     metavar="SCENARIO.toml")] = None,
@@ -48,7 +50,8 @@ def train(
         path, outcome = api.resume(run_path=resume, episodes=episodes, workers=workers,
                                    device=device, quiet=quiet, progress=progress)
     elif scenario is None:
-        raise AdaptskyError("give a scenario file, or --resume RUN.h5")
+        raise click_errors.UsageError("missing argument SCENARIO.toml (or --resume RUN.h5 to "
+                                      "continue a run)", ctx)
     else:
         path, outcome = api.train(scenario_path=scenario, out=out_file, seeds=parse_seeds(seeds),
                                   episodes=episodes, steps=steps, workers=workers,

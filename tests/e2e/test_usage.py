@@ -36,6 +36,7 @@ def one_line(capsys: pytest.CaptureFixture[str]) -> str:
 
 @pytest.mark.parametrize(("argv", "expected"), [
     (["eval"], "adaptsky eval: missing argument RUN.h5"),
+    (["train"], "adaptsky train: missing argument SCENARIO.toml (or --resume RUN.h5"),
     (["train", SCENARIO, "--set", "reward.min_se", "1"],
      "adaptsky train: unexpected argument '1'; did you mean --set reward.min_se=1?"),
     (["plugins", "check", "mmwave-nyc", "--param", "shadowing", "true"],
