@@ -1,8 +1,9 @@
 """Experiment files -> the plan: every run (one seed, one file) and every evaluation.
 
 A run is the unit of work and its file is its state: ``DIR/runs/<run>.h5`` holds one seed of
-one group at one sweep value. Shrinking options (``--seeds``, ``--episodes``, ``--steps``)
-and ``--set`` become overrides of each run's scenario, recorded in its file.
+one group at one sweep value. Shrinking options (``--runs``, ``--seeds``, ``--episodes``,
+``--steps``) choose runs or become overrides of each run's scenario, recorded in its file, as
+``--set`` does.
 """
 
 from __future__ import annotations
@@ -83,7 +84,7 @@ class Plan:
     out: Path
     runs: list[RunSpec]
     set_values: list[str]
-    shrink: dict[str, int | None]
+    shrink: dict[str, Any]
 
     def group_runs(self, group: str) -> list[RunSpec]:
         return [run for run in self.runs if run.group == group]
@@ -106,7 +107,7 @@ def _value_label(value: Any) -> str:
     return f"{value:g}" if isinstance(value, float) else str(value)
 
 
-def _group_runs(group: Group, experiment_file: Path, out: Path, runs: int,
+def _group_runs(group: Group, experiment_file: Path, out: Path, seeds: list[int],
                 common: list[str]) -> list[RunSpec]:
     scenario_path = experiment_file.parent / group.scenario
     points: list[tuple[Any, list[str], str]] = [(None, [], "")]
@@ -116,7 +117,7 @@ def _group_runs(group: Group, experiment_file: Path, out: Path, runs: int,
                    f"-{short}-{_value_label(value)}") for value in group.sweep.values]
     specs = []
     for value, sweep_set, label in points:
-        for seed in range(runs):
+        for seed in seeds:
             items = (*group.set, *sweep_set, *common, f"train.seeds=[{seed}]")
             scenario, _ = load_with_overrides(scenario_path, list(items))
             name = f"{group.name}{label}-seed{seed}"
@@ -126,20 +127,42 @@ def _group_runs(group: Group, experiment_file: Path, out: Path, runs: int,
     return specs
 
 
+def planned_seeds(group: Group, runs: int | None, seeds: list[int] | None) -> list[int]:
+    """A group's seeds: 0 .. ``group.runs`` - 1, at most ``runs`` of them, only ``seeds``
+    among them where given."""
+    planned = range(min(group.runs, runs) if runs is not None else group.runs)
+    return [seed for seed in planned if seeds is None or seed in seeds]
+
+
+def _check_seeds(experiment: Experiment, experiment_file: Path, runs: int | None,
+                 seeds: list[int] | None) -> None:
+    """Refuse ``--seeds`` that no group plans (every seed given must be one of them)."""
+    planned = {seed for group in experiment.groups for seed in planned_seeds(group, runs, None)}
+    missing = [seed for seed in seeds or [] if seed not in planned]
+    if missing:
+        top = max(planned)
+        within = f" with --runs {runs}" if runs is not None else ""
+        raise ScenarioError([f"{experiment_file}: --seeds: {', '.join(map(str, missing))} "
+                             f"not planned; the experiment's seeds{within} are 0-{top}"])
+
+
 def plan_experiment(experiment: Experiment, experiment_file: Path, out: Path, *,
-                    seeds: int | None = None, episodes: int | None = None,
-                    steps: int | None = None, set_values: list[str] | None = None) -> Plan:
-    """Every run of the experiment, shrunk to ``seeds`` runs per group and point and to
-    ``episodes`` x ``steps`` where given."""
+                    runs: int | None = None, seeds: list[int] | None = None,
+                    episodes: int | None = None, steps: int | None = None,
+                    set_values: list[str] | None = None) -> Plan:
+    """Every run of the experiment, shrunk to ``runs`` runs per group and point (seeds 0 ..
+    runs - 1), to the planned ``seeds`` among them and to ``episodes`` x ``steps`` where
+    given."""
+    _check_seeds(experiment, experiment_file, runs, seeds)
     common = list(set_values or [])
     common += [f"train.episodes={episodes}"] if episodes is not None else []
     common += [f"train.steps={steps}"] if steps is not None else []
-    runs = []
+    specs = []
     for group in experiment.groups:
-        count = min(group.runs, seeds) if seeds is not None else group.runs
-        runs += _group_runs(group, experiment_file, out, count, common)
-    return Plan(experiment, experiment_file, out, runs, list(set_values or []),
-                {"seeds": seeds, "episodes": episodes, "steps": steps})
+        specs += _group_runs(group, experiment_file, out, planned_seeds(group, runs, seeds),
+                             common)
+    return Plan(experiment, experiment_file, out, specs, list(set_values or []),
+                {"runs": runs, "seeds": seeds, "episodes": episodes, "steps": steps})
 
 
 def scenario_text(spec: RunSpec) -> str:

@@ -387,9 +387,11 @@ def command_line(plan: Plan) -> str:
     name = next((key for key, path in shipped.items() if path.resolve() == resolved),
                 str(plan.experiment_path))
     parts = ["adaptsky reproduce", name, "--out", str(plan.out)]
-    for option in ("seeds", "episodes", "steps"):
-        if plan.shrink.get(option) is not None:
-            parts += [f"--{option}", str(plan.shrink[option])]
+    for option in ("runs", "seeds", "episodes", "steps"):
+        value = plan.shrink.get(option)
+        if value is not None:
+            parts += [f"--{option}", ",".join(map(str, value)) if isinstance(value, list)
+                      else str(value)]
     for item in plan.set_values:
         parts += ["--set", item]
     return " ".join(parts)

@@ -44,17 +44,19 @@ def default_out(experiment_id: str) -> Path:
     return Path("reproduce") / experiment_id
 
 
-def reproduce(*, experiment: str, out: Path | None = None, seeds: int | None = None,
-              episodes: int | None = None, steps: int | None = None,
+def reproduce(*, experiment: str, out: Path | None = None, runs: int | None = None,
+              seeds: list[int] | None = None, episodes: int | None = None, steps: int | None = None,
               workers: int | None = None, scheduler: str | None = None,
               set_values: list[str] | None = None, runs_only: bool = False,
               report_only: bool = False, device: str = "cpu", quiet: bool = False,
               progress: Reporter | None = None) -> ReproduceResult:
     """Run, evaluate and report an experiment into ``out`` (default reproduce/<id>).
 
-    ``runs_only`` stops after training; ``report_only`` trains nothing and reports the runs
-    that are finished (for a look while the runs go on elsewhere). ``progress`` hears of the
-    work (default: timestamped lines on standard error, none but interrupts with ``quiet``).
+    ``runs`` keeps at most so many runs per group and sweep point (seeds 0 .. runs - 1),
+    ``seeds`` only those of the planned seeds. ``runs_only`` stops after training;
+    ``report_only`` trains nothing and reports the runs that are finished (for a look while
+    the runs go on elsewhere). ``progress`` hears of the work
+    (default: timestamped lines on standard error, none but interrupts with ``quiet``).
     Every call is recorded in ``DIR/calls.json``; the report gives their summed wall time.
     """
     start, started_utc = time.monotonic(), utc_timestamp()
@@ -62,7 +64,8 @@ def reproduce(*, experiment: str, out: Path | None = None, seeds: int | None = N
     torch_device = training_device(device)
     spec, path = load_experiment(experiment)
     plan = plan_experiment(spec, path, out if out is not None else default_out(spec.id),
-                           seeds=seeds, episodes=episodes, steps=steps, set_values=set_values)
+                           runs=runs, seeds=seeds, episodes=episodes, steps=steps,
+                           set_values=set_values)
     states = [(run, run_state(run)) for run in plan.runs]  # refuses conflicting files first
     if plan.out.exists() and not plan.out.is_dir():
         raise AdaptskyError(f"{plan.out}: is a file; --out names the folder the "

@@ -13,16 +13,34 @@ import typer
 from adaptsky.errors import AdaptskyError
 from adaptsky_cli.cli.console import err, out
 from adaptsky_cli.cli.options import Json, ScenarioFile, command_line
+from adaptsky_cli.cli.usage import click_errors
 
-Layouts = Annotated[int | None, typer.Option(min=1, help="evaluate on this many uniform "
-                                             "layouts (default: the scenario's layout)")]
-LayoutSeed = Annotated[int, typer.Option(min=0, help="seed of the uniform layouts")]
-Steps = Annotated[int, typer.Option(min=1, help="steps per layout")]
+Layouts = Annotated[int | None, typer.Option(min=1, metavar="N", show_default=False,
+                                             help="evaluate on this many uniform layouts "
+                                             "(default: the scenario's layout)")]
+LayoutSeed = Annotated[int, typer.Option(min=0, metavar="SEED",
+                                         help="seed of the uniform layouts")]
+Steps = Annotated[int, typer.Option(min=1, metavar="N", help="steps per layout")]
+PROBE_BYTES = 64 * 1024
+"""The trial write before the rollouts: a full disk refuses it as it would the eval file."""
+
+
+def _trial_write(path: Path) -> None:
+    """Write and remove a small file beside ``path``, so that a full disk (a quota, a size
+    limit) is one line before the rollouts, as it is for ``train``, not after them."""
+    from adaptsky.store.atomic import StorageError, write_bytes_atomic
+
+    probe = path.with_name(f".{path.name}.probe")
+    try:
+        write_bytes_atomic(probe, bytes(PROBE_BYTES))
+    except StorageError as error:
+        raise StorageError(path, error.action, error.reason, error.advice, error.code) from None
+    probe.unlink(missing_ok=True)
 
 
 def _writable_new_file(path: Path) -> None:
     """Refuse, before any work, an eval file that exists or whose folder does not exist or
-    cannot be written."""
+    cannot be written, or whose disk is full."""
     if path.exists():
         raise AdaptskyError(f"{path}: exists; choose another --out")
     if not path.parent.is_dir():
@@ -33,9 +51,12 @@ def _writable_new_file(path: Path) -> None:
         reason = "read-only file system" if read_only else "permission denied"
         raise AdaptskyError(f"{path}: cannot write in {path.parent} ({reason}); "
                             "choose another --out")
+    _trial_write(path)
 
 
-def _show(results: dict[str, Any]) -> None:
+def show_results(results: dict[str, Any]) -> None:
+    """The comparison table of an evaluation or a baseline, and the policy's share of the
+    oracle."""
     from adaptsky.report.eval_table import methods_table, oracle_line
     out.print(methods_table(results))
     line = oracle_line(results)
@@ -43,31 +64,53 @@ def _show(results: dict[str, Any]) -> None:
         out.print(line, markup=False)
 
 
+def _run_file(run: Path | None, checkpoint: Path | None, ctx: typer.Context) -> Path:
+    """The run file, given as the argument or as ``--checkpoint`` (once)."""
+    if run is not None and checkpoint is not None:
+        raise click_errors.UsageError(f"the run file is given twice ({run} and --checkpoint "
+                                      f"{checkpoint}); give it once, as RUN.h5", ctx)
+    if run is None and checkpoint is None:
+        raise click_errors.UsageError("missing argument RUN.h5, the run file with the policy",
+                                      ctx)
+    return run if run is not None else checkpoint  # type: ignore[return-value]
+
+
 def evaluate(
     ctx: typer.Context,
-    checkpoint: Annotated[Path, typer.Option(help="run file (HDF5) with the policy",
-                                             show_default=False)],
-    seed: Annotated[int | None, typer.Option(help="which seed's policy (default: the "
-                                             "first)")] = None,
-    scenario: Annotated[Path | None, typer.Option(help="evaluate on this scenario (default: "
-                                                  "the training scenario)")] = None,
+    run: Annotated[Path | None, typer.Argument(help="run file (HDF5) with the policy",
+                                               metavar="RUN.h5", show_default=False)] = None,
+    checkpoint: Annotated[Path | None, typer.Option(
+        metavar="RUN.h5", show_default=False,
+        help="the run file, as an option (the same as the argument)")] = None,
+    seed: Annotated[int | None, typer.Option(
+        metavar="SEED", show_default=False,
+        help="which seed's policy (default: the first)")] = None,
+    scenario: Annotated[Path | None, typer.Option(
+        metavar="SCENARIO.toml", show_default=False,
+        help="evaluate on this scenario (default: the training scenario)")] = None,
     layouts: Layouts = None,
     layout_seed: LayoutSeed = 0,
     steps: Steps = 1000,
-    compare: Annotated[str, typer.Option(help="comma-separated: soa, oracle, random, or "
-                                         "other run files")] = "soa,random",
-    out_file: Annotated[Path | None, typer.Option("--out", help="eval file to write "
-                                                  "(default: next to the run file)")] = None,
-    policy: Annotated[str, typer.Option(help="best: the policy of the best greedy evaluation "
-                                        "during training (the last where a run has none); "
-                                        "last: the last checkpoint")] = "best",
+    compare: Annotated[str, typer.Option(
+        metavar="METHODS", help="comma-separated: soa, oracle, random, or other run "
+        "files")] = "soa,random",
+    out_file: Annotated[Path | None, typer.Option(
+        "--out", metavar="FILE.h5", show_default=False,
+        help="eval file to write (default: next to the run file)")] = None,
+    policy: Annotated[str, typer.Option(
+        metavar="best|last", help="best: the policy of the best greedy evaluation during "
+        "training (the last where a run has none); last: the last checkpoint")] = "best",
     as_json: Json = False,
 ) -> None:
-    """Greedy rollouts of a trained policy, compared with baselines and other runs."""
+    """Evaluate a trained policy against baselines and other runs.
+
+    Greedy rollouts of one seed's policy and of the methods compared, on the same layouts;
+    prints a table and writes an eval file."""
     from adaptsky.evaluation import api
     from adaptsky.store.atomic import fresh_path
     from adaptsky.store.eval_file import write_eval
     from adaptsky_cli.cli.progress_display import RichReporter
+    checkpoint = _run_file(run, checkpoint, ctx)
     start = time.monotonic()
     path = out_file if out_file is not None else fresh_path(checkpoint.parent,
                                                             f"{checkpoint.stem}-eval")
@@ -83,18 +126,21 @@ def evaluate(
     if as_json:
         print(json.dumps(results | {"eval_file": str(path)}))
         return
-    _show_training(results)
-    _show(results)
+    show_training(results)
+    show_results(results)
     err.print(f"eval file: {path}")
 
 
-def _show_training(results: dict[str, Any]) -> None:
-    """Which policy was evaluated, and the greedy evaluations during training."""
+def show_training(results: dict[str, Any]) -> None:
+    """Which policy was evaluated, and the greedy evaluations during training (an evaluation
+    of baselines alone has neither)."""
     from adaptsky.report.evaluations import curve_arrays, curve_table, policy_line
 
-    used = results["policy"]
+    used = results.get("policy")
+    if used is None:
+        return
     out.print(policy_line(used, used["score_kind"]), markup=False)
-    curve = curve_arrays(results["training_evaluations"])
+    curve = curve_arrays(results.get("training_evaluations") or {"episode": []})
     if len(curve["episode"]):
         best = used["episode"] if used["policy"] == "best" else None
         out.print(curve_table(results["seed"], curve, best, limit=6))
@@ -102,13 +148,16 @@ def _show_training(results: dict[str, Any]) -> None:
 
 def baseline(
     scenario: ScenarioFile,
-    method: Annotated[str, typer.Option(help="soa, oracle or random")],
+    method: Annotated[str, typer.Option(metavar="soa|oracle|random", show_default=False,
+                                        help="the baseline to run")],
     layouts: Layouts = None,
     layout_seed: LayoutSeed = 0,
     steps: Steps = 1000,
     as_json: Json = False,
 ) -> None:
-    """Run one baseline on a scenario; the oracle also reports its optimum."""
+    """Run one baseline on a scenario.
+
+    The oracle also reports its optimum per layout."""
     from adaptsky.evaluation import api
     from adaptsky.units import format_rate
     from adaptsky_cli.cli.progress_display import RichReporter
@@ -127,7 +176,7 @@ def baseline(
     if as_json:
         print(json.dumps(results))
         return
-    _show(results)
+    show_results(results)
     if method == "oracle":
         for i, best in enumerate(results["optimum"][:10]):
             rates = ", ".join(format_rate(r) for r in best["rate_bps"])

@@ -1,12 +1,14 @@
 """Entry point of the ``adaptsky`` command.
 
-Errors of the project's own kind print one line (per problem) and exit 1;
+Errors of the project's own kind print one line (per problem) and exit 1, usage errors (an
+unknown option, a missing argument, a value of the wrong type) one line and exit 2;
 ``ADAPTSKY_DEBUG=1`` shows the traceback instead.
 """
 
 from __future__ import annotations
 
 import os
+import sys
 
 import typer
 
@@ -22,8 +24,10 @@ from adaptsky_cli.cli import (
     train_cmd,
 )
 from adaptsky_cli.cli.console import err
+from adaptsky_cli.cli.usage import OneLineGroup, UsageLine, usage_line
 
 app = typer.Typer(name="adaptsky", no_args_is_help=True, pretty_exceptions_enable=False,
+                  cls=OneLineGroup,
                   help="NOMA-UAV network simulator and dueling-DQN framework (AdaptSky).")
 app.add_typer(scenario_cmd.app, name="scenario")
 app.add_typer(plugins_cmd.app, name="plugins")
@@ -59,12 +63,16 @@ def _interrupted(done: SystemExit) -> bool:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the command line with ``argv``; return the exit code (never raises for user errors)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
     try:
         app(args=argv, prog_name="adaptsky")  # standalone: ends with SystemExit
     except SystemExit as done:
         if _interrupted(done):
             err.print("interrupted")  # Typer ends a Ctrl-C with a silent exit 130
         return done.code if isinstance(done.code, int) else (0 if done.code is None else 1)
+    except UsageLine as usage:
+        err.print(usage_line(usage, argv))
+        return usage.exit_code
     except AdaptskyError as error:
         if os.environ.get("ADAPTSKY_DEBUG") == "1":
             raise

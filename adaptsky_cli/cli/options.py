@@ -1,19 +1,65 @@
-"""Argument and option aliases shared by several commands."""
+"""Argument and option aliases shared by several commands, and the ``--seeds`` syntax."""
 
+import re
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
-ScenarioFile = Annotated[Path, typer.Argument(help="scenario file (TOML)", show_default=False)]
+from adaptsky.errors import AdaptskyError
+
+ScenarioFile = Annotated[Path, typer.Argument(help="scenario file (TOML)", show_default=False,
+                                              metavar="SCENARIO.toml")]
 ScenarioFiles = Annotated[list[Path], typer.Argument(help="scenario files (TOML)",
-                                                     show_default=False)]
+                                                     show_default=False,
+                                                     metavar="SCENARIO.toml...")]
 PluginName = Annotated[str, typer.Argument(help="channel-model name, as in 'plugins list'",
-                                           show_default=False)]
+                                           show_default=False, metavar="NAME")]
 Json = Annotated[bool, typer.Option("--json", help="print JSON on stdout, nothing else")]
 Device = Annotated[str, typer.Option(
-    "--device", help="where to train: cpu, cuda (or cuda:N) or auto (cuda when available); "
-    "on cuda all seeds train as one stack, recorded as CUDA graphs")]
+    "--device", metavar="cpu|cuda|auto", help="where to train: cpu, cuda (or cuda:N) or auto "
+    "(cuda when available); on cuda all seeds train as one stack, recorded as CUDA graphs")]
+Episodes = Annotated[int | None, typer.Option(min=1, metavar="N", help="episodes per seed",
+                                              show_default=False)]
+Steps = Annotated[int | None, typer.Option(min=1, metavar="N", help="steps per episode",
+                                           show_default=False)]
+SetValues = Annotated[list[str] | None, typer.Option(
+    "--set", metavar="KEY=VALUE", show_default=False,
+    help="override a scenario key, section.key=value (repeatable), e.g. --set "
+    "reward.min_se=1.5 --set agent.dueling=false; recorded in the run file")]
+SEEDS_HELP = "seeds: a list or ranges, e.g. 0,1,2 or 0-5 or 0-2,7"
+"""How ``--seeds`` is written, for every command's help."""
+
+MAX_SEEDS = 1000
+"""The most seeds one run trains (``train.seeds``, docs/scenario-format.md)."""
+_SEEDS_ITEM = re.compile(r"(\d+)(?:-(\d+))?")
+
+
+def parse_seeds(text: str | None) -> list[int] | None:
+    """``--seeds``: integers >= 0 and ranges ``a-b`` (both ends included), comma-separated,
+    each seed once, in the order given: ``0-2,7`` -> [0, 1, 2, 7]; None where not given."""
+    if text is None:
+        return None
+    seeds: list[int] = []
+    for item in text.split(","):
+        found = _SEEDS_ITEM.fullmatch(item.strip())
+        if found is None:
+            raise AdaptskyError(f"--seeds: '{text}' is not a list of seeds; give integers >= 0 "
+                                "and ranges, e.g. 0,1,2 or 0-5 or 0-2,7")
+        low, high = int(found.group(1)), int(found.group(2) or found.group(1))
+        if high < low:
+            raise AdaptskyError(f"--seeds: the range {item.strip()} ends before it starts; "
+                                f"write it low-high, e.g. {high}-{low}")
+        if len(seeds) + high - low + 1 > MAX_SEEDS:
+            raise AdaptskyError(f"--seeds: '{text}' names more than {MAX_SEEDS} seeds; "
+                                "a run trains at most that many")
+        seeds += range(low, high + 1)
+    repeated = sorted({seed for seed in seeds if seeds.count(seed) > 1})
+    if repeated:
+        raise AdaptskyError(f"--seeds: {', '.join(map(str, repeated))} given more than once; "
+                            "give each seed once, e.g. 0,1,2")
+    return seeds
+
 
 
 def command_line(ctx: typer.Context) -> list[str]:

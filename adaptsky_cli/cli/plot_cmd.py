@@ -8,6 +8,7 @@ from typing import Annotated
 
 import typer
 
+from adaptsky.errors import AdaptskyError
 from adaptsky_cli.cli.console import err
 
 
@@ -19,17 +20,33 @@ class Band(StrEnum):
 
 
 def plot(
-    runs: Annotated[list[Path], typer.Argument(help="run files (HDF5)", show_default=False)],
+    runs: Annotated[list[Path], typer.Argument(help="run files (HDF5); eval files among them "
+                                               "are skipped", metavar="RUN.h5...",
+                                               show_default=False)],
     out_file: Annotated[Path | None, typer.Option(
-        "--out", help="PNG to write (its name ends in .png), with the plotted numbers in a .csv "
-        "beside it (default: <first run file>-curves.png beside it)", show_default=False)] = None,
-    band: Annotated[Band, typer.Option(help="shaded band: mean ± 1 std over seeds, or a 95% "
-                                       "bootstrap interval of the mean")] = Band.std,
-    title: Annotated[str | None, typer.Option(help="figure title", show_default=False)] = None,
+        "--out", metavar="FIG.png",
+        help="PNG to write (its name ends in .png), with the plotted numbers in a .csv beside "
+        "it (default: <first run file>-curves.png beside it)", show_default=False)] = None,
+    band: Annotated[Band, typer.Option(
+        metavar="std|bootstrap", help="shaded band: mean ± 1 std over seeds, or a 95% "
+        "bootstrap interval of the mean")] = Band.std,
+    title: Annotated[str | None, typer.Option(metavar="TEXT", help="figure title",
+                                              show_default=False)] = None,
 ) -> None:
-    """Draw the learning curves (R_e^tot, a trailing mean) of every seed of the run files."""
+    """Draw the learning curves of run files.
+
+    R_e^tot (a trailing mean) of every seed, with a band over seeds, as a PNG and a CSV."""
+    from adaptsky.report.eval_summary import split_eval_files
     from adaptsky.report.plot_runs import default_figure_path, plot_runs  # matplotlib
 
+    runs, evals = split_eval_files(runs)
+    if not runs:
+        raise AdaptskyError(f"no run file to plot: {', '.join(map(str, evals))} "
+                            f"{'is an eval file' if len(evals) == 1 else 'are eval files'}; "
+                            "give the run files (RUN.h5) that eval read")
+    for path in evals:
+        err.print(f"{path}: an eval file, not a run file: skipped (adaptsky inspect {path} "
+                  "shows it)")
     path = plot_runs(run_paths=runs, out=out_file or default_figure_path(runs[0]),
                      band=band.value, title=title)
     err.print(f"figure: {path}")

@@ -7,38 +7,50 @@ import typer
 
 from adaptsky.errors import AdaptskyError
 from adaptsky_cli.cli.console import err
-from adaptsky_cli.cli.options import Device
+from adaptsky_cli.cli.options import SEEDS_HELP, Device, Episodes, Steps, parse_seeds
 
 
 def reproduce(
-    experiment: Annotated[str, typer.Argument(help="a shipped experiment id (e1a, e1b, e2, "
-                                              "e3), 'all' of them, or an experiment file "
-                                              "(TOML)", show_default=False)],
-    out: Annotated[Path | None, typer.Option(help="output folder: runs/, evals/, figures, "
-                                             "CSVs, report.md (default: reproduce/<id>); with "
-                                             "'all', the folder of one subfolder per "
-                                             "experiment")] = None,
-    seeds: Annotated[int | None, typer.Option(min=1, help="at most this many runs per group "
-                                              "and sweep point, for a quick look")] = None,
-    episodes: Annotated[int | None, typer.Option(min=1, help="episodes per run")] = None,
-    steps: Annotated[int | None, typer.Option(min=1, help="steps per episode")] = None,
-    workers: Annotated[int | None, typer.Option(min=1, help="parallel local processes "
-                                                "(default: one per core)")] = None,
-    scheduler: Annotated[str | None, typer.Option(help="address of a Dask scheduler, "
-                                                  "tcp://HOST:PORT; OUT must be on storage "
-                                                  "every worker shares")] = None,
+    experiment: Annotated[str, typer.Argument(
+        metavar="EXPERIMENT", show_default=False,
+        help="a shipped experiment id (e1a, e1b, e2, e3), 'all' of them, or an experiment "
+        "file (TOML)")],
+    out: Annotated[Path | None, typer.Option(
+        metavar="DIR", show_default=False,
+        help="output folder: runs/, evals/, figures, CSVs, report.md (default: "
+        "reproduce/<id>); with 'all', the folder of one subfolder per experiment")] = None,
+    runs: Annotated[int | None, typer.Option(
+        min=1, metavar="N", show_default=False,
+        help="at most N runs per group and sweep point (seeds 0 .. N-1), for a quick "
+        "look")] = None,
+    seeds: Annotated[str | None, typer.Option(
+        metavar="SEEDS", show_default=False,
+        help=f"only these of the experiment's planned seeds; {SEEDS_HELP}")] = None,
+    episodes: Episodes = None,
+    steps: Steps = None,
+    workers: Annotated[int | None, typer.Option(
+        min=1, metavar="N", show_default=False,
+        help="parallel local processes (default: one per core)")] = None,
+    scheduler: Annotated[str | None, typer.Option(
+        metavar="tcp://HOST:PORT", show_default=False,
+        help="address of a Dask scheduler; DIR must be on storage every worker shares")] = None,
     set_values: Annotated[list[str] | None, typer.Option(
-        "--set", help="override a key of every run's scenario, section.key=value "
-        "(repeatable)", show_default=False)] = None,
-    runs_only: Annotated[bool, typer.Option(help="train the missing runs, then stop before "
-                                            "evaluating and reporting")] = False,
-    report_only: Annotated[bool, typer.Option(help="train nothing: evaluate and report the "
-                                              "runs that are finished")] = False,
+        "--set", metavar="KEY=VALUE", show_default=False,
+        help="override a key of every run's scenario, section.key=value (repeatable)")] = None,
+    runs_only: Annotated[bool, typer.Option(
+        "--runs-only", help="train the missing runs, then stop before evaluating and "
+        "reporting")] = False,
+    report_only: Annotated[bool, typer.Option(
+        "--report-only", help="train nothing: evaluate and report the runs that are "
+        "finished")] = False,
     device: Device = "cpu",
-    quiet: Annotated[bool, typer.Option(help="no progress, only the final lines")] = False,
+    quiet: Annotated[bool, typer.Option("--quiet", help="no progress, only the final "
+                                        "lines")] = False,
 ) -> None:
-    """Reproduce a paper experiment: run what is missing, resume what was interrupted, skip
-    what is done, evaluate, and write figures, CSVs and report.md."""
+    """Reproduce a paper experiment: train, evaluate, report.
+
+    Runs what is missing, resumes what was interrupted, skips what is done, evaluates, and
+    writes figures, CSVs and report.md."""
     if runs_only and report_only:
         raise AdaptskyError("--runs-only and --report-only exclude each other")
     # training and evaluation import torch: only when the command runs, not for --help
@@ -46,8 +58,8 @@ def reproduce(
     from adaptsky.experiment.reproduce import reproduce_all
     from adaptsky_cli.cli.progress_display import RichReporter
 
-    options = dict(seeds=seeds, episodes=episodes, steps=steps, workers=workers,
-                   scheduler=scheduler, set_values=set_values, runs_only=runs_only,
+    options = dict(runs=runs, seeds=parse_seeds(seeds), episodes=episodes, steps=steps,
+                   workers=workers, scheduler=scheduler, set_values=set_values, runs_only=runs_only,
                    report_only=report_only, device=device, quiet=quiet,
                    progress=RichReporter(err, quiet=quiet))
     if experiment == "all":

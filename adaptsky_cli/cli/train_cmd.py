@@ -7,49 +7,38 @@ import typer
 
 from adaptsky.errors import AdaptskyError
 from adaptsky_cli.cli.console import err, out
-from adaptsky_cli.cli.options import Device
-
-
-def _seeds(value: str | None) -> list[int] | None:
-    """``--seeds 0,1,2`` as a list: integers >= 0, each once, nothing empty between commas."""
-    if value is None:
-        return None
-    try:
-        seeds = [int(part) for part in value.split(",")]
-    except ValueError:
-        raise AdaptskyError(f"--seeds: '{value}' is not a comma-separated list of integers, "
-                            "e.g. 0,1,2") from None
-    repeated = sorted({seed for seed in seeds if seeds.count(seed) > 1})
-    if repeated:
-        raise AdaptskyError(f"--seeds: {', '.join(map(str, repeated))} given more than once; "
-                            "give each seed once, e.g. 0,1,2")
-    return seeds
+from adaptsky_cli.cli.options import SEEDS_HELP, Device, Episodes, SetValues, Steps, parse_seeds
+from adaptsky_cli.cli.usage import click_errors
 
 
 def train(
+    ctx: typer.Context,
     scenario: Annotated[Path | None, typer.Argument(help="scenario file (TOML)",
-                                                    show_default=False)] = None,
-    out_file: Annotated[Path | None, typer.Option("--out", help="run file to write (default: "
-                                                  "runs/<scenario>-<time>.h5)")] = None,
-    seeds: Annotated[str | None, typer.Option(help="comma-separated seeds, e.g. 0,1,2 "
-                                              "(default: the scenario's)")] = None,
-    episodes: Annotated[int | None, typer.Option(min=1, help="episodes per seed")] = None,
-    steps: Annotated[int | None, typer.Option(min=1, help="steps per episode")] = None,
-    workers: Annotated[int | None, typer.Option(min=1, help="parallel processes (default: "
-                                                "one per seed, at most the cores)")] = None,
-    checkpoint_every: Annotated[int | None, typer.Option(min=1, help="episodes between "
-                                                         "checkpoints")] = None,
-    set_values: Annotated[list[str] | None, typer.Option(
-        "--set", help="override a scenario key, section.key=value (repeatable), e.g. "
-        "--set reward.min_se=1.5 --set agent.dueling=false; recorded in the run file",
-        show_default=False)] = None,
-    resume: Annotated[Path | None, typer.Option(help="continue this run file from its last "
-                                                "checkpoints")] = None,
+                                                    show_default=False,
+                                                    metavar="SCENARIO.toml")] = None,
+    out_file: Annotated[Path | None, typer.Option(
+        "--out", metavar="FILE.h5", show_default=False,
+        help="run file to write (default: runs/<scenario>-<time>.h5)")] = None,
+    seeds: Annotated[str | None, typer.Option(
+        metavar="SEEDS", show_default=False,
+        help=f"{SEEDS_HELP}; one run file holds them all (default: the scenario's)")] = None,
+    episodes: Episodes = None,
+    steps: Steps = None,
+    workers: Annotated[int | None, typer.Option(
+        min=1, metavar="N", show_default=False,
+        help="parallel processes (default: one per seed, at most the cores)")] = None,
+    checkpoint_every: Annotated[int | None, typer.Option(
+        min=1, metavar="N", show_default=False, help="episodes between checkpoints")] = None,
+    set_values: SetValues = None,
+    resume: Annotated[Path | None, typer.Option(
+        metavar="RUN.h5", show_default=False,
+        help="continue this run file from its last checkpoints")] = None,
     device: Device = "cpu",
-    quiet: Annotated[bool, typer.Option(help="print only the final table")] = False,
+    quiet: Annotated[bool, typer.Option("--quiet", help="print only the final table")] = False,
 ) -> None:
-    """Train the dueling DQN on a scenario (algorithm 1): on a CPU one process per core, its
-    seeds as one stack; on a GPU every seed in one stack."""
+    """Train the dueling DQN on a scenario (algorithm 1).
+
+    On a CPU one process per core, its seeds as one stack; on a GPU every seed in one stack."""
     from adaptsky.report.summary import summarize, summary_table
     from adaptsky.training import api
     from adaptsky_cli.cli.progress_display import RichReporter
@@ -61,9 +50,10 @@ def train(
         path, outcome = api.resume(run_path=resume, episodes=episodes, workers=workers,
                                    device=device, quiet=quiet, progress=progress)
     elif scenario is None:
-        raise AdaptskyError("give a scenario file, or --resume RUN.h5")
+        raise click_errors.UsageError("missing argument SCENARIO.toml (or --resume RUN.h5 to "
+                                      "continue a run)", ctx)
     else:
-        path, outcome = api.train(scenario_path=scenario, out=out_file, seeds=_seeds(seeds),
+        path, outcome = api.train(scenario_path=scenario, out=out_file, seeds=parse_seeds(seeds),
                                   episodes=episodes, steps=steps, workers=workers,
                                   checkpoint_every=checkpoint_every, set_values=set_values,
                                   device=device, quiet=quiet, progress=progress)

@@ -76,7 +76,7 @@ def cluster(tmp_path):
 
 def test_shipped_experiment_through_a_scheduler(cluster, tmp_path, capsys):
     out = tmp_path / "out"
-    code = main(["reproduce", "e1a", "--episodes", "3", "--steps", "20", "--seeds", "2",
+    code = main(["reproduce", "e1a", "--episodes", "3", "--steps", "20", "--runs", "2",
                  "--scheduler", cluster.address, "--out", str(out)])
     err = capsys.readouterr().err
     assert code == 0, err
@@ -110,7 +110,7 @@ def test_a_killed_worker_s_run_resumes_from_its_checkpoint(cluster, tmp_path, un
 
 def test_unreachable_scheduler_is_one_line(tmp_path, capsys):
     start = time.monotonic()
-    code = main(["reproduce", "e1a", "--episodes", "1", "--steps", "5", "--seeds", "1",
+    code = main(["reproduce", "e1a", "--episodes", "1", "--steps", "5", "--runs", "1",
                  "--scheduler", f"tcp://127.0.0.1:{_free_port()}", "--out", str(tmp_path)])
     lines = capsys.readouterr().err.strip().splitlines()
     assert code == 1 and len(lines) == 1 and "cannot connect" in lines[0], lines

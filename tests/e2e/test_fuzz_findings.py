@@ -84,7 +84,7 @@ def test_reproduce_out_that_is_a_file(tmp_path, capsys):
     # "cannot access it (File exists); check the path and its file system"
     out = tmp_path / "notes.txt"
     out.write_text("x")
-    assert main(["reproduce", "e3", "--out", str(out), "--seeds", "1", "--episodes", "1"]) == 1
+    assert main(["reproduce", "e3", "--out", str(out), "--runs", "1", "--episodes", "1"]) == 1
     assert one_line(capsys) == (f"{out}: is a file; --out names the folder the experiment's "
                                 "runs, evaluations and report go to")
 

@@ -1,4 +1,4 @@
-"""``adaptsky reproduce all --episodes 2 --steps 20 --seeds 1``, as a user types it, once for
+"""``adaptsky reproduce all --episodes 2 --steps 20 --runs 1``, as a user types it, once for
 the module (about 3 min on 2 cores, most of it E3's oracle on 100 layouts): every shipped
 experiment reported, the index, the last and best rows, the oracle's bound computed here from
 the eval files, the fresh-layout group of E3, and the calls recorded."""
@@ -20,7 +20,7 @@ from adaptsky_cli.cli.main import main
 @pytest.fixture(scope="module")
 def everything(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("all")
-    code = main(["reproduce", "all", "--episodes", "2", "--steps", "20", "--seeds", "1",
+    code = main(["reproduce", "all", "--episodes", "2", "--steps", "20", "--runs", "1",
                  "--out", str(out), "--quiet"])
     assert code == 0
     return out

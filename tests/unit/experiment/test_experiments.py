@@ -27,7 +27,7 @@ def test_every_shipped_experiment_validates_and_plans(tmp_path):
 
 def test_plan_applies_sweeps_sets_and_shrinking(tmp_path):
     experiment, path = load_experiment("e2")
-    plan = plan_experiment(experiment, path, tmp_path, seeds=2, episodes=3, steps=20,
+    plan = plan_experiment(experiment, path, tmp_path, runs=2, episodes=3, steps=20,
                            set_values=["agent.lr=0.0005"])
     assert len(plan.runs) == 16
     run = plan.run("adaptsky", 1, 2.5)

@@ -129,9 +129,9 @@ def test_reproduce_runs_a_min_se_sweep_as_one_stack(tmp_path):
     """E2 (8 thresholds) tiny: one stack on the CPU writes the files separate runs write."""
     spec, path = load_experiment("e2")
     small = ["agent.hidden_sizes=[16]", "agent.batch_size=16", "agent.memory_size=200"]
-    stacked = plan_experiment(spec, path, tmp_path / "stacked", seeds=1, episodes=2, steps=20,
+    stacked = plan_experiment(spec, path, tmp_path / "stacked", runs=1, episodes=2, steps=20,
                               set_values=small)
-    separate = plan_experiment(spec, path, tmp_path / "separate", seeds=1, episodes=2,
+    separate = plan_experiment(spec, path, tmp_path / "separate", runs=1, episodes=2,
                                steps=20, set_values=small)
     assert len(stacks(stacked.runs)) == 1 and len(stacked.runs) == 8
     executor = LocalExecutor(1, torch.device("cpu"))
@@ -151,7 +151,7 @@ def test_reproduce_runs_a_min_se_sweep_as_one_stack(tmp_path):
 def test_reproduce_all_runs_only_trains_every_experiment(tmp_path, capsys):
     from adaptsky_cli.cli.main import main
 
-    code = main(["reproduce", "all", "--out", str(tmp_path), "--seeds", "1", "--episodes", "1",
+    code = main(["reproduce", "all", "--out", str(tmp_path), "--runs", "1", "--episodes", "1",
                  "--steps", "10", "--runs-only", "--workers", "2", "--quiet",
                  "--set", "agent.hidden_sizes=[8]", "--set", "agent.batch_size=8"])
     assert code == 0, capsys.readouterr().err

@@ -1,0 +1,63 @@
+"""Eval files among run files: which paths are eval files (``plot`` skips them, ``inspect``
+summarises them) and what ``inspect EVAL.h5`` shows of one (docs/evaluation.md#eval-files)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from adaptsky.errors import AdaptskyError
+from adaptsky.store.eval_file import KIND
+from adaptsky.store.run_file import open_run_file
+
+HEADER = ("adaptsky_version", "format_version", "created_utc", "command_line")
+"""The eval file's root attributes ``inspect`` shows."""
+
+
+def is_eval_file(path: Path) -> bool:
+    """Whether ``path`` is a readable HDF5 file of kind ``adaptsky-eval`` with its results
+    (anything else, or a file that cannot be read, is left to the run-file reader to name)."""
+    try:
+        with open_run_file(path) as file:
+            return file.attrs.get("kind") in (KIND, KIND.encode()) and "results_json" in file
+    except (AdaptskyError, OSError):
+        return False
+
+
+def split_eval_files(paths: list[Path]) -> tuple[list[Path], list[Path]]:
+    """``paths`` as (the others, the eval files), each in the order given."""
+    evals = [path for path in paths if is_eval_file(path)]
+    return [path for path in paths if path not in evals], evals
+
+
+def read_eval_file(path: Path) -> tuple[dict[str, Any], dict[str, Any]]:
+    """An eval file's header attributes and its results (what ``eval --json`` printed)."""
+    try:
+        with open_run_file(path) as file:
+            if file.attrs.get("kind") not in (KIND, KIND.encode()):
+                raise AdaptskyError(f"{path}: not an adaptsky eval file")
+            header = {key: _plain(file.attrs[key]) for key in HEADER if key in file.attrs}
+            results = json.loads(file["results_json"][()].decode())
+    except (OSError, KeyError, ValueError, UnicodeDecodeError) as error:
+        raise AdaptskyError(f"{path}: damaged eval file "
+                            f"({(str(error).splitlines() or ['unreadable'])[0]})") from None
+    if not isinstance(results, dict) or "methods" not in results:
+        raise AdaptskyError(f"{path}: damaged eval file (results_json holds no methods)")
+    return header, results
+
+
+def _plain(value: Any) -> Any:
+    """An HDF5 attribute as a JSON-able value."""
+    if isinstance(value, bytes):
+        return value.decode()
+    return value.item() if hasattr(value, "item") else value
+
+
+def eval_header_line(path: Path, header: dict[str, Any], results: dict[str, Any]) -> str:
+    """The first line of ``inspect EVAL.h5``: what the file is and what it evaluated."""
+    what = (f"seed {results['seed']} of {results['checkpoint']}"
+            if results.get("checkpoint") else "baselines")
+    made = f", created {header['created_utc']}" if "created_utc" in header else ""
+    return (f"{path}: eval file of {what}, adaptsky {header.get('adaptsky_version', '?')}"
+            f"{made}")
