@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -63,9 +64,17 @@ def outputs(tree: Path, out: Path) -> dict[str, str]:
                                       "--steps", "50", "--layouts", "2",
                                       "--compare", "soa,random", "--out", f"{name}-eval.h5",
                                       "--json")
-    run(tree, out, "reproduce", "e1a", "--seeds", "2", "--episodes", "3", "--steps", "20",
+    run(tree, out, "reproduce", "e1a", *two_runs(tree), "--episodes", "3", "--steps", "20",
         "--workers", "1", "--out", "e1a", "--quiet")
     return printed
+
+
+def two_runs(tree: Path) -> list[str]:
+    """Two runs of every group: ``--runs 2`` since it exists, ``--seeds 2`` (then a count)
+    in older trees."""
+    command = (tree / "adaptsky_cli" / "cli" / "reproduce_cmd.py").read_text()
+    has_runs = re.search(r"^\s+runs: Annotated", command, re.MULTILINE) is not None
+    return ["--runs", "2"] if has_runs else ["--seeds", "2"]
 
 
 def arrays(path: Path) -> dict[str, np.ndarray]:
@@ -158,6 +167,9 @@ def compare(old: Path, new: Path, printed_old: dict[str, str],
 
 
 def main() -> int:
+    if {"-h", "--help"} & set(sys.argv[1:]):
+        print(__doc__)
+        return 0
     rev = sys.argv[1] if len(sys.argv) > 1 else "HEAD"
     with tempfile.TemporaryDirectory() as scratch:
         base = Path(scratch)

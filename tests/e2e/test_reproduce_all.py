@@ -1,4 +1,4 @@
-"""``adaptsky reproduce all --episodes 2 --steps 20 --runs 1``, as a user types it, once for
+"""``adaptsky reproduce all --episodes 2 --steps 20 --seeds 1`` (seed 1 of every group), as a user types it, once for
 the module (about 3 min on 2 cores, most of it E3's oracle on 100 layouts): every shipped
 experiment reported, the index, the last and best rows, the oracle's bound computed here from
 the eval files, the fresh-layout group of E3, and the calls recorded."""
@@ -20,7 +20,7 @@ from adaptsky_cli.cli.main import main
 @pytest.fixture(scope="module")
 def everything(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("all")
-    code = main(["reproduce", "all", "--episodes", "2", "--steps", "20", "--runs", "1",
+    code = main(["reproduce", "all", "--episodes", "2", "--steps", "20", "--seeds", "1",
                  "--out", str(out), "--quiet"])
     assert code == 0
     return out
@@ -95,13 +95,13 @@ def test_e3_has_last_best_and_fresh_layout_rows(everything):
         "AdaptSky (dueling DQN), last policy", "AdaptSky (dueling DQN), best policy",
         "AdaptSky trained on fresh layouts (ours), last policy",
         "AdaptSky trained on fresh layouts (ours), best policy"]
-    for row, name in zip(rows, ("adaptsky-seed0", "adaptsky-seed0-best", "generalist-seed0",
-                                "generalist-seed0-best"), strict=True):
+    for row, name in zip(rows, ("adaptsky-seed1", "adaptsky-seed1-best", "generalist-seed1",
+                                "generalist-seed1-best"), strict=True):
         mine = _rates(evals / f"{name}.h5")
         assert row[3] == f"{np.median(100 * (mine - soa) / soa):+.1f}%"
     # the fresh-layout group is measured against the baselines only, not the DQN
     assert len(_row(report, "mean gain over the DQN (%)")) == 2
-    record, _ = read_eval_metrics(evals / "adaptsky-seed0-best.h5")
+    record, _ = read_eval_metrics(evals / "adaptsky-seed1-best.h5")
     assert record["policy"] == "best"
 
 
@@ -109,11 +109,11 @@ def test_a_best_row_without_greedy_evaluations_says_it_is_the_last(everything):
     """Two episodes hold no greedy evaluation (train.eval_every = 10): the best rows are the
     last policies, and the report says so."""
     evals = everything / "e3" / "evals"
-    assert np.array_equal(_rates(evals / "adaptsky-seed0-best.h5"),
-                          _rates(evals / "adaptsky-seed0.h5"))
+    assert np.array_equal(_rates(evals / "adaptsky-seed1-best.h5"),
+                          _rates(evals / "adaptsky-seed1.h5"))
     report = (everything / "e3" / "report.md").read_text()
     assert ("best policy: 3 runs had no greedy evaluation during training (train.eval_every), "
-            "so their best policy is their last: adaptsky-seed0, dqn-seed0, generalist-seed0"
+            "so their best policy is their last: adaptsky-seed1, dqn-seed1, generalist-seed1"
             ) in report
 
 
