@@ -50,7 +50,7 @@ def load_experiment(name: str) -> tuple[Experiment, Path]:
     try:
         experiment = Experiment.model_validate(data)
     except ValidationError as error:
-        raise ScenarioError(_error_lines(str(path), error)) from None
+        raise ScenarioError(_error_lines(str(path), error, model=Experiment)) from None
     for group in experiment.groups:
         scenario_file = path.parent / group.scenario
         if not scenario_file.is_file():

@@ -48,6 +48,7 @@ GOOD = (ROOT / "experiments" / "e1a.toml").read_text()
 
 @pytest.mark.parametrize(("change", "message"), [
     (lambda t: t + "\nunknown_key = 1\n", "unknown_key: unknown key"),
+    (lambda t: t.replace("steps = ", "stesp = ", 1), "stesp: unknown key; did you mean 'steps'?"),
     (lambda t: t.replace("runs = 10", 'runs = "ten"'), "groups.0.runs: Input should be a "
                                                        "valid integer"),
     (lambda t: t.replace('policy = "adaptsky"', 'policy = "nobody"'),
