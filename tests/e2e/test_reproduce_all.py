@@ -1,7 +1,8 @@
-"""``adaptsky reproduce all --episodes 2 --steps 20 --seeds 1`` (seed 1 of every group), as a user types it, once for
-the module (about 3 min on 2 cores, most of it E3's oracle on 100 layouts): every shipped
-experiment reported, the index, the last and best rows, the oracle's bound computed here from
-the eval files, the fresh-layout group of E3, and the calls recorded."""
+"""``adaptsky reproduce all --episodes 2 --steps 20 --seeds 1`` (seed 1 of every group), as a
+user types it, once for the module (about 3 min on 2 cores, most of it E3's oracle on 100
+layouts): every shipped experiment reported, the index, the last and best rows, the oracle's
+bound computed here from the eval files, the fresh-layout group of E3, and the calls
+recorded."""
 
 from __future__ import annotations
 

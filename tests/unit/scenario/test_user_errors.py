@@ -93,7 +93,7 @@ def _shipped_configs() -> list[tuple[str, dict]]:
                for path in sorted(SCENARIOS.glob("*.toml"))]
     for name in shipped_experiments():
         experiment, path = load_experiment(name)
-        plan = plan_experiment(experiment, path, Path("/nonexistent"), seeds=1)
+        plan = plan_experiment(experiment, path, Path("/nonexistent"), runs=1)
         configs += [(f"{name}:{run.name}", run.config) for run in plan.runs]
     return configs
 
