@@ -8,6 +8,9 @@ works unchanged; the gains come back as (B, U, N).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -29,34 +32,49 @@ def all_links_geometry(uav_m: FloatArray, users_m: FloatArray, *, user_height_m:
                                 carrier_hz=carrier_hz, bandwidth_hz=bandwidth_hz)
 
 
+Generators = np.random.Generator | list[np.random.Generator] | None
+
+
 def link_gains(channel: ChannelModel, los_mode: str, geometry: LinkGeometry,
-               rng: np.random.Generator | None = None, *, num_uavs: int = 1
+               rng: Generators = None, *, num_uavs: int = 1
                ) -> tuple[FloatArray, BoolArray, FloatArray]:
     """Linear gain of one antenna pair, LoS state and LoS probability of every link, each
     (B, U, N), from a (B*U, N) ``geometry`` (:func:`all_links_geometry`).
 
     ``los_mode`` (docs/model.md §2): ``"always"`` the LoS gain; ``"sampled"`` LoS drawn per
-    link from ``rng`` (the plugin's ``sample_los``), the LoS or NLoS gain; ``"expected"``
+    link (the plugin's ``sample_los``), the LoS or NLoS gain; ``"expected"``
     P g_LoS + (1 - P) g_NLoS (LoS state: P > 0.5). A contract-2 model with fading enabled
-    multiplies the gain by its ``sample_fading``, drawn from ``rng`` after the LoS states.
+    multiplies the gain by its ``sample_fading``, drawn after the LoS states. Draws come from
+    ``rng``: one generator for every link, or a list of B, environment b's links (U rows)
+    drawn from generator b (so its numbers do not depend on B or on its neighbours).
     """
     p_los = channel.los_probability(geometry)
     if los_mode == "always":
         gain, los = channel.gain_los(geometry), np.ones(geometry.shape, dtype=bool)
     elif los_mode == "sampled":
-        los = channel.sample_los(geometry, _generator(rng))
+        los = _drawn(lambda rows, _, r: channel.sample_los(rows, r), geometry, None, rng,
+                     num_uavs)
         gain = np.where(los, channel.gain_los(geometry), channel.gain_nlos(geometry))
     elif los_mode == "expected":
         gain, los = channel.expected_gain(geometry), p_los > 0.5
     else:
         raise ValueError(f"unknown LoS mode {los_mode!r}; use always, sampled or expected")
     if contract_version_of(channel) >= 2 and channel.fading_enabled():
-        gain = gain * channel.sample_fading(geometry, los, _generator(rng))
+        gain = gain * _drawn(channel.sample_fading, geometry, los, rng, num_uavs)
     shape = (geometry.shape[0] // num_uavs, num_uavs, geometry.shape[1])
     return gain.reshape(shape), los.reshape(shape), p_los.reshape(shape)
 
 
-def _generator(rng: np.random.Generator | None) -> np.random.Generator:
+def _drawn(draw: Callable[[LinkGeometry, Any, np.random.Generator], np.ndarray],
+           geometry: LinkGeometry, los: BoolArray | None, rng: Generators, num_uavs: int
+           ) -> np.ndarray:
+    """``draw(geometry, los, generator)`` over all links, or environment by environment
+    (``num_uavs`` rows each) with a list of generators."""
     if rng is None:
         raise ValueError("sampled LoS and fading draw from a generator; pass rng")
-    return rng
+    if not isinstance(rng, list):
+        return draw(geometry, los, rng)
+    return np.concatenate([
+        draw(geometry.rows(b * num_uavs, (b + 1) * num_uavs),
+             None if los is None else los[b * num_uavs:(b + 1) * num_uavs], generator)
+        for b, generator in enumerate(rng)])

@@ -224,6 +224,36 @@ def test_one_uav_gives_todays_numbers_bit_for_bit(los, pairing):
     assert np.array_equal(rates.gain, state.gain)
 
 
+def test_one_uav_draws_as_todays_batch_with_a_generator_per_environment():
+    scenario = make_scenario(users={"count": 4, "placement": "uniform"},
+                             channel={"los": "sampled"})
+    seeds = [np.random.SeedSequence(s) for s in (3, 4, 5)]
+    batch = NomaUavBatch(scenario, num_envs=3, seed=seeds)
+    uav_m = np.array([[0.0, 0.0, 50.0], [10.0, -5.0, 20.0], [-30.0, 40.0, 120.0]])
+    state = batch.evaluate_at(uav_m, np.full((3, 2), 0.5))
+    geometry = all_links_geometry(uav_m[:, None, :], batch.layouts_m, user_height_m=0.0,
+                                  carrier_hz=28e9, bandwidth_hz=2e9)
+    rngs = [np.random.default_rng(s) for s in (3, 4, 5)]
+    gain, los, _ = link_gains(batch.channel, "sampled", geometry, rngs)
+    assert np.array_equal(los[:, 0], state.los) and np.array_equal(gain[:, 0], state.gain)
+
+
+def test_with_a_generator_per_environment_each_draws_its_own_uavs_links():
+    rng = np.random.default_rng(0)
+    uav_m = np.concatenate([rng.uniform(-50, 50, (2, 3, 2)), rng.uniform(10, 90, (2, 3, 1))],
+                           axis=2)
+    users_m = rng.uniform(-50, 50, (2, 4, 2))
+    channel = build_channel(make_scenario())
+    geometry = all_links_geometry(uav_m, users_m, user_height_m=0.0, carrier_hz=28e9,
+                                  bandwidth_hz=2e9)
+    _, both, _ = link_gains(channel, "sampled", geometry,
+                            [np.random.default_rng(1), np.random.default_rng(2)], num_uavs=3)
+    second = all_links_geometry(uav_m[1:], users_m[1:], user_height_m=0.0, carrier_hz=28e9,
+                                bandwidth_hz=2e9)
+    _, alone, _ = link_gains(channel, "sampled", second, np.random.default_rng(2), num_uavs=3)
+    assert np.array_equal(both[1], alone[0])
+
+
 def test_oma_halves_band_power_noise_and_interference():
     gain, interference = np.array([[1e-10, 3e-11]]), np.array([[0.0, 2e-8]])
     rates = oma_rates_bps(gain, interference, tx_power_w=TX_POWER_W, antenna_gain=64,
