@@ -124,21 +124,29 @@ def _text(value: object, folder: Path) -> object:
 # keys that a newer adaptsky writes into a stored scenario with the value every older file
 # means (they hold no number): [agent] algorithm, "dqn" by default since it exists
 ADDED_DEFAULTS = {"algorithm": "dqn"}
+# the same, for keys whose names other tables use too: (table, key) -> the default. Several
+# UAVs (issue 23, docs/model.md §9): at these values a scenario has one UAV, as before
+ADDED_SECTION_DEFAULTS = {("uav", "count"): 1, ("uav", "start_positions_m"): None,
+                          ("uav", "min_separation_m"): 10.0, ("users", "association"): "kmeans",
+                          ("users", "uav"): None, ("radio", "reuse"): "full"}
 
 
-def without_times(value: object) -> object:
+def without_times(value: object, table: str = "") -> object:
     """JSON without the keys that hold a wall time or a moment, and without the
-    :data:`ADDED_DEFAULTS` at their default."""
+    :data:`ADDED_DEFAULTS` and :data:`ADDED_SECTION_DEFAULTS` (in their ``table``, the key
+    of the enclosing dict) at their default."""
     if isinstance(value, str) and "\n[" in value:  # TOML text inside JSON
         try:
             return without_times(tomllib.loads(value))
         except ValueError:
             return value
     if isinstance(value, dict):
-        return {k: without_times(v) for k, v in value.items()
+        return {k: without_times(v, k) for k, v in value.items()
                 if "wall" not in k and "seconds" not in k
                 and k not in {"created_utc", "started_utc"}
-                and not (k in ADDED_DEFAULTS and v == ADDED_DEFAULTS[k])}
+                and not (k in ADDED_DEFAULTS and v == ADDED_DEFAULTS[k])
+                and not ((table, k) in ADDED_SECTION_DEFAULTS
+                         and v == ADDED_SECTION_DEFAULTS[table, k])}
     if isinstance(value, list):
         return [without_times(v) for v in value]
     return value

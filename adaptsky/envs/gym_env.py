@@ -40,6 +40,7 @@ from gymnasium.vector.utils import batch_space
 
 from adaptsky.envs.registration import register_envs
 from adaptsky.scenario import Scenario, load_scenario
+from adaptsky.scenario.one_uav import require_one_uav
 from adaptsky.shipped_files import default_scenario_path
 from adaptsky.sim.batch import NetworkState, NomaUavBatch
 from adaptsky.sim.layout import uniform_layouts, user_layouts
@@ -54,7 +55,10 @@ INFO_KEYS = ("uav_m", "alpha", "gain", "los", "p_los", "rate_bps", "sum_rate_bps
 def _resolve(scenario: Scenario | str | Path | None) -> Scenario:
     if scenario is None:
         scenario = default_scenario_path()
-    return scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+    resolved = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+    require_one_uav(resolved, str(scenario) if not isinstance(scenario, Scenario)
+                    else resolved.name)
+    return resolved
 
 
 def _spaces(scenario: Scenario, batch: NomaUavBatch) -> tuple[spaces.Box, spaces.Discrete]:

@@ -32,6 +32,7 @@ from adaptsky.rollouts.rollout import (
 )
 from adaptsky.rollouts.soa import soa_configuration
 from adaptsky.scenario import Scenario, load_scenario
+from adaptsky.scenario.one_uav import require_one_uav
 from adaptsky.scenario.toml_writer import dumps
 from adaptsky.scenario.variants import eval_scenario
 from adaptsky.sim.actions import ActionSet
@@ -255,6 +256,7 @@ def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path |
     trained, arrays, chosen, used, curve = _read_run(checkpoint, seed, policy)
     base = load_scenario(scenario_path) if scenario_path else trained
     scenario = eval_scenario(base, layouts, layout_seed)
+    require_one_uav(scenario, str(scenario_path or checkpoint))
     _check_compatible(checkpoint, trained, scenario)
     if any(item.baseline == "oracle" for item in compared):
         require_deterministic_gains(scenario)
@@ -288,6 +290,7 @@ def baseline(*, scenario_path: Path, method: str, layouts: int | None = None,
     """One baseline on the scenario's layout or on uniform layouts; ``progress`` shows its
     work (default: nothing)."""
     scenario = eval_scenario(load_scenario(scenario_path), layouts, layout_seed)
+    require_one_uav(scenario, str(scenario_path))
     if method == "oracle":
         require_deterministic_gains(scenario)
     check_rollout_memory(scenario, steps, layouts or 1, 1, str(scenario_path))

@@ -7,6 +7,7 @@ run overflows; what a run needs in memory is checked apart (``training.resources
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Any, Literal
 
 from pydantic import Field, field_validator, model_validator
@@ -22,6 +23,7 @@ from adaptsky.scenario.sections import (  # noqa: F401 (names of the scenario mo
     MAX_MEMORY,
     MAX_REWARD_WEIGHT,
     MAX_SEED,
+    MAX_UAVS,
     MIN_HEIGHT_M,
     NAME_MAX_BYTES,
     NAME_MAX_LENGTH,
@@ -61,6 +63,12 @@ class Users(Section):
                             description="antenna height h_UT of every user above the ground, "
                             "m (the paper: 0, users on the ground; needs a contract-2 "
                             "channel model)")
+    association: Literal["kmeans", "listed"] | None = Field(
+        None, description="which UAV serves each user (docs/model.md §9): 'kmeans', equal "
+        "groups of a balanced k-means, or 'listed' (users.uav); default: 'listed' with uav, "
+        "else 'kmeans'")
+    uav: list[Annotated[int, Field(ge=0, lt=MAX_UAVS)]] | None = Field(
+        None, description="serving UAV of every user, 0-based, for association = 'listed'")
 
     @field_validator("positions_m")
     @classmethod
@@ -102,6 +110,11 @@ class Users(Section):
             self.placement = self.placement or "uniform"
         if self.pairing is None:
             self.pairing = "listed" if self.placement == "listed" else "near-far"
+        if self.association is None:
+            self.association = "kmeans" if self.uav is None else "listed"
+        if (self.association == "listed") != (self.uav is not None):
+            raise ValueError(f"association = '{self.association}' and uav: a list of "
+                             "serving UAVs goes with association = 'listed', and only with it")
         return self
 
 
@@ -125,6 +138,13 @@ class Uav(Section):
     actions: Literal["paper", "with-hover"] = Field(
         "paper", description="'paper': each component in {-1,+1}; 'with-hover': in {-1,0,+1}"
     )
+    count: int = Field(1, ge=1, le=MAX_UAVS, description="number of UAVs U (docs/model.md §9)")
+    start_positions_m: list[Annotated[list[CoordinateM], Field(min_length=3, max_length=3)]] | (
+        None) = Field(None, description="start [x, y, h] of every UAV, m; default: start_m "
+                      "for one UAV, else evenly on the circle of radius L/4 at start_m's h")
+    min_separation_m: float = Field(10.0, ge=0, le=AREA_MAX_SIDE_M,
+                                    description="least horizontal distance between two UAVs, "
+                                    "m")
 
     @model_validator(mode="after")
     def _consistent(self) -> Uav:
@@ -137,6 +157,24 @@ class Uav(Section):
         if not self.power_step <= self.start_alpha <= 1 - self.power_step:
             raise ValueError(f"start_alpha {self.start_alpha} lies outside "
                              f"[power_step, 1 - power_step]")
+        starts = self.start_positions_m
+        if starts is not None:
+            if len(starts) != self.count:
+                raise ValueError(f"start_positions_m lists {len(starts)} positions for "
+                                 f"count = {self.count} UAVs; give one [x, y, h] per UAV")
+            for u, (_, _, h) in enumerate(starts):
+                if not self.min_height_m <= h <= self.max_height_m:
+                    raise ValueError(f"start_positions_m: UAV {u} at height {h} m lies outside "
+                                     f"[{self.min_height_m}, {self.max_height_m}] m")
+            if self.count == 1 and starts[0] != self.start_m:
+                if "start_m" in self.model_fields_set:
+                    raise ValueError(f"start_m {self.start_m} and start_positions_m "
+                                     f"{starts[0]} differ; give one of them")
+                self.start_m = list(starts[0])
+        elif self.count > 1 and self.start_m[:2] != [0.0, 0.0]:
+            raise ValueError(f"start_m ({self.start_m[0]:g}, {self.start_m[1]:g}) places one "
+                             f"UAV; for count = {self.count} give start_positions_m (start_m "
+                             "sets only the height of the default circle)")
         return self
 
 
@@ -153,6 +191,9 @@ class Radio(Section):
     noise_figure_db: float = Field(0.0, ge=0, le=50.0, description="receiver noise figure, dB")
     antennas_uav: int = Field(8, ge=1, le=MAX_ANTENNAS, description="antennas at the UAV, N_UAV")
     antennas_ue: int = Field(8, ge=1, le=MAX_ANTENNAS, description="antennas at each user, N_UE")
+    reuse: Literal["full", "orthogonal"] = Field(
+        "full", description="spectrum of several UAVs (docs/model.md §9): 'full', cluster k of "
+        "every UAV on subchannel k; 'orthogonal', every cluster its own (no interference)")
 
     @property
     def noise_w(self) -> float:
@@ -270,6 +311,42 @@ class Scenario(Section):
         return self
 
     @model_validator(mode="after")
+    def _several_uavs(self) -> Scenario:
+        """Groups of users the UAVs can serve, and UAVs that start far enough apart
+        (docs/model.md §9)."""
+        uav, users, n = self.uav, self.users, self.num_users
+        if uav.count > n // 2:
+            raise ValueError(f"uav.count: {uav.count} UAVs for {n // 2} NOMA pairs; every UAV "
+                             "needs at least one pair")
+        if users.uav is not None:
+            if len(users.uav) != n:
+                raise ValueError(f"users.uav: lists {len(users.uav)} UAVs for {n} users; give "
+                                 "one serving UAV per user")
+            sizes = [users.uav.count(u) for u in range(uav.count)]
+            if max(users.uav) >= uav.count or any(size == 0 or size % 2 for size in sizes):
+                raise ValueError(f"users.uav: group sizes {sizes} for UAVs 0..{uav.count - 1}; "
+                                 "every UAV serves an even number >= 2 of users and no UAV "
+                                 f"number is {uav.count} or more")
+        elif n % uav.count or (n // uav.count) % 2:
+            raise ValueError(f"users.association: {n} users do not split into {uav.count} "
+                             "equal groups of an even size; choose N divisible by 2 U, or "
+                             "association = 'listed' with users.uav")
+        starts = self.uav_start_positions_m
+        half_m = self.area.side_m / 2
+        for u, (x, y, _) in enumerate(uav.start_positions_m or []):
+            if abs(x) > half_m or abs(y) > half_m:
+                raise ValueError(f"uav.start_positions_m: UAV {u} at ({x:g}, {y:g}) lies "
+                                 f"outside the area |x|, |y| <= {half_m:g} m")
+        for u in range(len(starts)):
+            for v in range(u + 1, len(starts)):
+                apart_m = math.dist(starts[u][:2], starts[v][:2])
+                if apart_m < uav.min_separation_m:
+                    raise ValueError(f"uav.start_positions_m: UAVs {u} and {v} start "
+                                     f"{apart_m:.4g} m apart, closer than uav.min_separation_m "
+                                     f"= {uav.min_separation_m:g} m")
+        return self
+
+    @model_validator(mode="after")
     def _uav_above_users(self) -> Scenario:
         """Every link at least MIN_HEIGHT_M long: the UAV's lowest height that far above the
         users' antennas."""
@@ -284,6 +361,21 @@ class Scenario(Section):
     def num_users(self) -> int:
         assert self.users.count is not None  # resolved by Users._resolve
         return self.users.count
+
+    @property
+    def uav_start_positions_m(self) -> list[list[float]]:
+        """Start [x, y, h] of every UAV, m (docs/model.md §9): ``uav.start_positions_m``; else
+        ``uav.start_m`` for one UAV and, for U > 1, U points evenly on the circle of radius
+        L/4 around the centre at ``start_m``'s height, UAV u at the angle 2 pi u / U."""
+        uav = self.uav
+        if uav.start_positions_m is not None:
+            return [list(p) for p in uav.start_positions_m]
+        if uav.count == 1:
+            return [list(uav.start_m)]
+        radius_m, height_m = self.area.side_m / 4, uav.start_m[2]
+        return [[radius_m * math.cos(2 * math.pi * u / uav.count),
+                 radius_m * math.sin(2 * math.pi * u / uav.count), height_m]
+                for u in range(uav.count)]
 
     @property
     def num_clusters(self) -> int:

@@ -24,6 +24,7 @@ AREA_MAX_SIDE_M = 100_000.0
 MIN_HEIGHT_M = 1.0            # every link is then >= 1 m long: no gain above the 1 m intercept
 MAX_HEIGHT_M = 10_000.0
 MAX_ANTENNAS = 4096
+MAX_UAVS = 64                 # U; association and separation are exact over pairs of UAVs
 MAX_REWARD_WEIGHT = 1e6
 MAX_GAIN_WEIGHT = 1e12        # linear gains are ~1e-12 .. 1e-5
 

@@ -20,6 +20,7 @@ from adaptsky.channels.contract import (
 )
 from adaptsky.channels.registry import get_model_class
 from adaptsky.scenario.models import Scenario
+from adaptsky.scenario.one_uav import require_one_uav
 from adaptsky.sim import noma
 from adaptsky.sim.gain_bounds import gain_range, reachable_heights
 from adaptsky.sim.layout import pair_users, user_layouts
@@ -146,6 +147,7 @@ class NomaUavBatch:
                  weights: list[noma.RewardWeights] | None = None) -> None:
         if num_envs < 1:
             raise ValueError(f"num_envs must be >= 1, got {num_envs}")
+        require_one_uav(scenario, scenario.name)   # several UAVs: adaptsky.sim's own modules
         self.scenario = scenario
         self._max_steps = scenario.train.steps
         self.num_envs = num_envs
