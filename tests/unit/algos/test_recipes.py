@@ -106,7 +106,7 @@ def test_scenario_show_prints_what_a_preset_resolves_to(tmp_path, capsys):
     assert main(["scenario", "show", str(path)]) == 0
     out = capsys.readouterr().out
     assert 'preset = "tuned"' in out and "epsilon_end = 0.01" in out
-    assert "lr_end = 5e-05" in out and 'user_order = "clusters"' in out
+    assert "lr_end = 5e-5" in out and 'user_order = "clusters"' in out
 
 
 # ---- reward scale --------------------------------------------------------------------------
