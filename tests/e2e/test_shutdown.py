@@ -253,9 +253,10 @@ def test_a_file_removed_or_replaced_during_a_rewrite_is_never_written(tmp_path, 
     assert path.read_bytes() == b"someone else's"
 
 
-def _sleep_forever() -> None:
+def _sleep_forever(ready) -> None:
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, signal.SIG_IGN)
+    ready.set()
     time.sleep(3600)
 
 
@@ -270,13 +271,15 @@ def _send_forever(connection) -> None:
 
 def test_workers_that_do_not_end_are_killed_after_the_grace():
     context = multiprocessing.get_context("spawn")
-    stuck = context.Process(target=_sleep_forever, daemon=True)
+    ready = context.Event()
+    stuck = context.Process(target=_sleep_forever, args=(ready,), daemon=True)
     reader, writer = context.Pipe(duplex=False)
     sending = context.Process(target=_send_forever, args=(writer,), daemon=True)
     stuck.start()
     sending.start()
     writer.close()
-    time.sleep(2.0)  # both have started (spawned interpreters)
+    # both have started, however loaded the machine: one ignores SIGTERM, one is sending
+    assert ready.wait(60) and reader.poll(60)
     workers = [host._Worker(stuck, None, {0}), host._Worker(sending, reader, {1})]
     began = time.monotonic()
     host.end(workers, grace_s=1.0)
