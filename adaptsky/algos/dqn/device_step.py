@@ -12,8 +12,8 @@ import numpy as np
 import torch
 
 from adaptsky.algos.device_step import Graphed
-from adaptsky.algos.dqn.replay import StackedReplay
 from adaptsky.algos.dqn.stacked import StackedDqn
+from adaptsky.algos.replay import StackedReplay
 
 
 class DeviceStep:

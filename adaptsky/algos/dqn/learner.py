@@ -11,10 +11,10 @@ from numpy.typing import NDArray
 
 from adaptsky.algos.device_step import describe
 from adaptsky.algos.dqn.device_step import DeviceStep
-from adaptsky.algos.dqn.replay import StackedReplay
-from adaptsky.algos.dqn.returns import NStepWindow
-from adaptsky.algos.dqn.schedule import epsilon
 from adaptsky.algos.dqn.stacked import StackedDqn
+from adaptsky.algos.replay import StackedReplay
+from adaptsky.algos.returns import NStepWindow
+from adaptsky.algos.schedule import epsilon
 from adaptsky.arrays import Tree
 from adaptsky.scenario.agents import DqnAgent
 
