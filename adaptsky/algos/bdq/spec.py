@@ -8,7 +8,7 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 from adaptsky.algos.dqn.parameters import network_shapes
-from adaptsky.algos.dqn.spec import REPLAY, DqnSpec, replay_network_parts
+from adaptsky.algos.dqn.spec import ADAM_STATE, REPLAY, DqnSpec, replay_network_parts
 from adaptsky.algos.protocol import Algorithm, Policy
 from adaptsky.arrays import Field, Tree
 from adaptsky.scenario.agents import BdqAgent
@@ -38,7 +38,7 @@ class BdqSpec(DqnSpec):
     config_keys = ("hidden_sizes", "memory_size", "batch_size")
     replay_fields = tuple(BRANCH_ACTIONS if field.name == "actions" else field
                           for field in REPLAY)
-    fields = ()  # the DQN's fields, with the same names and units
+    fields = (*replay_fields, *ADAM_STATE)
     remedies: ClassVar[dict[str, str]] = {
         "replay": "lower agent.memory_size or the number of seeds",
         "networks and optimizer": "lower agent.hidden_sizes, users or the number of seeds",
