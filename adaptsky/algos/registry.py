@@ -3,11 +3,12 @@
 
 from __future__ import annotations
 
+from adaptsky.algos.bdq.spec import BDQ
 from adaptsky.algos.dqn.spec import DQN
 from adaptsky.algos.protocol import AlgorithmSpec
 from adaptsky.scenario.models import Scenario
 
-ALGORITHMS: dict[str, AlgorithmSpec] = {DQN.name: DQN}
+ALGORITHMS: dict[str, AlgorithmSpec] = {DQN.name: DQN, BDQ.name: BDQ}
 
 
 def algorithm_named(name: str) -> AlgorithmSpec:

@@ -277,7 +277,7 @@ def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path |
     used["score_kind"] = score_kind(trained)
     results |= {"checkpoint": used["path"], "seed": chosen, "checkpoint_episode":
                 used["episode"], "policy": used, "training_evaluations": curve_json(curve),
-                "dueling": trained.agent.dueling,
+                "dueling": getattr(trained.agent, "dueling", True),  # BDQ: dueling branches
                 "scenario_file": str(scenario_path.resolve()) if scenario_path else None,
                 "scenario_toml": dumps(scenario.model_dump(mode="json")),
                 "compared_runs": {label: record for label, (_, record) in others.items()}}

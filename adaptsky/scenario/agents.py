@@ -8,6 +8,7 @@ A new algorithm adds its model here and an entry in :data:`AGENT_MODELS`; its le
 
 from __future__ import annotations
 
+from copy import copy
 from typing import Annotated, Any, Literal
 
 from pydantic import Discriminator, Field, Tag, model_validator
@@ -77,13 +78,56 @@ class DqnAgent(Section):
 
     @model_validator(mode="after")
     def _memory_holds_a_batch(self) -> DqnAgent:
-        if self.memory_size < self.batch_size:
-            raise ValueError(f"memory_size ({self.memory_size}) must hold at least one batch "
-                             f"({self.batch_size})")
+        _check_memory_holds_a_batch(self.memory_size, self.batch_size)
         return self
 
 
-AGENT_MODELS: dict[str, type[Section]] = {"dqn": DqnAgent}
+def _check_memory_holds_a_batch(memory_size: int, batch_size: int) -> None:
+    if memory_size < batch_size:
+        raise ValueError(f"memory_size ({memory_size}) must hold at least one batch "
+                         f"({batch_size})")
+
+
+def _as_dqn(key: str) -> Any:
+    """The DQN's field ``key`` (range, default and description): a key that means the same
+    for another algorithm is declared once."""
+    return copy(DqnAgent.model_fields[key])
+
+
+class BdqAgent(Section):
+    """The branching dueling Q-network (Tavakoli et al., AAAI 2018; docs/agent.md): one
+    advantage branch per action component, every key that it shares with the DQN at the DQN's
+    default. Its target is always the double-DQN one, averaged over the branches."""
+
+    algorithm: Literal["bdq"] = Field(description="the learning algorithm: 'bdq' (the "
+                                      "branching dueling Q-network)")
+    hidden_sizes: list[LayerSize] = _as_dqn("hidden_sizes")
+    loss: Literal["mse", "huber"] = Field("mse", description="TD loss per branch, averaged "
+                                          "over the branches and the batch")
+    grad_clip_norm: float = _as_dqn("grad_clip_norm")
+    gamma: float = _as_dqn("gamma")
+    lr: float = _as_dqn("lr")
+    batch_size: int = _as_dqn("batch_size")
+    memory_size: int = _as_dqn("memory_size")
+    epsilon_start: float = _as_dqn("epsilon_start")
+    epsilon_end: float = _as_dqn("epsilon_end")
+    epsilon_decay_steps: float = _as_dqn("epsilon_decay_steps")
+    target_update_episodes: int = _as_dqn("target_update_episodes")
+    observation: Literal["scaled", "raw"] = _as_dqn("observation")
+    user_order: Literal["listed", "clusters"] = _as_dqn("user_order")
+    reward_scale: float = _as_dqn("reward_scale")
+    n_step: int = _as_dqn("n_step")
+    target_tau: float = _as_dqn("target_tau")
+    lr_end: float | None = _as_dqn("lr_end")
+    lr_decay_steps: float = _as_dqn("lr_decay_steps")
+
+    @model_validator(mode="after")
+    def _memory_holds_a_batch(self) -> BdqAgent:
+        _check_memory_holds_a_batch(self.memory_size, self.batch_size)
+        return self
+
+
+AGENT_MODELS: dict[str, type[Section]] = {"dqn": DqnAgent, "bdq": BdqAgent}
 
 
 def algorithm_tag(value: Any) -> str | None:
@@ -95,7 +139,7 @@ def algorithm_tag(value: Any) -> str | None:
 
 
 AgentConfig = Annotated[
-    Annotated[DqnAgent, Tag("dqn")],
+    Annotated[DqnAgent, Tag("dqn")] | Annotated[BdqAgent, Tag("bdq")],
     Discriminator(algorithm_tag, custom_error_type=UNKNOWN_ALGORITHM,
                   custom_error_message="unknown algorithm")]
 """The ``[agent]`` section: the model its ``algorithm`` names."""

@@ -42,14 +42,15 @@ def _keys_at(model: type[BaseModel] | None, where: tuple[str | int, ...]) -> lis
     the location names no single model."""
     models = [model] if model is not None else []
     for part in where:
+        if isinstance(part, str) and part in AGENT_MODELS and AGENT_MODELS[part] in models:
+            models = [AGENT_MODELS[part]]  # the [agent] union's tag
+            continue
         if isinstance(part, int) or len(models) != 1:
             models = models if isinstance(part, int) else []
             continue
         fields = models[0].model_fields
         if part in fields:
             models = _models_in(fields[part].annotation)
-        elif part in AGENT_MODELS and AGENT_MODELS[part] in models:  # the [agent] union's tag
-            models = [AGENT_MODELS[part]]
         else:
             return []
     return list(models[0].model_fields) if len(models) == 1 else []

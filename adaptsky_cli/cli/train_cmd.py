@@ -36,7 +36,7 @@ def train(
     device: Device = "cpu",
     quiet: Annotated[bool, typer.Option("--quiet", help="print only the final table")] = False,
 ) -> None:
-    """Train the dueling DQN on a scenario (algorithm 1).
+    """Train the scenario's agent (agent.algorithm: the dueling DQN or the BDQ).
 
     On a CPU one process per core, its seeds as one stack; on a GPU every seed in one stack."""
     from adaptsky.report.summary import summarize, summary_table

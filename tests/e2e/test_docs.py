@@ -2,6 +2,7 @@
 commands, Python examples that run, ADAPTSKY_DEBUG and the install options documented."""
 
 import re
+from typing import get_args
 
 import pytest
 from pydantic import BaseModel
@@ -12,12 +13,20 @@ from tests.conftest import ROOT
 PAGE = (ROOT / "docs" / "scenario-format.md").read_text()
 
 
+def _models(annotation: object) -> list[type[BaseModel]]:
+    """The models a field holds: its own, or every member's of a tagged union (``[agent]``)."""
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return [annotation]
+    return [model for arg in get_args(annotation) for model in _models(arg)]
+
+
 def _keys(model: type[BaseModel], prefix: str = ""):
     for name, field in model.model_fields.items():
-        annotation = field.annotation
-        if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        models = _models(field.annotation)
+        if models:
             yield f"[{name}]"
-            yield from _keys(annotation, f"{name}.")
+            for member in models:
+                yield from _keys(member, f"{name}.")
         else:
             yield name
 

@@ -1,4 +1,4 @@
-"""The device work of one training step of a DQN stack: greedy actions, then the TD update.
+"""The device work of one training step of a DQN (or BDQ) stack: greedy actions, then the TD update.
 
 On a CPU both are plain calls. On CUDA each is recorded once as a CUDA graph and replayed
 every step (one launch instead of dozens of kernel launches: a small DQN is bound by launch
@@ -12,8 +12,8 @@ import numpy as np
 import torch
 
 from adaptsky.algos.device_step import Graphed
-from adaptsky.algos.dqn.replay import StackedReplay
 from adaptsky.algos.dqn.stacked import StackedDqn
+from adaptsky.algos.replay import StackedReplay
 
 
 class DeviceStep:
@@ -35,13 +35,13 @@ class DeviceStep:
                                          pin_memory=True)
 
     def _greedy_body(self) -> torch.Tensor:
-        return self.agent.q_values(self.observations).argmax(dim=-1).squeeze(-1)
+        return self.agent.device_greedy(self.observations).squeeze(-1)
 
     def _update_body(self) -> None:
         self.agent.update(*self.memory.gather(self.index))
 
     def greedy(self, observations: np.ndarray) -> np.ndarray:
-        """argmax_a Q(s, a) of every member for one observation each, (S, obs) -> (S,)."""
+        """The greedy action of every member for one observation each, (S, obs) -> (S,)."""
         if not self.graphs:
             return self.agent.greedy(observations[:, None, :])[:, 0]
         if self._act is None:

@@ -11,31 +11,36 @@ from numpy.typing import NDArray
 
 from adaptsky.algos.device_step import describe
 from adaptsky.algos.dqn.device_step import DeviceStep
-from adaptsky.algos.dqn.replay import StackedReplay
-from adaptsky.algos.dqn.returns import NStepWindow
-from adaptsky.algos.dqn.schedule import epsilon
 from adaptsky.algos.dqn.stacked import StackedDqn
+from adaptsky.algos.replay import StackedReplay
+from adaptsky.algos.returns import NStepWindow
+from adaptsky.algos.schedule import epsilon
 from adaptsky.arrays import Tree
-from adaptsky.scenario.agents import DqnAgent
+from adaptsky.scenario.agents import BdqAgent, DqnAgent
 
 
 class DqnLearner:
     """Networks, Adam, replay memories and n-step windows of S members on ``device``;
     ``rngs[s]`` draws member s's exploration and replay samples."""
 
-    def __init__(self, config: DqnAgent, observation_size: int, num_actions: int,
+    def __init__(self, config: DqnAgent | BdqAgent, observation_size: int, num_actions: int,
                  seeds: list[int], rngs: list[np.random.Generator], device: Any = "cpu",
                  graphs: bool | None = None) -> None:
         self.config, self.rngs = config, rngs
         self.size, self.num_actions = len(seeds), num_actions
-        self.agent = StackedDqn(config, observation_size, num_actions, seeds, device)
+        self.agent = self._networks(observation_size, seeds, device)
         self.memory = StackedReplay(self.size, config.memory_size, observation_size,
-                                    self.agent.device)
+                                    self.agent.device, self.agent.action_width)
         self.device_step = DeviceStep(self.agent, self.memory, config.batch_size, graphs)
         self.window = NStepWindow(config.n_step, config.gamma)
         self.epsilon = config.epsilon_start
         self._reward_scale = np.array(config.reward_scale)
         self._terminated = np.zeros(self.size, dtype=bool)  # T is a truncation
+
+    def _networks(self, observation_size: int, seeds: list[int], device: Any) -> StackedDqn:
+        """The stacked networks of the members."""
+        assert isinstance(self.config, DqnAgent)
+        return StackedDqn(self.config, observation_size, self.num_actions, seeds, device)
 
     def begin_episode(self, global_step: int) -> None:
         self.window.restart()
@@ -63,8 +68,8 @@ class DqnLearner:
     def observe(self, observations: NDArray[np.float32], actions: NDArray[np.int64],
                 rewards: NDArray[np.float64], next_observations: NDArray[np.float32]) -> None:
         """Store the step's n-step row (rewards scaled by ``reward_scale``)."""
-        ready = self.window.push(observations, actions, rewards * self._reward_scale,
-                                 next_observations)
+        ready = self.window.push(observations, self.agent.stored_actions(actions),
+                                 rewards * self._reward_scale, next_observations)
         if ready is not None:
             self.memory.add(*ready, self._terminated)
 

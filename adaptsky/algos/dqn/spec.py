@@ -44,11 +44,33 @@ def network(scenario: Scenario) -> dict[str, tuple[int, ...]]:
 
 
 def replay_rows(scenario: Scenario, episodes: int) -> tuple[int, int]:
-    """Rows held and write position after ``episodes`` episodes of T steps."""
-    agent = _config(scenario)  # an n-step run stores T - (n - 1) rows per episode
+    """Rows held and write position after ``episodes`` episodes of T steps (the replay of
+    every algorithm that keeps the DQN's memory)."""
+    agent = scenario.agent  # an n-step run stores T - (n - 1) rows per episode
     added = episodes * max(0, scenario.train.steps - agent.n_step + 1)
     capacity = agent.memory_size
     return min(added, capacity), added % capacity
+
+
+def replay_network_parts(scenario: Scenario, seeds: int, workers: int, head: float,
+                         action_columns: int) -> dict[str, float]:
+    """Bytes of a stacked Q-network learner with ``head`` outputs: replay (M rows of 2 obs + 2
+    + ``action_columns`` float32, and a member's copy at a checkpoint, pickled to the writer
+    when apart); networks and optimizer (policy, target, gradients, two Adam moments, and a
+    checkpoint's copies); every layer's output for a batch, forward and backward."""
+    agent = scenario.agent
+    obs = observation_size(scenario.num_users)
+    sizes = [obs, *agent.hidden_sizes]
+    params = float(sum((a + 1) * b for a, b in pairwise(sizes)))
+    params += (sizes[-1] + 1) * head
+    replay_row = (2 * obs + 2 + action_columns) * FLOAT32
+    hidden = float(sum(agent.hidden_sizes))
+    return {
+        "replay": (seeds + (3 if workers > 1 else 1)) * agent.memory_size * replay_row,
+        "networks and optimizer": (5 * seeds + 2 * seeds + 8) * params * FLOAT32,
+        "batch activations": seeds * agent.batch_size * (4 * (obs + hidden) + 8 * head)
+        * FLOAT32,
+    }
 
 
 class DqnSpec:
@@ -68,6 +90,16 @@ class DqnSpec:
 
     # ---- the checkpoint -------------------------------------------------------------------
 
+    replay_fields = REPLAY
+
+    def network(self, scenario: Scenario) -> dict[str, tuple[int, ...]]:
+        """The network's parameters of ``scenario``, named and shaped as torch names them."""
+        return network(scenario)
+
+    def replay_symbols(self, scenario: Scenario) -> dict[str, int]:
+        """The sizes the replay's fields name, but R."""
+        return {"O": observation_size(scenario.num_users)}
+
     @staticmethod
     def _weights(check: LayoutCheck, group: Node, shapes: dict[str, tuple[int, ...]]) -> None:
         """A group of network weights: every parameter of ``shapes``, nothing else."""
@@ -76,15 +108,15 @@ class DqnSpec:
             check.dataset(group, Field(param, "float", ()), {}, shape)
 
     def check_policy(self, check: LayoutCheck, group: Node, scenario: Scenario) -> None:
-        """A stored policy network: every parameter of :func:`network`, nothing else."""
-        self._weights(check, group, network(scenario))
+        """A stored policy network: every parameter of :meth:`network`, nothing else."""
+        self._weights(check, group, self.network(scenario))
 
     def check_checkpoint(self, check: LayoutCheck, group: Node, scenario: Scenario,
                          episodes_done: int) -> None:
         """``agent`` (policy, target, Adam state) and ``replay`` (rows and write position)."""
         agent = check.group(group, "agent")
         check.exact_members(agent, ("policy", "target", "optimizer"), extra_ok=("torch_rng",))
-        shapes = network(scenario)
+        shapes = self.network(scenario)
         for name in ("policy", "target"):
             self._weights(check, check.group(agent, name), shapes)
         rows, position = replay_rows(scenario, episodes_done)
@@ -92,7 +124,7 @@ class DqnSpec:
         check.attr(optimizer, "param_groups_json", "json")
         check.exact_members(optimizer, ("state",))
         state = check.group(optimizer, "state")
-        updates = rows >= _config(scenario).batch_size
+        updates = rows >= scenario.agent.batch_size
         if len(state) or updates:  # torch kept no Adam state before the first update
             check.exact_members(state, map(str, range(len(shapes))))
             for index, shape in enumerate(shapes.values()):
@@ -106,9 +138,9 @@ class DqnSpec:
             check.fail(f"{replay.name}/@position", f"is {stored_position}",
                        f"{position} after {episodes_done} episodes of "
                        f"{scenario.train.steps} steps")
-        check.exact_members(replay, [field.name for field in REPLAY])
-        symbols = {"O": observation_size(scenario.num_users), "R": rows}
-        for field in REPLAY:
+        check.exact_members(replay, [field.name for field in self.replay_fields])
+        symbols = {**self.replay_symbols(scenario), "R": rows}
+        for field in self.replay_fields:
             check.dataset(replay, field, symbols)
 
     def policy_of(self, checkpoint: Tree) -> Tree:
@@ -117,27 +149,18 @@ class DqnSpec:
     # ---- memory ---------------------------------------------------------------------------
 
     def memory_parts(self, scenario: Scenario, seeds: int, workers: int) -> dict[str, float]:
-        """Replay (M rows of 2 obs + 3 float32, and a member's copy at a checkpoint, pickled
-        to the writer when apart); networks and optimizer (policy, target, gradients, two
-        Adam moments, and a checkpoint's copies); the dueling head's fixed (1 + A) x A matrix
-        and its build copy (measured: 22 users peak at 2.4 GB, estimated 2.6 GB); every
-        layer's output for a batch, forward and backward."""
+        """Replay, networks and optimizer, batch activations (:func:`replay_network_parts`),
+        and the dueling head's fixed (1 + A) x A matrix and its build copy (measured: 22 users
+        peak at 2.4 GB, estimated 2.6 GB)."""
         agent = _config(scenario)
-        users = scenario.num_users
-        obs = observation_size(users)
         actions = count_estimate(scenario.num_clusters, scenario.uav.actions)
         head = actions + 1 if agent.dueling else actions
-        sizes = [obs, *agent.hidden_sizes]
-        params = float(sum((a + 1) * b for a, b in pairwise(sizes)))
-        params += (sizes[-1] + 1) * head
-        replay_row = (2 * obs + 3) * FLOAT32
-        hidden = float(sum(agent.hidden_sizes))
+        parts = replay_network_parts(scenario, seeds, workers, head, action_columns=1)
         return {
-            "replay": (seeds + (3 if workers > 1 else 1)) * agent.memory_size * replay_row,
-            "networks and optimizer": (5 * seeds + 2 * seeds + 8) * params * FLOAT32,
+            "replay": parts["replay"],
+            "networks and optimizer": parts["networks and optimizer"],
             "dueling head": 2 * (actions + 1) * actions * FLOAT32 if agent.dueling else 0.0,
-            "batch activations": seeds * agent.batch_size * (4 * (obs + hidden) + 8 * head)
-            * FLOAT32,
+            "batch activations": parts["batch activations"],
         }
 
     # ---- builders (torch) -----------------------------------------------------------------

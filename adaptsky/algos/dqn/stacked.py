@@ -28,7 +28,7 @@ import torch
 from adaptsky.algos.dqn.forward import head_output
 from adaptsky.algos.dqn.network import QNetwork
 from adaptsky.algos.dqn.parameters import network_shapes
-from adaptsky.scenario.agents import DqnAgent
+from adaptsky.scenario.agents import BdqAgent, DqnAgent
 
 ADAM_BETAS = (0.9, 0.999)
 ADAM_EPS = 1e-8
@@ -53,10 +53,11 @@ class Layer:
         return self.bias_at + self.size_out
 
 
-def layer_plan(observation_size: int, num_actions: int, config: DqnAgent) -> list[Layer]:
+def layer_plan(observation_size: int, num_actions: int, hidden_sizes: list[int],
+               dueling: bool) -> list[Layer]:
     """The layers of the network, the head last (width 1 + A when dueling)."""
-    head = num_actions + 1 if config.dueling else num_actions
-    sizes = [observation_size, *config.hidden_sizes, head]
+    head = num_actions + 1 if dueling else num_actions
+    sizes = [observation_size, *hidden_sizes, head]
     layers, offset = [], 0
     for size_in, size_out in pairwise(sizes):
         layers.append(Layer(size_in, size_out, offset))
@@ -98,16 +99,21 @@ class StackedDqn:
     ``QNetwork`` under ``torch.manual_seed(seed)``), ``observation_size``, ``num_actions``.
     """
 
-    def __init__(self, config: DqnAgent, observation_size: int, num_actions: int,
+    action_width = 1
+    """Replay columns of one action (the action index)."""
+
+    def __init__(self, config: DqnAgent | BdqAgent, observation_size: int, num_actions: int,
                  seeds: list[int], device: str | torch.device = "cpu") -> None:
         self.config = config
+        self.dueling = self._dueling_head(config)
         self.num_actions = num_actions
         self.observation_size = observation_size
         self.size = len(seeds)
         self.device = torch.device(device)
-        self.layers = layer_plan(observation_size, num_actions, config)
+        self.layers = layer_plan(observation_size, num_actions, config.hidden_sizes,
+                                 self.dueling)
         self.names = list(network_shapes(observation_size, num_actions,
-                                         config.hidden_sizes, config.dueling))
+                                         config.hidden_sizes, self.dueling))
         # rows padded to whole vectors: elementwise kernels then treat every element alike,
         # whatever the stack size (no scalar tail loop that rounds differently)
         used = self.layers[-1].end
@@ -131,17 +137,27 @@ class StackedDqn:
         self._target = _views(self.target, self.layers)
         # Q = [V | A] @ M: M[0, j] = 1, M[1 + k, j] = [k = j] - 1 / A (the dueling head as one
         # small matmul; its transpose carries the gradient back)
-        self._dueling = torch.cat([torch.ones(1, num_actions),
-                                   torch.eye(num_actions) - 1.0 / num_actions]).to(self.device)
+        self._dueling = self._head_matrix().to(self.device)
         self._dueling_stack = self._dueling.expand(self.size, -1, -1)
         self._dueling_back = self._dueling.T.expand(self.size, -1, -1)
         self._host = ([(weight.numpy(), bias.numpy()) for weight, bias in self._policy]
                       if self.device.type == "cpu" else None)
 
+    @staticmethod
+    def _dueling_head(config: DqnAgent | BdqAgent) -> bool:
+        """Whether the head is [V | A] (a dueling head) or Q itself."""
+        assert isinstance(config, DqnAgent)
+        return config.dueling
+
+    def _head_matrix(self) -> torch.Tensor:
+        """The dueling head's M: Q = [V | A] @ M."""
+        count = self.num_actions
+        return torch.cat([torch.ones(1, count), torch.eye(count) - 1.0 / count])
+
     def _initial_row(self, seed: int, width: int) -> np.ndarray:
         torch.manual_seed(seed)
         net = QNetwork(self.observation_size, self.num_actions, self.config.hidden_sizes,
-                       self.config.dueling)
+                       self.dueling)
         row = np.zeros(width, dtype=np.float32)
         row[:self.layers[-1].end] = self.row_from_state(
             {k: v.numpy() for k, v in net.state_dict().items()})
@@ -156,7 +172,7 @@ class StackedDqn:
 
     def _head(self, out: torch.Tensor) -> torch.Tensor:
         """Q from the head's output: itself, or V + A - mean_a A (per sample) if dueling."""
-        return torch.bmm(out, self._dueling_stack) if self.config.dueling else out
+        return torch.bmm(out, self._dueling_stack) if self.dueling else out
 
     def q_values(self, observations: torch.Tensor) -> torch.Tensor:
         """Q (S, n, A) of the policy network for observations (S, n, obs) on the device."""
@@ -171,11 +187,23 @@ class StackedDqn:
         """
         if self._host is None:
             x = torch.from_numpy(observations).to(self.device)
-            return self.q_values(x).argmax(dim=-1).cpu().numpy()
-        out = head_output(self._host, observations, _matmul_add, _relu_host)
-        if self.config.dueling:  # the constant V and mean(A) do not change the argmax
+            return self.device_greedy(x).cpu().numpy()
+        return self._host_greedy(head_output(self._host, observations, _matmul_add,
+                                             _relu_host))
+
+    def device_greedy(self, observations: torch.Tensor) -> torch.Tensor:
+        """Greedy actions (S, n) for observations (S, n, obs) on the device."""
+        return self.q_values(observations).argmax(dim=-1)
+
+    def _host_greedy(self, out: np.ndarray) -> np.ndarray:
+        """Greedy actions from the head's output on the host."""
+        if self.dueling:  # the constant V and mean(A) do not change the argmax
             out = out[..., 1:]
         return out.argmax(axis=-1)
+
+    def stored_actions(self, actions: np.ndarray) -> np.ndarray:
+        """Actions (S,) as the replay memory stores them (:attr:`action_width` columns)."""
+        return actions
 
     # ---- the TD update of eq. 12 ----------------------------------------------------------
 
@@ -201,26 +229,37 @@ class StackedDqn:
             q = self._forward(self._policy, observations, inputs)
             chosen = actions.unsqueeze(-1)
             error = q.gather(-1, chosen).squeeze(-1) - target
-            batch = error.shape[1]
-            if config.loss == "mse":
-                loss = error.square().mean(dim=1)
-                d_chosen = error * (2.0 / batch)
-            else:  # Huber with delta 1 (torch's SmoothL1Loss)
-                magnitude = error.abs()
-                loss = torch.where(magnitude < 1.0, 0.5 * error.square(),
-                                   magnitude - 0.5).mean(dim=1)
-                d_chosen = error.clamp(-1.0, 1.0) * (1.0 / batch)
-            self.loss_sum += loss
-            self._backward(inputs, self._d_head(chosen, d_chosen))
-            self._adam()
-            if config.target_tau > 0:  # soft target update (extension)
-                self.target.lerp_(self.params, config.target_tau)
+            d_chosen = self._loss_gradient(error)
+            self._learn(inputs, self._d_head(chosen, d_chosen.unsqueeze(-1)))
+
+    def _loss_gradient(self, error: torch.Tensor) -> torch.Tensor:
+        """dLoss / d(error) of the mean loss over the errors (S, n) of each member; adds each
+        member's loss to ``loss_sum``."""
+        count = error.shape[1]
+        if self.config.loss == "mse":
+            loss = error.square().mean(dim=1)
+            d_error = error * (2.0 / count)
+        else:  # Huber with delta 1 (torch's SmoothL1Loss)
+            magnitude = error.abs()
+            loss = torch.where(magnitude < 1.0, 0.5 * error.square(),
+                               magnitude - 0.5).mean(dim=1)
+            d_error = error.clamp(-1.0, 1.0) * (1.0 / count)
+        self.loss_sum += loss
+        return d_error
+
+    def _learn(self, inputs: list[torch.Tensor], d_out: torch.Tensor) -> None:
+        """Backward pass from dLoss / d(head output), Adam, and the soft target update."""
+        self._backward(inputs, d_out)
+        self._adam()
+        if self.config.target_tau > 0:  # soft target update (extension)
+            self.target.lerp_(self.params, self.config.target_tau)
 
     def _d_head(self, chosen: torch.Tensor, d_chosen: torch.Tensor) -> torch.Tensor:
-        """dLoss / d(head output) (S, B, width) from dLoss / dQ(s, a) of the chosen actions."""
+        """dLoss / d(head output) (S, B, width) from dLoss / dQ of the chosen columns
+        ``chosen`` (S, B, k), ``d_chosen`` of the same shape."""
         d_q = torch.zeros(*chosen.shape[:2], self.num_actions, device=self.device,
-                          dtype=d_chosen.dtype).scatter_(-1, chosen, d_chosen.unsqueeze(-1))
-        return torch.bmm(d_q, self._dueling_back) if self.config.dueling else d_q
+                          dtype=d_chosen.dtype).scatter_(-1, chosen, d_chosen)
+        return torch.bmm(d_q, self._dueling_back) if self.dueling else d_q
 
     def _backward(self, inputs: list[torch.Tensor], d_out: torch.Tensor) -> None:
         """Gradients of every layer into the flat ``grads``; ``inputs[i]`` is layer i's input."""
@@ -288,7 +327,7 @@ class StackedDqn:
     def _named_pairs(self, state: dict[str, Any]) -> list[tuple[np.ndarray, np.ndarray]]:
         pairs = [(state[w], state[b]) for w, b in zip(self.names[0::2], self.names[1::2],
                                                       strict=True)]
-        if self.config.dueling:  # value and advantage are one head here, V first
+        if self.dueling:  # value and advantage are one head here, V first
             (value_w, value_b), (adv_w, adv_b) = pairs[-2:]
             pairs[-2:] = [(np.concatenate([value_w, adv_w]), np.concatenate([value_b, adv_b]))]
         return pairs
@@ -299,7 +338,7 @@ class StackedDqn:
         for layer in self.layers:
             weight = row[layer.weight_at:layer.bias_at].reshape(layer.size_in, layer.size_out)
             arrays += [weight.T.copy(), row[layer.bias_at:layer.end].copy()]
-        if self.config.dueling:
+        if self.dueling:
             head_w, head_b = arrays[-2:]
             arrays[-2:] = [head_w[:1], head_b[:1], head_w[1:], head_b[1:]]
         return dict(zip(self.names, arrays, strict=True))

@@ -8,9 +8,9 @@ import pytest
 import torch
 
 from adaptsky.algos.dqn.network import QNetwork
-from adaptsky.algos.dqn.replay import StackedReplay
-from adaptsky.algos.dqn.schedule import epsilon
 from adaptsky.algos.dqn.stacked import StackedDqn
+from adaptsky.algos.replay import StackedReplay
+from adaptsky.algos.schedule import epsilon
 from adaptsky.scenario.agents import DqnAgent as Agent
 
 CPU = torch.device("cpu")

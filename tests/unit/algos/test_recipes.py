@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 import torch
 
-from adaptsky.algos.dqn.returns import NStepWindow
 from adaptsky.algos.dqn.spec import replay_rows
 from adaptsky.algos.dqn.stacked import StackedDqn
+from adaptsky.algos.returns import NStepWindow
 from adaptsky.scenario.toml_writer import dumps
 from adaptsky.sim.layout import episode_layouts
 from adaptsky.store.run_file import RunReader

@@ -1,9 +1,11 @@
 """Replay memories of a stack of members: one ring buffer per member, on the training device.
 
-A transition is one float32 row [s | s' | r | 1 - terminated | a]. ``terminated`` (a true terminal
-state: no bootstrap) is kept apart from time-limit truncation, which is not stored at all: a
-truncated transition still bootstraps from its next observation. Sampling indices are drawn on
-the host from each member's own generator; the rows are gathered on the device.
+A transition is one float32 row [s | s' | r | 1 - terminated | a], where a is one column (the
+DQN's action index) or ``action_width`` columns (a branching agent's sub-action per branch).
+``terminated`` (a true terminal state: no bootstrap) is kept apart from time-limit truncation,
+which is not stored at all: a truncated transition still bootstraps from its next observation.
+Sampling indices are drawn on the host from each member's own generator; the rows are gathered
+on the device.
 """
 
 from __future__ import annotations
@@ -16,7 +18,8 @@ from numpy.typing import NDArray
 
 
 class Batch(NamedTuple):
-    """A mini-batch per member, on the device: (S, B, obs) observations, (S, B) the rest."""
+    """A mini-batch per member, on the device: (S, B, obs) observations, (S, B) the rest but
+    actions of more than one column, (S, B, width)."""
 
     observations: torch.Tensor
     actions: torch.Tensor
@@ -29,9 +32,10 @@ class StackedReplay:
     """S fixed-capacity memories; each overwrites its oldest transitions first."""
 
     def __init__(self, stack: int, capacity: int, observation_size: int,
-                 device: torch.device) -> None:
+                 device: torch.device, action_width: int = 1) -> None:
         self.capacity, self.obs_size = capacity, observation_size
-        self.width = 2 * observation_size + 3
+        self.action_width = action_width
+        self.width = 2 * observation_size + 2 + action_width
         self.rows = torch.zeros(stack, capacity, self.width, device=device)
         self._flat = self.rows.view(stack * capacity, self.width)
         self._host = self.rows.numpy() if device.type == "cpu" else None
@@ -44,14 +48,18 @@ class StackedReplay:
     def add(self, observations: NDArray[np.float32], actions: NDArray[np.integer],
             rewards: NDArray[np.floating], next_observations: NDArray[np.float32],
             terminated: NDArray[np.bool_]) -> None:
-        """One transition per member, host arrays with leading axis S."""
+        """One transition per member, host arrays with leading axis S (actions (S,), or
+        (S, width))."""
         n = self.obs_size
         row = self._row if self._host is None else self._host[:, self.position]
         row[:, :n] = observations
         row[:, n:2 * n] = next_observations
         row[:, 2 * n] = rewards
         row[:, 2 * n + 1] = ~terminated
-        row[:, 2 * n + 2] = actions
+        if self.action_width == 1:
+            row[:, 2 * n + 2] = actions
+        else:
+            row[:, 2 * n + 2:] = actions
         if self._host is None:
             self.rows[:, self.position] = torch.from_numpy(row).to(self.rows.device)
         self.position = (self.position + 1) % self.capacity
@@ -75,14 +83,16 @@ class StackedReplay:
         rows = self._flat.index_select(0, flat)
         rows = rows.view(stack, batch, self.width)
         n = self.obs_size
-        return Batch(rows[..., :n], rows[..., -1].long(), rows[..., 2 * n],
+        actions = rows[..., -1] if self.action_width == 1 else rows[..., 2 * n + 2:]
+        return Batch(rows[..., :n], actions.long(), rows[..., 2 * n],
                      rows[..., n:2 * n], rows[..., 2 * n + 1])
 
     def arrays(self, member: int) -> dict[str, np.ndarray]:
         """A member's stored rows of every field in storage order (for checkpoints)."""
         rows = self.rows[member, :self.size].cpu().numpy()
         n = self.obs_size
-        return {"observations": rows[:, :n].copy(), "actions": rows[:, -1].astype(np.int64),
+        actions = rows[:, -1] if self.action_width == 1 else rows[:, 2 * n + 2:]
+        return {"observations": rows[:, :n].copy(), "actions": actions.astype(np.int64),
                 "rewards": rows[:, 2 * n].copy(), "next_observations": rows[:, n:2 * n].copy(),
                 "terminated": rows[:, 2 * n + 1] == 0}
 
@@ -97,7 +107,8 @@ class StackedReplay:
                               np.asarray(arrays["next_observations"], np.float32),
                               np.asarray(arrays["rewards"], np.float32)[:, None],
                               ~np.asarray(arrays["terminated"], bool)[:, None],
-                              np.asarray(arrays["actions"], np.float32)[:, None]], axis=1)
+                              np.asarray(arrays["actions"], np.float32).reshape(
+                                  size, self.action_width)], axis=1)
         self.rows[member].zero_()
         self.rows[member, :size] = torch.from_numpy(row)
         self.size, self.position = size, position
