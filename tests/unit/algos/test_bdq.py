@@ -19,19 +19,24 @@ from adaptsky.algos.bdq.spec import BDQ
 from adaptsky.algos.bdq.stacked import StackedBdq
 from adaptsky.algos.protocol import Algorithm
 from adaptsky.errors import ScenarioError
-from adaptsky.rollouts.rollout import checkpoint_policy, random_policy, rollout
+from adaptsky.rollouts.rollout import checkpoint_policy
 from adaptsky.scenario import load_scenario, parse_scenario
 from adaptsky.scenario.agents import BdqAgent
 from adaptsky.scenario.toml_writer import dumps
 from adaptsky.sim.actions import ActionSet
-from adaptsky.sim.layout import user_layouts
 from adaptsky.store.run_file import RunReader
 from adaptsky.training import api
 from adaptsky.training.stack_run import Member, StackRun
 from adaptsky_cli.cli.main import main
+from tests.unit.training.test_gpu import assert_graphs_replay_eager
 from tests.unit.training.test_stack import assert_same_checkpoints, assert_same_results
 from tests.unit.training.test_stack import scenario as stack_scenario
-from tests.unit.training.test_train import assert_same_curves, curves, small_scenario
+from tests.unit.training.test_train import (
+    assert_same_curves,
+    curves,
+    greedy_over_random,
+    small_scenario,
+)
 
 BDQ_AGENT = {"algorithm": "bdq"}
 cuda = pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device")
@@ -114,17 +119,19 @@ def test_td_update_follows_the_shared_double_target_and_the_branch_mean_loss(los
     policies = [agent.policy_arrays(member) for member in range(2)]
     targets = [agent.state_from_row(agent.target[member].numpy()) for member in range(2)]
 
+    def target(member: int, i: int) -> float:
+        """y = r + gamma (1/D) sum_d Q^-_d(s', argmax_a' Q_d(s', a')), by loops."""
+        online_next = plain_q(policies[member], next_observations[member, i], branches, base)
+        target_next = plain_q(targets[member], next_observations[member, i], branches, base)
+        bootstrap = sum(target_next[d][_argmax(online_next[d])]
+                        for d in range(branches)) / branches
+        return float(rewards[member, i]) + gamma * float(not_terminal[member, i]) * bootstrap
+
     expected_loss = []
     for member in range(2):
         total = 0.0
         for i in range(batch):
-            online_next = plain_q(policies[member], next_observations[member, i], branches,
-                                  base)
-            target_next = plain_q(targets[member], next_observations[member, i], branches,
-                                  base)
-            bootstrap = sum(target_next[d][_argmax(online_next[d])]
-                            for d in range(branches)) / branches
-            y = float(rewards[member, i]) + gamma * float(not_terminal[member, i]) * bootstrap
+            y = target(member, i)
             q = plain_q(policies[member], observations[member, i], branches, base)
             for d in range(branches):
                 error = y - q[d][chosen[member, i, d]]
@@ -143,13 +150,7 @@ def test_td_update_follows_the_shared_double_target_and_the_branch_mean_loss(los
                   for name, value in policies[member].items()}
         total = torch.zeros((), dtype=torch.float64)
         for i in range(batch):
-            online_next = plain_q(policies[member], next_observations[member, i], branches,
-                                  base)
-            target_next = plain_q(targets[member], next_observations[member, i], branches,
-                                  base)
-            bootstrap = sum(target_next[d][_argmax(online_next[d])]
-                            for d in range(branches)) / branches
-            y = float(rewards[member, i]) + gamma * float(not_terminal[member, i]) * bootstrap
+            y = target(member, i)
             x = torch.from_numpy(observations[member, i]).double()
             layer = 0
             while f"torso.{2 * layer}.weight" in params:
@@ -285,27 +286,12 @@ def test_learning_beats_random_on_the_training_layout(tmp_path):
     # random sum rate on the training layout 1.40, 1.39, 1.36, 1.18, 1.38, 1.26 for seeds 0-5
     scenario_path = _bdq_scenario(tmp_path, hidden_sizes=[64, 64], batch_size=64,
                                   memory_size=5000, gamma=0.8, lr=1e-3, reward_scale=0.01)
-    run_path, _ = api.train(scenario_path=scenario_path, out=tmp_path / "learn.h5",
-                            seeds=[0], episodes=24, workers=1, quiet=True)
-    scenario = load_scenario(scenario_path)
-    with RunReader(run_path) as run:
-        policy = checkpoint_policy(scenario, run.checkpoint(0))
-    layout = user_layouts(scenario, 1)
-    greedy = rollout(scenario, policy, 100, layout).sum_rate_bps.mean()
-    random = rollout(scenario, random_policy(32, seed=0), 100, layout).sum_rate_bps.mean()
-    assert greedy > 1.15 * random
+    assert greedy_over_random(scenario_path, tmp_path / "learn.h5", episodes=24) > 1.15
 
 
 @cuda
 def test_graphs_replay_the_eager_update_exactly_and_cuda_runs_evaluate_on_a_cpu(tmp_path):
-    base = stack_scenario(agent=BDQ_AGENT)
-    members = [Member(base, seed) for seed in range(4)]
-    graphed = StackRun(members, "cuda", graphs=True)
-    eager = StackRun(members, "cuda", graphs=False)
-    for _ in range(3):
-        for a, b in zip(graphed.run_episode(), eager.run_episode(), strict=True):
-            assert_same_results(a, b)
-    assert torch.equal(graphed.algorithm.agent.params, eager.algorithm.agent.params)
+    assert_graphs_replay_eager(stack_scenario(agent=BDQ_AGENT))
     path, _ = api.train(scenario_path=_bdq_scenario(tmp_path), out=tmp_path / "gpu.h5",
                         seeds=[0, 1], episodes=4, device="cuda", quiet=True)
     api.resume(run_path=path, episodes=6, device="cuda", quiet=True)

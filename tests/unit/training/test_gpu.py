@@ -44,16 +44,20 @@ def test_unknown_device_is_one_line(tmp_path, capsys):
     assert code == 1 and "Traceback" not in err and "cpu, cuda" in err
 
 
-@cuda
-def test_graphs_replay_the_eager_update_exactly():
-    base = scenario()
+def assert_graphs_replay_eager(base: object, episodes: int = 3) -> None:
+    """Four seeds of ``base`` on the GPU: the CUDA-graph update equals the eager one."""
     members = [Member(base, seed) for seed in range(4)]
     graphed = StackRun(members, "cuda", graphs=True)
     eager = StackRun(members, "cuda", graphs=False)
-    for _ in range(3):
+    for _ in range(episodes):
         for a, b in zip(graphed.run_episode(), eager.run_episode(), strict=True):
             assert_same_results(a, b)
     assert torch.equal(graphed.algorithm.agent.params, eager.algorithm.agent.params)
+
+
+@cuda
+def test_graphs_replay_the_eager_update_exactly():
+    assert_graphs_replay_eager(scenario())
 
 
 @cuda
