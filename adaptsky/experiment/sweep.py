@@ -93,6 +93,7 @@ def run_sweep(todo: list[tuple[RunSpec, RunState]], executor: Executor, progress
             progress.note(f"{total_runs} runs: {skipped} done before, {len(todo)} to run on "
                           f"{executor.description}")
             while futures:
+                interrupts.check()
                 for key, (spec, future) in list(futures.items()):
                     if not future.done():
                         episodes = _episodes_in_file(spec)

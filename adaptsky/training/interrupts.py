@@ -53,13 +53,20 @@ class StopOnInterrupt:
 
     def _handle(self, signum: int, frame: Any) -> None:
         if self.interrupted or self.stopping():
+            self.quit_pending = True  # kept: check() raises it again if Python swallows it
             if self.writing:
-                self.quit_pending = True
                 return
             raise KeyboardInterrupt
         self.interrupted = True
         self.request_stop()
         self.say(self.notice)
+
+    def check(self) -> None:
+        """Raise the second Ctrl-C's KeyboardInterrupt if it was lost: Python prints and drops
+        an exception raised while the signal interrupted a weakref callback or ``__del__``.
+        Loops that wait on work call this on every turn."""
+        if self.quit_pending and not self.writing:
+            raise KeyboardInterrupt
 
     def shielded(self, handle: Callable[[T], None]) -> Callable[[T], None]:
         """``handle`` with a second Ctrl-C held back while it runs (it writes a file: an

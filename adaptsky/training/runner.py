@@ -231,7 +231,8 @@ def run_tasks(path: Path, tasks: list[SeedTask], workers: int, view: TrainingPro
                 pin_threads()
                 train_stack(tasks, interrupts.shielded(handle), stop.is_set, device=device)
             else:
-                _run_workers(host, partition(tasks, workers), interrupts.shielded(handle))
+                _run_workers(host, partition(tasks, workers), interrupts.shielded(handle),
+                             interrupts.check)
     except KeyboardInterrupt:
         view.message(handle.lost())
         raise
@@ -240,7 +241,8 @@ def run_tasks(path: Path, tasks: list[SeedTask], workers: int, view: TrainingPro
     return RunOutcome(done, stop.is_set())
 
 
-def _run_workers(host: ProcessHost, groups: list[list[SeedTask]], write: Handle) -> None:
+def _run_workers(host: ProcessHost, groups: list[list[SeedTask]], write: Handle,
+                 check: Callable[[], None] = lambda: None) -> None:
     """Train each group as one stack in a process of ``host``, handing their messages to
     ``write``; a failed seed stops the others (they checkpoint). Every process has ended (or
     been killed) when this returns or raises."""
@@ -253,7 +255,7 @@ def _run_workers(host: ProcessHost, groups: list[list[SeedTask]], write: Handle)
         host.submit([Job(train_stack, (group,), tuple(task.key for task in group))
                      for group in groups])
         while host.pump(handle, timeout_s=1.0):
-            pass
+            check()  # a second Ctrl-C that Python dropped
     except BaseException:
         host.close(QUIT_GRACE_S, quit_now=True)  # nobody will write what they send: end now
         raise

@@ -7,6 +7,8 @@ import os
 import signal
 import time
 
+import pytest
+
 from adaptsky.errors import AdaptskyError
 from adaptsky.training.host import Job, ProcessHost
 from adaptsky.training.messages import Done, Failed, WorkerLost
@@ -85,3 +87,20 @@ def test_reproduce_quits_at_once_on_a_second_ctrl_c(tmp_path):
     assert time.monotonic() - began < 5.0, log
     assert "quit: the run files keep agent-seed0 " in log and "Traceback" not in log, log
     assert [_episodes(run) for run in runs] == [0, 0]  # no checkpoint was waited for
+
+
+def test_a_second_ctrl_c_that_python_dropped_is_raised_again():
+    """An exception raised by a signal handler inside a weakref callback or __del__ is printed
+    and dropped by Python (seen in CI: the second Ctrl-C then waited for the checkpoints); the
+    loops that wait call check(), which raises it again."""
+    from adaptsky.training.interrupts import StopOnInterrupt
+
+    stops = []
+    interrupts = StopOnInterrupt(lambda: stops.append(1), lambda text: None, "stopping")
+    interrupts._handle(signal.SIGINT, None)
+    interrupts.check()  # one Ctrl-C: the work checkpoints, nothing raised
+    assert stops == [1]
+    with pytest.raises(KeyboardInterrupt):
+        interrupts._handle(signal.SIGINT, None)  # the second, here "dropped" by the caller
+    with pytest.raises(KeyboardInterrupt):
+        interrupts.check()
