@@ -119,15 +119,16 @@ def _evaluate_plan(plan: Plan, progress: WorkProgress) -> Evaluations:
                 mine = record if which == "last" else {**record, "policy": which}
                 suffix = "" if which == "last" else f"-{which}"
                 path = folder / f"{run.name}{suffix}.h5"
+                best = None
                 if which == "best":
                     with RunReader(run.path) as reader:
-                        if reader.best(run.seed) is None:
-                            evaluations.no_best.append(run.name)
+                        best = reader.best(run.seed)
+                    if best is None:
+                        evaluations.no_best.append(run.name)
                 metrics = _cached(path, mine)
                 if metrics is None:
                     with RunReader(run.path) as reader:
                         checkpoint = reader.checkpoint(run.seed)
-                        best = reader.best(run.seed) if which == "best" else None
                     policy = greedy_policy(trained, with_policy(trained, checkpoint, best))
                     stage = (f"evaluating {run.name}{suffix} on "
                              f"{plural(len(users_m), 'layout')}")
