@@ -38,7 +38,7 @@ from adaptsky.scenario.variants import eval_scenario
 from adaptsky.sim.actions import ActionSet
 from adaptsky.sim.batch import NomaUavBatch
 from adaptsky.sim.layout import user_layouts
-from adaptsky.sim.observation import observation_size
+from adaptsky.sim.observation import observation_size_of
 from adaptsky.store.run_file import RunReader
 
 BASELINES = ("soa", "oracle", "random")
@@ -99,7 +99,7 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
         details["objective_bps"] = best.objective_bps
         trace = hold(scenario, best.uav_m, best.alpha_first, 1, users_m, seed)
     elif method == "random":
-        count = ActionSet(scenario.num_clusters, scenario.uav.actions).count
+        count = ActionSet.of(scenario).count
         trace = rollout(scenario, random_policy(count, seed), steps, users_m, seed, on_progress)
     else:
         raise EvaluationError(f"unknown method '{method}'; choose from {', '.join(BASELINES)}")
@@ -216,7 +216,7 @@ def _check_compatible(run_path: Path, trained: Scenario, scenario: Scenario) -> 
     if trained.num_users != scenario.num_users:
         raise EvaluationError(
             f"{run_path}: the policy was trained for {trained.num_users} users "
-            f"({observation_size(trained.num_users)} inputs) but the evaluation scenario "
+            f"({observation_size_of(trained)} inputs) but the evaluation scenario "
             f"'{scenario.name}' has {scenario.num_users}")
     if trained.uav.actions != scenario.uav.actions:
         raise EvaluationError(f"{run_path}: the policy's actions are '{trained.uav.actions}' "

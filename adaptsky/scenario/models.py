@@ -280,14 +280,17 @@ class Scenario(Section):
     @model_validator(mode="after")
     def _dense_actions(self) -> Scenario:
         """The users' action space must fit MAX_DENSE_ACTIONS (checked without computing it)."""
-        limit, users = max_users(self.uav.actions), self.num_users
+        count = self.uav.count
+        limit, users = max_users(self.uav.actions, count), self.num_users
         if users > limit:
             base = 2 if self.uav.actions == "paper" else 3
             other = "with-hover" if self.uav.actions == "paper" else "paper"
+            uavs = f" and {count} UAVs" if count > 1 else ""
             raise ValueError(
-                f"users: {users} users give {base}^{3 + users // 2} actions; the dense action "
-                f"space holds at most 2^24, so at most {limit} users with uav.actions = "
-                f"'{self.uav.actions}' ({max_users(other)} with '{other}')")
+                f"users: {users} users{uavs} give {base}^{3 * count + users // 2} actions; the "
+                f"dense action space holds at most 2^24, so at most {max(limit, 0)} users with "
+                f"uav.actions = '{self.uav.actions}' ({max(max_users(other, count), 0)} with "
+                f"'{other}')")
         return self
 
     @model_validator(mode="after")
@@ -379,7 +382,13 @@ class Scenario(Section):
 
     @property
     def num_clusters(self) -> int:
+        """K, the NOMA clusters of all UAVs together (N/2)."""
         return self.num_users // 2
+
+    @property
+    def clusters_per_uav(self) -> int:
+        """K_u = N / (2 U), the clusters of each UAV (equal groups, docs/model.md §9)."""
+        return self.num_users // (2 * self.uav.count)
 
     @property
     def min_rate_bps(self) -> float:

@@ -34,13 +34,14 @@ StepM = Annotated[float, Field(ge=0.01, le=1000.0)]
 CoordinateM = Annotated[float, Field(ge=-AREA_MAX_SIDE_M, le=AREA_MAX_SIDE_M)]
 
 
-def max_users(mode: str) -> int:
-    """The most users whose dense action space (``uav.actions = mode``) has at most
-    ``MAX_DENSE_ACTIONS`` actions: 42 for ``paper``, 24 for ``with-hover``."""
-    base, components = (2 if mode == "paper" else 3), 3
+def max_users(mode: str, num_uavs: int = 1) -> int:
+    """The most users whose dense action space (``uav.actions = mode``, ``num_uavs`` UAVs:
+    3 U + N/2 components) has at most ``MAX_DENSE_ACTIONS`` actions: for one UAV 42 for
+    ``paper``, 24 for ``with-hover``."""
+    base, components = (2 if mode == "paper" else 3), 3 * num_uavs
     while base ** (components + 1) <= MAX_DENSE_ACTIONS:
         components += 1
-    return 2 * (components - 3)
+    return 2 * (components - 3 * num_uavs)
 
 
 def _name_character(char: str) -> bool:

@@ -11,10 +11,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from adaptsky.scenario.models import Scenario
 
 ActionMode = Literal["paper", "with-hover"]
 
@@ -22,17 +25,27 @@ MAX_ACTIONS = 2**31 - 1
 TABLE_MAX_ACTIONS = 4096  # action sets up to this size are looked up in a table, not decoded
 
 
-def count_estimate(num_clusters: int, mode: ActionMode) -> float:
-    """How many actions ``ActionSet(num_clusters, mode)`` has, as a float, inf where it would
-    overflow one (memory estimates of scenarios far beyond any machine stay numbers)."""
-    base, components = (2 if mode == "paper" else 3), 3 + num_clusters
+def count_estimate(num_clusters: int, mode: ActionMode, num_uavs: int = 1) -> float:
+    """How many actions ``ActionSet(num_clusters, mode, num_uavs)`` has, as a float, inf where
+    it would overflow one (memory estimates of scenarios far beyond any machine stay
+    numbers)."""
+    base, components = (2 if mode == "paper" else 3), num_uavs * (3 + num_clusters)
     return math.inf if components * math.log(base) > 700 else float(base**components)
 
 
 @dataclass(frozen=True)
 class ActionSet:
+    """The dense actions of ``num_uavs`` UAVs of ``num_clusters`` clusters each: components
+    x, y, h, cluster 1 .. K of UAV 0, then those of UAV 1, ... (docs/model.md §3 and §9)."""
+
     num_clusters: int
     mode: ActionMode = "paper"
+    num_uavs: int = 1
+
+    @classmethod
+    def of(cls, scenario: Scenario) -> ActionSet:
+        """The action set of ``scenario``: its UAVs, each with its K_u clusters."""
+        return cls(scenario.clusters_per_uav, scenario.uav.actions, scenario.uav.count)
 
     @property
     def base(self) -> int:
@@ -40,7 +53,7 @@ class ActionSet:
 
     @property
     def num_components(self) -> int:
-        return 3 + self.num_clusters
+        return self.num_uavs * (3 + self.num_clusters)
 
     @property
     def count(self) -> int:

@@ -155,7 +155,7 @@ class NomaUavBatch:
         self.num_clusters = scenario.num_clusters
         self.num_uavs = 1
         self.channel = build_channel(scenario)
-        self._dynamics = Dynamics.of(scenario, num_envs, self.num_uavs)
+        self._dynamics = Dynamics.of(scenario, num_envs)
         self.actions = self._dynamics.actions
         self.weights = reward_weights(scenario) if weights is None else noma.stack_weights(
             weights)

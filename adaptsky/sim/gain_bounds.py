@@ -29,12 +29,13 @@ CHUNK = 1 << 16     # heights evaluated at once
 
 
 def reachable_heights(uav: Uav) -> FloatArray:
-    """Every height the UAV can take, sorted: h_0 + k delta_h for h_0 its start height, h_min
-    and h_max (where a clipped move leaves it), inside [h_min, h_max]."""
+    """Every height a UAV can take, sorted: h_0 + k delta_h for h_0 a start height (of every
+    UAV), h_min and h_max (where a clipped move leaves it), inside [h_min, h_max]."""
     low, high, step = uav.min_height_m, uav.max_height_m, uav.step_m[2]
+    start_heights = sorted({h for _, _, h in uav.start_positions_m or []})   # several UAVs
     lattices = [origin + step * np.arange(-math.ceil((origin - low) / step),
                                           math.ceil((high - origin) / step) + 1)
-                for origin in (uav.start_m[2], low, high)]
+                for origin in (uav.start_m[2], *start_heights, low, high)]
     heights = np.concatenate([*lattices, [low, high]])
     return np.unique(heights[(heights >= low) & (heights <= high)])
 

@@ -30,8 +30,16 @@ GAIN_DB_SCALE = 20.0
 FEATURES_PER_USER = 4
 
 
-def observation_size(num_users: int) -> int:
-    return FEATURES_PER_USER * num_users + 1
+def observation_size(num_users: int, num_uavs: int = 1) -> int:
+    """4 N + 1 for one UAV (sec. IV-B.1); 5 N + 3 U for several (docs/environment.md)."""
+    if num_uavs == 1:
+        return FEATURES_PER_USER * num_users + 1
+    return 5 * num_users + 3 * num_uavs
+
+
+def observation_size_of(scenario: Scenario) -> int:
+    """The observation size of ``scenario`` (its users and UAVs)."""
+    return observation_size(scenario.num_users, scenario.uav.count)
 
 
 def observe(scenario: Scenario, uav_m: NDArray[np.float64], users_m: NDArray[np.float64],

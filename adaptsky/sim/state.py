@@ -103,9 +103,9 @@ def users_xy(users_m: FloatArray) -> FloatArray:
 class Dynamics:
     """The rules of a step that do not change (docs/model.md §3) for B environments of U UAVs.
 
-    ``actions``: the action set of ``action_count`` actions; ``action_step`` (3 + K,):
-    delta_x, delta_y, delta_h (m) and delta_alpha K times; ``action_moves`` (A, U, 3 + K):
-    the change of the configuration by each of the A actions (None for sets over
+    ``actions``: the action set of ``action_count`` actions; ``action_step`` (U (3 + K),):
+    delta_x, delta_y, delta_h (m) and delta_alpha K times, for every UAV; ``action_moves``
+    (A, U, 3 + K): the change of the configuration by each of the A actions (None for sets over
     ``TABLE_MAX_ACTIONS``, decoded instead); ``config_low`` and ``config_high``
     (B, U, 3 + K): the feasible set (alg. 1 line 7), |x|, |y| <= L/2, h_min <= h <= h_max,
     delta_alpha <= alpha <= 1 - delta_alpha, for ``num_envs`` B environments; users walk
@@ -123,18 +123,21 @@ class Dynamics:
     half_side_m: float
 
     @classmethod
-    def of(cls, scenario: Scenario, num_envs: int, num_uavs: int = 1) -> Dynamics:
-        """The dynamics of ``scenario`` for ``num_envs`` environments of ``num_uavs`` UAVs."""
-        uav, k = scenario.uav, scenario.num_clusters
+    def of(cls, scenario: Scenario, num_envs: int) -> Dynamics:
+        """The dynamics of ``scenario`` for ``num_envs`` environments of its U UAVs, each with
+        its K_u clusters."""
+        uav, k = scenario.uav, scenario.clusters_per_uav
+        num_uavs = uav.count
         half_m = scenario.area.side_m / 2
         power_step = uav.power_step
         config_shape = (num_envs, num_uavs, 3 + k)
         low = np.concatenate([[-half_m, -half_m, uav.min_height_m], np.full(k, power_step)])
         high = np.concatenate([[half_m, half_m, uav.max_height_m],
                                np.full(k, 1.0 - power_step)])
-        action_set = ActionSet(k, uav.actions)
-        action_step = np.concatenate([np.array(uav.step_m, dtype=np.float64),
-                                      np.full(k, power_step)])
+        action_set = ActionSet.of(scenario)
+        # one UAV's steps, then every UAV's: the components of an action in order
+        action_step = np.tile(np.concatenate([np.array(uav.step_m, dtype=np.float64),
+                                              np.full(k, power_step)]), num_uavs)
         moves = None
         if action_set.count <= TABLE_MAX_ACTIONS:
             moves = (action_set.table() * action_step).reshape(action_set.count, num_uavs,

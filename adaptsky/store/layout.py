@@ -30,7 +30,7 @@ from adaptsky.errors import AdaptskyError, PluginError
 from adaptsky.scenario import Scenario, parse_scenario
 from adaptsky.scenario.agents import algorithm_tag
 from adaptsky.sim.actions import ActionSet
-from adaptsky.sim.observation import observation_size
+from adaptsky.sim.observation import observation_size_of
 
 KIND = "adaptsky-run"
 FORMAT_VERSION = 2  # what this adaptsky writes (2: greedy evaluations and the best policy)
@@ -81,6 +81,8 @@ TRAJECTORY = (
     Field("reward", "float", ("T",)),
     Field("action", "int", ("T",)),
 )
+# several UAVs (docs/model.md §9): every UAV's position per step
+SEVERAL_UAVS_POSITIONS = Field("uav_m", "float", ("T", "U", 3), "m")
 # attributes: name -> type ("int", "str", "json", "rng": a numpy bit generator's state as JSON)
 ROOT_ATTRS = {"kind": "str", "format_version": "int", "adaptsky_version": "str",
               "created_utc": "str", "scenario_name": "str"}
@@ -112,7 +114,17 @@ class Sizes:
     @property
     def symbols(self) -> dict[str, int]:
         s = self.scenario
-        return {"N": s.num_users, "O": observation_size(s.num_users), "T": s.train.steps}
+        return {"N": s.num_users, "O": observation_size_of(s), "T": s.train.steps,
+                "U": s.uav.count}
+
+    @property
+    def trajectory(self) -> tuple[Field, ...]:
+        """The trajectory's datasets: :data:`TRAJECTORY`, with every UAV's position
+        (T, U, 3) for several UAVs."""
+        if self.scenario.uav.count == 1:
+            return TRAJECTORY
+        return tuple(SEVERAL_UAVS_POSITIONS if field.name == "uav_m" else field
+                     for field in TRAJECTORY)
 
     @property
     def algorithm(self) -> AlgorithmSpec:
@@ -342,7 +354,7 @@ class Validator:
                 from None
         try:
             scenario = parse_scenario(config, "")
-            ActionSet(scenario.num_clusters, scenario.uav.actions)
+            ActionSet.of(scenario)
         except (AdaptskyError, ValueError) as error:
             self.fail("/config", str(error).splitlines()[0].removeprefix(": "),
                       "a valid scenario")
@@ -454,7 +466,7 @@ class Validator:
         if not 1 <= episode <= last:
             self.fail(f"{group.name}/@episode", f"is {episode}", f"1 to {last}")
         self.exact_members(group, [field.name for field in TRAJECTORY])
-        for field in TRAJECTORY:
+        for field in sizes.trajectory:
             self.dataset(group, field, sizes.symbols)
 
     def checkpoint(self, group: Node, seed: int, done: int, sizes: Sizes) -> None:

@@ -16,7 +16,6 @@ from adaptsky.errors import AdaptskyError
 from adaptsky.progress import LogLines, Reporter
 from adaptsky.scenario import Scenario, parse_scenario
 from adaptsky.scenario.loading import parse_toml, read_scenario_text
-from adaptsky.scenario.one_uav import require_one_uav
 from adaptsky.scenario.overrides import apply_overrides
 from adaptsky.scenario.variants import with_values
 from adaptsky.store import run_file
@@ -131,7 +130,6 @@ def train(*, scenario_path: Path, out: Path | None = None, seeds: list[int] | No
     scenario, text = load_with_overrides(scenario_path, set_values)
     scenario = _with_train(scenario, seeds=seeds, episodes=episodes, steps=steps,
                            checkpoint_every=checkpoint_every)
-    require_one_uav(scenario, str(scenario_path))
     check_fits(scenario, str(scenario_path), workers=workers)
     path = out if out is not None else default_output(scenario)
     prepare_output(path)

@@ -27,8 +27,8 @@ from adaptsky.rollouts.metrics import STEADY_STEPS, percent_of
 from adaptsky.rollouts.oracle import has_oracle, oracle
 from adaptsky.scenario import Scenario
 from adaptsky.scenario.variants import eval_scenario
-from adaptsky.sim.batch import NomaUavBatch
 from adaptsky.sim.layout import user_layouts
+from adaptsky.sim.multi_batch import NetworkBatch, network_batch
 from adaptsky.sim.noma import jain_fairness
 from adaptsky.store.layout import EVALUATIONS
 
@@ -111,8 +111,9 @@ class GreedyEvaluator:
 
     def __init__(self, evaluations: list[EvaluationSet], steps: int) -> None:
         self.evaluations, self.members, self.steps = evaluations, len(evaluations), steps
-        self.envs = [NomaUavBatch(group.scenario, num_envs=self.members * len(group.layouts_m),
-                                  seed=0, users_m=np.concatenate([group.layouts_m] * self.members))
+        self.envs = [network_batch(group.scenario, num_envs=self.members * len(group.layouts_m),
+                                   seed=0,
+                                   users_m=np.concatenate([group.layouts_m] * self.members))
                      for group in evaluations[0].groups]
 
     def run(self, greedy: object) -> list[dict[str, float]]:
@@ -140,7 +141,7 @@ class GreedyEvaluator:
             row["score"] = score(row, evaluation)
         return results
 
-    def _rollout(self, env: NomaUavBatch, greedy: object) -> FloatArray:
+    def _rollout(self, env: NetworkBatch, greedy: object) -> FloatArray:
         """Rates (K, S, L, N) of the last K = min(100, steps) steps of a greedy rollout."""
         members = self.members
         layouts = env.num_envs // members

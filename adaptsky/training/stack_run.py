@@ -29,10 +29,11 @@ from adaptsky.algos.registry import algorithm_of
 from adaptsky.arrays import Tree
 from adaptsky.errors import NonFiniteError
 from adaptsky.scenario.models import Scenario
-from adaptsky.sim.batch import NomaUavBatch, reward_weights
+from adaptsky.sim.batch import reward_weights
 from adaptsky.sim.layout import episode_layouts
+from adaptsky.sim.multi_batch import network_batch
 from adaptsky.sim.noma import jain_fairness
-from adaptsky.sim.observation import observation_size
+from adaptsky.sim.observation import observation_size_of
 from adaptsky.training.evaluation import EVALUATION_KEYS, EvaluationSet, GreedyEvaluator
 
 STATE_FIELDS = ("uav_m", "alpha", "gain", "los", "rate_bps")
@@ -106,12 +107,12 @@ class StackRun:
         self.members = members
         self.scenario = scenario = members[0].scenario
         seeds = [member.seed for member in members]
-        self.env = NomaUavBatch(scenario, num_envs=len(members),
-                                seed=[np.random.SeedSequence([s, 0]) for s in seeds],
-                                weights=[reward_weights(m.scenario) for m in members])
+        self.env = network_batch(scenario, num_envs=len(members),
+                                 seed=[np.random.SeedSequence([s, 0]) for s in seeds],
+                                 weights=[reward_weights(m.scenario) for m in members])
         self.rngs = [np.random.default_rng([s, 1]) for s in seeds]
         self.algorithm = algorithm_of(scenario).build(
-            scenario, seeds, self.rngs, observation_size(scenario.num_users),
+            scenario, seeds, self.rngs, observation_size_of(scenario),
             self.env.actions.count, torch.device(device), graphs)
         self._seeds = seeds
         self.episodes_done = 0
@@ -211,7 +212,7 @@ class StackRun:
             "sum_rate_bps": rates.sum(axis=1).mean(),
             "fairness": float(np.mean(jain_fairness(rates))),
             "reward": trajectory["reward"].sum(),
-            "mean_height_m": trajectory["uav_m"][:, 2].mean(),
+            "mean_height_m": trajectory["uav_m"][..., 2].mean(),   # over every UAV
             "epsilon": eps,
             "loss": float(loss),
             "mean_rate_bps": rates.mean(axis=0),

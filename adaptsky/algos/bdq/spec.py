@@ -14,7 +14,7 @@ from adaptsky.arrays import Field, Tree
 from adaptsky.scenario.agents import BdqAgent
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.actions import ActionSet
-from adaptsky.sim.observation import observation_size
+from adaptsky.sim.observation import observation_size_of
 
 # /seeds/<S>/checkpoint/replay/actions: the sub-action of each of the D branches per row
 BRANCH_ACTIONS = Field("actions", "int", ("R", "D"))
@@ -28,7 +28,7 @@ def _config(scenario: Scenario) -> BdqAgent:
 
 def action_set(scenario: Scenario) -> ActionSet:
     """The action components (branches) and their sub-actions of ``scenario``."""
-    return ActionSet(scenario.num_clusters, scenario.uav.actions)
+    return ActionSet.of(scenario)
 
 
 class BdqSpec(DqnSpec):
@@ -48,12 +48,12 @@ class BdqSpec(DqnSpec):
     def network(self, scenario: Scenario) -> dict[str, tuple[int, ...]]:
         """Torso, ``value`` (1) and ``advantage`` (D b: the branches one after another)."""
         actions = action_set(scenario)
-        return network_shapes(observation_size(scenario.num_users),
+        return network_shapes(observation_size_of(scenario),
                               actions.num_components * actions.base,
                               _config(scenario).hidden_sizes, dueling=True)
 
     def replay_symbols(self, scenario: Scenario) -> dict[str, int]:
-        return {"O": observation_size(scenario.num_users),
+        return {"O": observation_size_of(scenario),
                 "D": action_set(scenario).num_components}
 
     def memory_parts(self, scenario: Scenario, seeds: int, workers: int) -> dict[str, float]:
@@ -76,7 +76,7 @@ class BdqSpec(DqnSpec):
     def greedy_policy(self, scenario: Scenario, policy: Tree) -> Policy:
         from adaptsky.algos.bdq.stacked import StackedBdq  # torch
 
-        agent = StackedBdq(_config(scenario), observation_size(scenario.num_users),
+        agent = StackedBdq(_config(scenario), observation_size_of(scenario),
                            action_set(scenario), seeds=[0])
         agent.load_policy(0, policy)
         return lambda observations: agent.greedy(observations[None])[0]

@@ -13,7 +13,7 @@ from adaptsky.arrays import Field, Tree
 from adaptsky.scenario.agents import DqnAgent
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.actions import ActionSet, count_estimate
-from adaptsky.sim.observation import observation_size
+from adaptsky.sim.observation import observation_size_of
 
 FLOAT32 = 4
 # /seeds/<S>/checkpoint/replay/: R rows in storage order, attr position
@@ -38,8 +38,8 @@ def _config(scenario: Scenario) -> DqnAgent:
 def network(scenario: Scenario) -> dict[str, tuple[int, ...]]:
     """The Q-network's parameters of ``scenario``, named and shaped as torch names them."""
     agent = _config(scenario)
-    actions = ActionSet(scenario.num_clusters, scenario.uav.actions).count
-    return network_shapes(observation_size(scenario.num_users), actions, agent.hidden_sizes,
+    actions = ActionSet.of(scenario).count
+    return network_shapes(observation_size_of(scenario), actions, agent.hidden_sizes,
                           agent.dueling)
 
 
@@ -59,7 +59,7 @@ def replay_network_parts(scenario: Scenario, seeds: int, workers: int, head: flo
     when apart); networks and optimizer (policy, target, gradients, two Adam moments, and a
     checkpoint's copies); every layer's output for a batch, forward and backward."""
     agent = scenario.agent
-    obs = observation_size(scenario.num_users)
+    obs = observation_size_of(scenario)
     sizes = [obs, *agent.hidden_sizes]
     params = float(sum((a + 1) * b for a, b in pairwise(sizes)))
     params += (sizes[-1] + 1) * head
@@ -98,7 +98,7 @@ class DqnSpec:
 
     def replay_symbols(self, scenario: Scenario) -> dict[str, int]:
         """The sizes the replay's fields name, but R."""
-        return {"O": observation_size(scenario.num_users)}
+        return {"O": observation_size_of(scenario)}
 
     @staticmethod
     def _weights(check: LayoutCheck, group: Node, shapes: dict[str, tuple[int, ...]]) -> None:
@@ -153,7 +153,8 @@ class DqnSpec:
         and the dueling head's fixed (1 + A) x A matrix and its build copy (measured: 22 users
         peak at 2.4 GB, estimated 2.6 GB)."""
         agent = _config(scenario)
-        actions = count_estimate(scenario.num_clusters, scenario.uav.actions)
+        actions = count_estimate(scenario.clusters_per_uav, scenario.uav.actions,
+                             scenario.uav.count)
         head = actions + 1 if agent.dueling else actions
         parts = replay_network_parts(scenario, seeds, workers, head, action_columns=1)
         return {
@@ -176,8 +177,8 @@ class DqnSpec:
     def greedy_policy(self, scenario: Scenario, policy: Tree) -> Policy:
         from adaptsky.algos.dqn.stacked import StackedDqn  # torch
 
-        num_actions = ActionSet(scenario.num_clusters, scenario.uav.actions).count
-        agent = StackedDqn(_config(scenario), observation_size(scenario.num_users),
+        num_actions = ActionSet.of(scenario).count
+        agent = StackedDqn(_config(scenario), observation_size_of(scenario),
                            num_actions, seeds=[0])
         agent.load_policy(0, policy)
         return lambda observations: agent.greedy(observations[None])[0]

@@ -1,0 +1,320 @@
+"""The network of several UAVs (docs/model.md §9), simulated for B independent layouts at once.
+
+:class:`MultiUavBatch` holds B environments of U UAVs and N users: the users split into U
+groups (``users.association``), each UAV serves its group in NOMA clusters, and under full
+reuse cluster k of every UAV shares subchannel k, so every user hears the other UAVs' cluster-k
+signals as interference. A step moves every UAV and every alpha by one action (the dense
+index of docs/model.md §3 over all UAVs' components), holds back moves that break the
+separation, and evaluates the gains of every UAV-user link (through the unchanged plugin
+contract, :mod:`adaptsky.sim.links`), the interference, SINR and rates
+(:mod:`adaptsky.sim.interference`) and eq. 13 over all users.
+
+One UAV is :class:`adaptsky.sim.batch.NomaUavBatch` (:func:`network_batch` chooses), whose
+numbers these functions give bit for bit with U = 1 (tests/unit/sim/test_several_uavs.py).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from adaptsky.channels.contract import LinkGeometry
+from adaptsky.scenario.models import Scenario
+from adaptsky.sim import noma
+from adaptsky.sim.association import Association, associate, serving_groups
+from adaptsky.sim.batch import (
+    NomaUavBatch,
+    build_channel,
+    carrier_hz,
+    deterministic_gain,
+    fading_active,
+    reward_weights,
+)
+from adaptsky.sim.gain_bounds import gain_range, reachable_heights
+from adaptsky.sim.interference import noma_rates, serving_gain
+from adaptsky.sim.layout import user_layouts
+from adaptsky.sim.links import all_links_geometry, link_gains
+from adaptsky.sim.multi_observation import MultiObserver
+from adaptsky.sim.separation import separated
+from adaptsky.sim.state import Dynamics, SimState, step
+
+FloatArray = NDArray[np.float64]
+Seed = int | np.random.SeedSequence | list[np.random.SeedSequence] | None
+
+
+@dataclass(frozen=True)
+class MultiNetworkState:
+    """The network of several UAVs after a reset or step; leading axis B, then users N.
+
+    ``uav_m`` (B, U, 3) every UAV's position; per user (B, N): ``alpha`` its power share,
+    ``gain`` the linear gain of one antenna pair from its serving UAV (with the step's
+    fading where the channel draws it), ``interference_w`` the other UAVs' power it hears
+    (W), ``los`` and ``p_los`` of its serving link, ``strong`` whether it is its cluster's
+    strong user (SIC by the effective gain), ``rate_bps``; per environment the sum rate,
+    Jain's index over all users and the reward (eq. 13).
+    """
+
+    uav_m: FloatArray
+    alpha: FloatArray
+    gain: FloatArray
+    interference_w: FloatArray
+    los: NDArray[np.bool_]
+    p_los: FloatArray
+    strong: NDArray[np.bool_]
+    rate_bps: FloatArray
+    sum_rate_bps: FloatArray
+    fairness: FloatArray
+    reward: FloatArray
+
+    def for_env(self, index: int) -> dict[str, np.ndarray | float]:
+        """The state of environment ``index`` as a Gymnasium ``info`` dict."""
+        info: dict[str, np.ndarray | float] = {
+            name: getattr(self, name)[index].copy()
+            for name in ("uav_m", "alpha", "gain", "interference_w", "los", "p_los",
+                         "rate_bps")}
+        info["sum_rate_bps"] = float(self.sum_rate_bps[index])
+        info["fairness"] = float(self.fairness[index])
+        return info
+
+
+class MultiUavBatch:
+    """B independent copies of a network of U > 1 UAVs, vectorised with numpy.
+
+    The arguments are those of :class:`~adaptsky.sim.batch.NomaUavBatch`: ``scenario``
+    (validated), ``num_envs`` B, ``seed`` (one, or a list of B: every environment then draws
+    its LoS states, fading and user moves from a generator of its own), ``users_m``
+    (B, N, 2) to override the scenario's layouts, ``weights`` per environment (eq. 13).
+
+    The association (serving UAV and NOMA cluster of every user) is made once per layout, at
+    construction and by :meth:`set_layouts`: balanced k-means from the UAVs' start positions
+    or ``users.uav``, pairs inside each group as ``users.pairing`` says, by the gains from
+    the serving UAV's start position.
+    """
+
+    def __init__(self, scenario: Scenario, num_envs: int = 1, seed: Seed = None,
+                 users_m: FloatArray | None = None,
+                 weights: list[noma.RewardWeights] | None = None) -> None:
+        if num_envs < 1:
+            raise ValueError(f"num_envs must be >= 1, got {num_envs}")
+        self.scenario = scenario
+        self.num_envs = num_envs
+        self.num_users = scenario.num_users
+        self.num_uavs = scenario.uav.count
+        self.num_clusters = scenario.clusters_per_uav
+        self.channel = build_channel(scenario)
+        self._dynamics = Dynamics.of(scenario, num_envs)
+        self.actions = self._dynamics.actions
+        if weights is not None and len(weights) != num_envs:
+            raise ValueError(f"weights must have {num_envs} entries, got {len(weights)}")
+        self.weights = reward_weights(scenario) if weights is None else noma.stack_weights(
+            weights)
+        radio = scenario.radio
+        self.bandwidth_hz = radio.bandwidth_hz
+        self._radio = {"tx_power_w": radio.tx_power_w, "antenna_gain": radio.antenna_gain,
+                       "noise_w": radio.noise_w, "bandwidth_hz": radio.bandwidth_hz,
+                       "reuse": radio.reuse}
+        self._los_mode = scenario.channel.los
+        self._max_steps = scenario.train.steps
+        self._speed_m = scenario.users.speed_m_per_step
+        self.start_m = np.array(scenario.uav_start_positions_m, dtype=np.float64)  # (U, 3)
+        self._observer = MultiObserver(scenario)
+        if users_m is None:
+            users_m = user_layouts(scenario, num_envs)
+        self._associate(users_m)
+        self._seed(seed)
+        self._to_start()
+        self.state: MultiNetworkState | None = None
+
+    # ---- layouts and association -----------------------------------------------------------
+
+    def _check_layouts(self, users_m: FloatArray) -> None:
+        expected = (self.num_envs, self.num_users, 2)
+        if users_m.shape != expected:
+            raise ValueError(f"users_m must have shape {expected}, got {users_m.shape}")
+
+    def _associate(self, users_m: FloatArray) -> None:
+        """Serving UAVs and NOMA clusters of the layouts ``users_m`` (B, N, 2)."""
+        self._check_layouts(users_m)
+        self.layouts_m = np.array(users_m, dtype=np.float64)
+        scenario = self.scenario
+        serving = serving_groups(self.layouts_m, self.start_m, scenario.users.association,
+                                 scenario.users.uav)
+        starts = np.broadcast_to(self.start_m, (self.num_envs, *self.start_m.shape))
+        start_gain = deterministic_gain(self.channel, self._los_mode,
+                                        self.geometry(starts, self.layouts_m))
+        start_gain = start_gain.reshape(self.num_envs, self.num_uavs, self.num_users)
+        self.association: Association = associate(
+            serving, serving_gain(start_gain, serving), scenario.users.pairing, self.num_uavs)
+        # users in observation order: as listed, or UAV by UAV and cluster by cluster
+        self.observation_order: NDArray[np.intp] | None = None
+        if scenario.agent.user_order == "clusters":
+            pairs = np.stack([self.association.first_user, self.association.second_user],
+                             axis=-1)
+            self.observation_order = pairs.reshape(self.num_envs, self.num_users)
+
+    def set_layouts(self, users_m: FloatArray) -> None:
+        """New home positions of the users (B, N, 2), associated anew; they take effect at the
+        next :meth:`reset` (``users.placement = "fresh"``)."""
+        self._associate(users_m)
+
+    # ---- generators ----------------------------------------------------------------------
+
+    def _seed(self, seed: Seed) -> None:
+        """New generators: one per environment for a list of B seeds, else one shared."""
+        self.rngs: list[np.random.Generator] | None = None
+        if isinstance(seed, list):
+            if len(seed) != self.num_envs:
+                raise ValueError(f"seed must list {self.num_envs} seeds, got {len(seed)}")
+            self.rngs = [np.random.default_rng(s) for s in seed]
+        self.rng = np.random.default_rng(None if isinstance(seed, list) else seed)
+
+    def _headings(self) -> FloatArray:
+        """The step's user headings (B, N), rad: from the shared generator, or row b from
+        environment b's."""
+        shape = (self.num_envs, self.num_users)
+        if self.rngs is None:
+            return self.rng.uniform(0.0, 2 * np.pi, size=shape)
+        return np.stack([rng.uniform(0.0, 2 * np.pi, size=self.num_users)
+                         for rng in self.rngs])
+
+    # ---- geometry ------------------------------------------------------------------------
+
+    def geometry(self, uav_m: FloatArray, users_m: FloatArray) -> LinkGeometry:
+        """The (B*U, N) geometry of the links from UAVs ``uav_m`` (B, U, 3) to the users
+        ``users_m`` (B, N, 2) (:func:`adaptsky.sim.links.all_links_geometry`)."""
+        scenario = self.scenario
+        return all_links_geometry(uav_m, users_m, user_height_m=scenario.users.height_m,
+                                  carrier_hz=carrier_hz(scenario),
+                                  bandwidth_hz=scenario.radio.bandwidth_hz)
+
+    def gain_bounds(self) -> tuple[float, float] | None:
+        """The smallest and largest gain of a link, linear (None where the channel draws
+        fading, whose factors have no bound): every link is one UAV's link to one user in
+        the area, so the bounds of one UAV's links hold (``gain_bounds.gain_range``)."""
+        if fading_active(self.channel):
+            return None
+        scenario = self.scenario
+
+        def one_uav_geometry(uav_m: FloatArray, users_m: FloatArray) -> LinkGeometry:
+            return LinkGeometry.between(uav_m, users_m, user_height_m=scenario.users.height_m,
+                                        carrier_hz=carrier_hz(scenario),
+                                        bandwidth_hz=scenario.radio.bandwidth_hz)
+
+        return gain_range(self.channel, scenario.channel.los, one_uav_geometry,
+                          reachable_heights(scenario.uav), scenario.area.side_m)
+
+    # ---- state ---------------------------------------------------------------------------
+
+    @property
+    def max_steps(self) -> int:
+        """T, the time limit of an episode (``train.steps``)."""
+        return self._max_steps
+
+    @property
+    def t(self) -> int:
+        return self.sim_state.t
+
+    @property
+    def uav_m(self) -> FloatArray:
+        """UAV positions (B, U, 3), m."""
+        return self.sim_state.uav_m
+
+    @property
+    def alpha_first(self) -> FloatArray:
+        """First users' shares (B, U, K_u)."""
+        return self.sim_state.alpha_first
+
+    @property
+    def users_m(self) -> FloatArray:
+        return self.sim_state.users_m
+
+    def _to_start(self) -> None:
+        """Step 0: every UAV at its start, every alpha at ``start_alpha``, users at home."""
+        alpha = np.full((self.num_envs, self.num_uavs, self.num_clusters),
+                        self.scenario.uav.start_alpha)
+        starts = np.broadcast_to(self.start_m, (self.num_envs, *self.start_m.shape))
+        self.sim_state = SimState.of(starts, alpha, self.layouts_m)
+
+    def reset(self, seed: Seed = None) -> tuple[NDArray[np.float32], MultiNetworkState]:
+        """Start an episode (every UAV at its start position); a ``seed`` re-seeds the
+        generators."""
+        if seed is not None:
+            self._seed(seed)
+        self._to_start()
+        self.state = self._evaluate(self.sim_state)
+        return self._obs, self.state
+
+    def step(self, actions: NDArray[np.integer]
+             ) -> tuple[NDArray[np.float32], FloatArray, bool, MultiNetworkState]:
+        """Apply B actions (dense indices over all UAVs' components); return observations,
+        rewards (eq. 13), truncated, and the state. Position moves that would bring two UAVs
+        closer than ``uav.min_separation_m`` are held back (docs/model.md §9)."""
+        if self.state is None:
+            raise RuntimeError("call reset() before step()")
+        dynamics = self._dynamics
+        actions = dynamics.checked(actions)
+        before = self.sim_state
+        headings = self._headings() if self._speed_m else None
+        moved = step(before, actions, dynamics, headings)
+        config = moved.config
+        positions = separated(before.uav_m, config[..., :3],
+                              self.scenario.uav.min_separation_m)
+        if positions is not config[..., :3]:
+            config = np.concatenate([positions, config[..., 3:]], axis=-1)
+        self.sim_state = SimState(config, moved.users_m, moved.t)
+        self.state = self._evaluate(self.sim_state)
+        return self._obs, self.state.reward, self.sim_state.t >= self._max_steps, self.state
+
+    def evaluate_at(self, uav_m: FloatArray, alpha_first: FloatArray) -> MultiNetworkState:
+        """The network with the UAVs at ``uav_m`` (B, U, 3) and first users' shares
+        ``alpha_first`` (B, U, K_u), as given (no clipping); LoS drawn as in a step."""
+        state = self.sim_state
+        uav_m = np.broadcast_to(uav_m, (self.num_envs, self.num_uavs, 3))
+        alpha_first = np.broadcast_to(alpha_first, (self.num_envs, self.num_uavs,
+                                                    self.num_clusters))
+        self.sim_state = SimState.of(uav_m, alpha_first, state.users_m, state.t)
+        self.state = self._evaluate(self.sim_state)
+        return self.state
+
+    def _evaluate(self, state: SimState) -> MultiNetworkState:
+        """Gains of every link, interference, SIC order, SINR and rates (docs/model.md §9),
+        eq. 9 over all users and eq. 13; also sets ``_obs``."""
+        uav_m, users_m = state.uav_m, state.users_m
+        gains, los, p_los = link_gains(self.channel, self._los_mode,
+                                       self.geometry(uav_m, users_m),
+                                       self.rngs if self.rngs is not None else self.rng,
+                                       num_uavs=self.num_uavs)
+        association = self.association
+        rates = noma_rates(state.alpha_first, gains, association, **self._radio)
+        serving = association.serving_uav[:, None, :]
+        link_los = np.take_along_axis(los, serving, axis=1)[:, 0]
+        link_p_los = np.take_along_axis(p_los, serving, axis=1)[:, 0]
+        rate_bps = rates.rate_bps
+        fairness = noma.jain_fairness(rate_bps)
+        rewards = noma.reward(rate_bps, rates.gain, fairness, self.bandwidth_hz, self.weights)
+        rows = np.arange(self.num_envs)[:, None]
+        alpha_k = state.alpha_first[rows, association.serving_uav, association.cluster]
+        alpha = np.where(association.is_first, alpha_k, 1.0 - alpha_k)
+        self._obs = self._observer(uav_m, users_m, association.serving_uav, alpha, rates.gain,
+                                   rates.interference_w, self.observation_order)
+        return MultiNetworkState(uav_m.copy(), alpha, rates.gain, rates.interference_w,
+                                 link_los, link_p_los, rates.strong, rate_bps,
+                                 rate_bps.sum(axis=-1), fairness, rewards)
+
+    def observation(self) -> NDArray[np.float32]:
+        assert self.state is not None, "call reset() first"
+        return self._obs
+
+
+NetworkBatch = NomaUavBatch | MultiUavBatch
+
+
+def network_batch(scenario: Scenario, num_envs: int = 1, seed: Seed = None,
+                  users_m: FloatArray | None = None,
+                  weights: list[noma.RewardWeights] | None = None) -> NetworkBatch:
+    """The batched environment of ``scenario``: :class:`NomaUavBatch` for one UAV (the
+    paper's numbers, bit for bit), :class:`MultiUavBatch` for several."""
+    kind = NomaUavBatch if scenario.uav.count == 1 else MultiUavBatch
+    return kind(scenario, num_envs=num_envs, seed=seed, users_m=users_m, weights=weights)
