@@ -7,7 +7,6 @@ positions relative to the UAV, so a policy trained on one layout means the same 
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -17,39 +16,32 @@ import numpy as np
 from adaptsky.algos.registry import algorithm_of
 from adaptsky.arrays import Tree
 from adaptsky.errors import AdaptskyError
+from adaptsky.evaluation.baselines import (
+    BASELINES,
+    REFERENCES,
+    EvaluationError,
+    baseline_work,
+    require_applies,
+    run_baseline,
+)
 from adaptsky.evaluation.labels import distinct_labels
 from adaptsky.progress import Reporter, Silent, WorkProgress
 from adaptsky.report.evaluations import curve_json, score_kind
 from adaptsky.rollouts.metrics import Method, compare, percent_of, summary_row
-from adaptsky.rollouts.oracle import oracle, require_deterministic_gains
-from adaptsky.rollouts.rollout import (
-    Policy,
-    Tick,
-    greedy_policy,
-    hold,
-    random_policy,
-    rollout,
-)
-from adaptsky.rollouts.soa import soa_configuration
+from adaptsky.rollouts.rollout import Policy, greedy_policy, rollout
 from adaptsky.scenario import Scenario, load_scenario
-from adaptsky.scenario.one_uav import require_one_uav
 from adaptsky.scenario.toml_writer import dumps
 from adaptsky.scenario.variants import eval_scenario
-from adaptsky.sim.actions import ActionSet
-from adaptsky.sim.batch import NomaUavBatch
 from adaptsky.sim.layout import user_layouts
 from adaptsky.sim.observation import observation_size_of
 from adaptsky.store.run_file import RunReader
 
-BASELINES = ("soa", "oracle", "random")
+__all__ = ["BASELINES", "EvaluationError", "baseline", "baseline_work", "evaluate",
+           "run_baseline"]
 POLICY = "policy"
 # what a policy's inputs are scaled by: they must match between training and evaluation
 OBSERVATION_SCALING = ("agent.observation", "agent.user_order", "area.side_m",
                        "uav.max_height_m")
-
-
-class EvaluationError(AdaptskyError):
-    pass
 
 
 def eval_layouts(scenario: Scenario, layouts: int | None) -> np.ndarray:
@@ -59,8 +51,9 @@ def eval_layouts(scenario: Scenario, layouts: int | None) -> np.ndarray:
 
 
 # float64 numbers a rollout keeps per step, layout and user (the states it records: gains,
-# rates, shares, LoS, positions...), and per step and layout; measured shapes, rounded up
-STATE_FLOATS_PER_USER, STATE_FLOATS_PER_LAYOUT = 12, 16
+# rates, shares, LoS, positions...), and per step and layout; measured shapes, rounded up;
+# each UAV past the first adds its position
+STATE_FLOATS_PER_USER, STATE_FLOATS_PER_LAYOUT, STATE_FLOATS_PER_UAV = 12, 16, 3
 
 
 def check_rollout_memory(scenario: Scenario, steps: int, layouts: int, methods: int,
@@ -68,7 +61,8 @@ def check_rollout_memory(scenario: Scenario, steps: int, layouts: int, methods: 
     """Refuse, before any work, rollouts whose recorded states this machine cannot hold."""
     from adaptsky.training.resources import available_bytes, format_bytes
 
-    per_step = layouts * (STATE_FLOATS_PER_USER * scenario.num_users + STATE_FLOATS_PER_LAYOUT)
+    per_step = layouts * (STATE_FLOATS_PER_USER * scenario.num_users + STATE_FLOATS_PER_LAYOUT
+                          + STATE_FLOATS_PER_UAV * (scenario.uav.count - 1))
     needed = 8 * per_step * steps * methods
     available = available_bytes()
     if available is not None and needed > available:
@@ -76,34 +70,6 @@ def check_rollout_memory(scenario: Scenario, steps: int, layouts: int, methods: 
                             f"layouts need about {format_bytes(needed)} of memory, this machine "
                             f"has {format_bytes(available)} available; lower --steps or "
                             "--layouts")
-
-
-def baseline_work(method: str, steps: int, users_m: np.ndarray) -> tuple[int, str]:
-    """How much work a baseline is, for progress: (count, unit)."""
-    return (len(users_m), "layout") if method == "oracle" else (steps, "step")
-
-
-def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarray,
-                 seed: int = 0, on_progress: Tick | None = None) -> Method:
-    """SoA, the oracle or the random policy on ``users_m`` (L, N, 2); ``on_progress`` hears
-    the units of :func:`baseline_work` done."""
-    details: dict[str, Any] = {}
-    if method == "soa":
-        env = NomaUavBatch(scenario, num_envs=len(users_m), users_m=users_m)
-        uav_m, alpha_first = soa_configuration(env)
-        trace = hold(scenario, uav_m, alpha_first, steps, users_m, seed, on_progress)
-    elif method == "oracle":
-        start = time.process_time()
-        best = oracle(scenario, users_m, on_progress)
-        details["seconds_per_layout"] = (time.process_time() - start) / len(users_m)
-        details["objective_bps"] = best.objective_bps
-        trace = hold(scenario, best.uav_m, best.alpha_first, 1, users_m, seed)
-    elif method == "random":
-        count = ActionSet.of(scenario).count
-        trace = rollout(scenario, random_policy(count, seed), steps, users_m, seed, on_progress)
-    else:
-        raise EvaluationError(f"unknown method '{method}'; choose from {', '.join(BASELINES)}")
-    return Method.of(method, scenario, trace, details)
 
 
 @dataclass(frozen=True)
@@ -212,7 +178,15 @@ def _setting(scenario: Scenario, key: str) -> Any:
     return value
 
 
+def _uavs(count: int) -> str:
+    return "one UAV" if count == 1 else f"{count} UAVs"
+
+
 def _check_compatible(run_path: Path, trained: Scenario, scenario: Scenario) -> None:
+    if trained.uav.count != scenario.uav.count:
+        raise EvaluationError(
+            f"{run_path}: the policy was trained for {_uavs(trained.uav.count)} but the "
+            f"evaluation scenario '{scenario.name}' has {scenario.uav.count}")
     if trained.num_users != scenario.num_users:
         raise EvaluationError(
             f"{run_path}: the policy was trained for {trained.num_users} users "
@@ -256,10 +230,10 @@ def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path |
     trained, arrays, chosen, used, curve = _read_run(checkpoint, seed, policy)
     base = load_scenario(scenario_path) if scenario_path else trained
     scenario = eval_scenario(base, layouts, layout_seed)
-    require_one_uav(scenario, str(scenario_path or checkpoint))
     _check_compatible(checkpoint, trained, scenario)
-    if any(item.baseline == "oracle" for item in compared):
-        require_deterministic_gains(scenario)
+    for item in compared:
+        if item.baseline is not None:
+            require_applies(scenario, item.baseline, "--compare")
     others = {item.label: load_policy(item.run, None, scenario, policy)
               for item in compared if item.run is not None}
     check_rollout_memory(scenario, steps, layouts or 1, 1 + len(compared), str(checkpoint))
@@ -290,9 +264,10 @@ def baseline(*, scenario_path: Path, method: str, layouts: int | None = None,
     """One baseline on the scenario's layout or on uniform layouts; ``progress`` shows its
     work (default: nothing)."""
     scenario = eval_scenario(load_scenario(scenario_path), layouts, layout_seed)
-    require_one_uav(scenario, str(scenario_path))
-    if method == "oracle":
-        require_deterministic_gains(scenario)
+    if method not in BASELINES:
+        raise EvaluationError(f"--method: unknown method '{method}'; choose from "
+                              f"{', '.join(BASELINES)}")
+    require_applies(scenario, method, "--method")
     check_rollout_memory(scenario, steps, layouts or 1, 1, str(scenario_path))
     users_m = eval_layouts(scenario, layouts)
     with WorkProgress(progress or Silent()) as work:
@@ -308,20 +283,35 @@ def results_json(methods: list[Method], scenario: Scenario, steps: int, layouts:
         "los": scenario.channel.los, "min_se": scenario.reward.min_se, "steps": steps,
         "layouts": layouts or 1, "layout_seed": layout_seed if layouts else None,
         "layouts_m": users_m.tolist(), "methods": {}}
+    if scenario.uav.count > 1:  # (one UAV's results are as they always were)
+        results["uavs"] = scenario.uav.count
     for method in methods:
         entry = {"summary": summary_row(method.metrics),
                  "layouts": {k: v.tolist() for k, v in method.metrics.items()}}
         if "seconds_per_layout" in method.details:
             entry["seconds_per_layout"] = method.details["seconds_per_layout"]
+        if "rounds" in method.details:  # best response and OMA
+            entry["search"] = {key: np.asarray(method.details[key]).tolist()
+                               for key in SEARCH_KEYS}
         results["methods"][method.name] = entry
     first, others = methods[0], methods[1:]
     if first.name == POLICY:
         results["comparison"] = {m.name: compare(first.metrics, m.metrics) for m in others}
-        oracle_method = next((m for m in others if m.name == "oracle"), None)
-        if oracle_method is not None:
+        reference = next((m for name in REFERENCES for m in others if m.name == name), None)
+        if reference is not None:
             pct = percent_of(first.metrics["steady_sum_rate_bps"],
-                             oracle_method.metrics["mean_sum_rate_bps"])
-            results["policy_steady_pct_of_oracle"] = {
+                             reference.metrics["mean_sum_rate_bps"])
+            results[pct_key(reference.name)] = {
                 "mean": float(np.nanmean(pct)), "median": float(np.nanmedian(pct)),
                 "layouts": pct.tolist()}
     return results
+
+
+SEARCH_KEYS = ("objective_bps", "rounds", "converged")
+"""What ``results_json`` keeps of best response and OMA, per layout, under ``search``."""
+
+
+def pct_key(reference: str) -> str:
+    """The results' key of the policy's steady state as a percentage of ``reference`` (the
+    oracle's as it always was)."""
+    return f"policy_steady_pct_of_{reference.replace('-', '_')}"

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from adaptsky.errors import AdaptskyError
-from adaptsky.store.eval_file import KIND
+from adaptsky.store.eval_file import KIND, check_searches
 from adaptsky.store.run_file import open_run_file
 
 HEADER = ("adaptsky_version", "format_version", "created_utc", "command_line")
@@ -39,6 +39,7 @@ def read_eval_file(path: Path) -> tuple[dict[str, Any], dict[str, Any]]:
                 raise AdaptskyError(f"{path}: not an adaptsky eval file")
             header = {key: _plain(file.attrs[key]) for key in HEADER if key in file.attrs}
             results = json.loads(file["results_json"][()].decode())
+            check_searches(file)
     except (OSError, KeyError, ValueError, UnicodeDecodeError) as error:
         raise AdaptskyError(f"{path}: damaged eval file "
                             f"({(str(error).splitlines() or ['unreadable'])[0]})") from None

@@ -51,11 +51,35 @@ def methods_table(results: dict[str, Any]) -> Table:
     return table
 
 
+def search_lines(results: dict[str, Any]) -> list[str]:
+    """One line per search with rounds (best response, OMA): its rounds, the layouts where it
+    converged (its last round gained less than 1e-9 relative) and its time."""
+    lines = []
+    for name, entry in results["methods"].items():
+        search = entry.get("search")
+        if search is None:
+            continue
+        rounds, converged = search["rounds"], search["converged"]
+        lines.append(f"{name}: {sum(rounds) / len(rounds):.1f} rounds per layout on average "
+                     f"(at most {max(rounds)}), converged on {sum(converged)} of "
+                     f"{len(converged)} layouts; {entry['seconds_per_layout']:.2f} s per "
+                     "layout")
+    return lines
+
+
+REFERENCES = {"oracle": "the oracle", "best-response": "best response"}
+"""What the policy's steady state is a share of, as the results key it: the oracle (one UAV),
+else best response (several UAVs' reference)."""
+
+
 def oracle_line(results: dict[str, Any]) -> str | None:
-    """The policy's steady-state sum rate as a share of the oracle's, if it was compared."""
-    share = results.get("policy_steady_pct_of_oracle")
-    if share is None:
-        return None
-    seconds = results["methods"]["oracle"].get("seconds_per_layout", float("nan"))
-    return (f"policy steady state: {share['mean']:.1f}% of the oracle on average "
-            f"(median {share['median']:.1f}%); oracle search {seconds:.2f} s per layout")
+    """The policy's steady-state sum rate as a share of the oracle's, or of best response's
+    without the oracle, if it was compared."""
+    for method, words in REFERENCES.items():
+        share = results.get(f"policy_steady_pct_of_{method.replace('-', '_')}")
+        if share is None:
+            continue
+        seconds = results["methods"][method].get("seconds_per_layout", float("nan"))
+        return (f"policy steady state: {share['mean']:.1f}% of {words} on average "
+                f"(median {share['median']:.1f}%); {method} search {seconds:.2f} s per layout")
+    return None

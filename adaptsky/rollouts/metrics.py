@@ -27,7 +27,7 @@ def layout_metrics(trace: Trace, bandwidth_hz: float, min_rate_bps: float
     """Per layout (L,): mean sum rate over the steps, over the last 100 steps (steady
     state), mean Jain index, the smallest user's mean spectral efficiency, the share of steps
     with every user at or above R_min (over all steps, and over the last 100); and the final
-    UAV position (L, 3)."""
+    UAV position (L, 3), or every UAV's (L, U, 3) for several UAVs."""
     sum_rate = trace.sum_rate_bps
     all_met = meets_min_rate(trace.rate_bps, min_rate_bps).all(axis=-1)
     return {
@@ -41,12 +41,13 @@ def layout_metrics(trace: Trace, bandwidth_hz: float, min_rate_bps: float
     }
 
 
-def percent_of(steady_bps: NDArray[np.float64], oracle_bps: NDArray[np.float64]
+def percent_of(steady_bps: NDArray[np.float64], reference_bps: NDArray[np.float64]
                ) -> NDArray[np.float64]:
-    """100 steady / oracle per layout, NaN where the oracle is NaN or 0 (no point meets
-    R_min)."""
-    positive = oracle_bps > 0
-    return np.where(positive, 100 * steady_bps / np.where(positive, oracle_bps, 1.0), np.nan)
+    """100 steady / reference per layout, NaN where the reference (the oracle for one UAV,
+    best response for several) is NaN or 0 (no point meets R_min)."""
+    positive = reference_bps > 0
+    return np.where(positive, 100 * steady_bps / np.where(positive, reference_bps, 1.0),
+                    np.nan)
 
 
 def compare(policy: dict[str, NDArray], other: dict[str, NDArray]) -> dict[str, float]:

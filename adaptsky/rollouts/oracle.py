@@ -111,11 +111,12 @@ def _random_gains(scenario: Scenario) -> str | None:
     return None
 
 
-def require_deterministic_gains(scenario: Scenario) -> None:
-    """Refuse a scenario whose gains are drawn at random: the oracle needs fixed gains."""
+def require_deterministic_gains(scenario: Scenario, method: str = "the oracle") -> None:
+    """Refuse a scenario whose gains are drawn at random: the oracle (or another search over
+    the lattice, ``method``) needs fixed gains."""
     reason = _random_gains(scenario)
     if reason is not None:
-        raise AdaptskyError(f"scenario '{scenario.name}': {reason}; the oracle needs "
+        raise AdaptskyError(f"scenario '{scenario.name}': {reason}; {method} needs "
                             "deterministic gains: los = 'always' or 'expected', without "
                             "fading")
 

@@ -1,5 +1,8 @@
 """Rollouts over L layouts at once: a policy stepping from the episode start, or a fixed
-configuration held (baselines). Both give a time-major :class:`Trace`."""
+configuration held (baselines). Both give a time-major :class:`Trace`. One UAV runs on
+:class:`~adaptsky.sim.batch.NomaUavBatch`, several on
+:class:`~adaptsky.sim.multi_batch.MultiUavBatch` (:func:`~adaptsky.sim.multi_batch.network_batch`
+chooses)."""
 
 from __future__ import annotations
 
@@ -13,7 +16,8 @@ from adaptsky.algos.protocol import Policy
 from adaptsky.algos.registry import algorithm_of
 from adaptsky.arrays import Tree
 from adaptsky.scenario.models import Scenario
-from adaptsky.sim.batch import NetworkState, NomaUavBatch
+from adaptsky.sim.batch import NetworkState
+from adaptsky.sim.multi_batch import MultiNetworkState, NetworkBatch, network_batch
 
 Tick = Callable[[int], None]
 FloatArray = NDArray[np.float64]
@@ -21,7 +25,8 @@ FloatArray = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class Trace:
-    """Per step and layout: rates (T, L, N), UAV positions (T, L, 3), power shares (T, L, N)."""
+    """Per step and layout: rates (T, L, N), UAV positions (T, L, 3) for one UAV and
+    (T, L, U, 3) for U > 1, every user's power share (T, L, N)."""
 
     rate_bps: FloatArray
     uav_m: FloatArray
@@ -32,13 +37,13 @@ class Trace:
         return self.rate_bps.sum(axis=-1)
 
     @classmethod
-    def of(cls, states: list[NetworkState]) -> Trace:
+    def of(cls, states: list[NetworkState] | list[MultiNetworkState]) -> Trace:
         return cls(np.array([s.rate_bps for s in states]), np.array([s.uav_m for s in states]),
                    np.array([s.alpha for s in states]))
 
 
-def _env(scenario: Scenario, users_m: FloatArray, seed: int) -> NomaUavBatch:
-    return NomaUavBatch(scenario, num_envs=len(users_m), seed=seed, users_m=users_m)
+def _env(scenario: Scenario, users_m: FloatArray, seed: int) -> NetworkBatch:
+    return network_batch(scenario, num_envs=len(users_m), seed=seed, users_m=users_m)
 
 
 def rollout(scenario: Scenario, policy: Policy, steps: int, users_m: FloatArray,
@@ -58,8 +63,9 @@ def rollout(scenario: Scenario, policy: Policy, steps: int, users_m: FloatArray,
 
 def hold(scenario: Scenario, uav_m: FloatArray, alpha_first: FloatArray, steps: int,
          users_m: FloatArray, seed: int = 0, on_step: Tick | None = None) -> Trace:
-    """Keep every UAV at ``uav_m`` (L, 3) with shares ``alpha_first`` (L, K) for ``steps``
-    steps (LoS drawn every step for ``los = "sampled"``)."""
+    """Keep the UAV at ``uav_m`` (L, 3) with shares ``alpha_first`` (L, K) for ``steps``
+    steps, or for U > 1 every UAV at ``uav_m`` (L, U, 3) with ``alpha_first`` (L, U, K_u)
+    (LoS drawn every step for ``los = "sampled"``)."""
     env = _env(scenario, users_m, seed)
     env.reset()
     states = []

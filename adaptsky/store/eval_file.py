@@ -26,8 +26,14 @@ TEXT = "text"
 UNITS = {"mean_sum_rate_bps": "bit/s", "steady_sum_rate_bps": "bit/s", "sum_rate_bps": "bit/s",
          "rate_bps": "bit/s", "min_user_se": "bit/s/Hz", "fairness": "1",
          "satisfied_share": "1", "steady_satisfied_share": "1", "alpha": "1",
-         "final_uav_m": "m", "uav_m": "m", "layouts_m": "m"}
+         "final_uav_m": "m", "uav_m": "m", "layouts_m": "m", "objective_bps": "bit/s",
+         "rounds": "1", "converged": "1"}
 """The ``units`` attribute of every numeric dataset, by name ("1": dimensionless)."""
+
+
+SEARCH = "search"
+"""The group of best response's and OMA's search, per layout: objective_bps, rounds,
+converged, and the attribute seconds_per_layout."""
 
 
 def group_name(label: str) -> str:
@@ -75,6 +81,11 @@ def write_eval(path: Path, results: dict[str, Any], methods: list[Method],
             write_tree(group.create_group("trajectory"), {
                 "sum_rate_bps": trace.sum_rate_bps, "rate_bps": trace.rate_bps,
                 "uav_m": trace.uav_m, "alpha": trace.alpha}, compress=True)
+            if "rounds" in method.details:  # best response and OMA
+                search = group.create_group(SEARCH)
+                write_tree(search, {key: np.asarray(method.details[key]) for key in
+                                    ("objective_bps", "rounds", "converged")})
+                search.attrs["seconds_per_layout"] = method.details["seconds_per_layout"]
         for name, comparison in results.get("comparison", {}).items():
             group = file.require_group("comparison").create_group(group_name(name))
             group.attrs.update(comparison, label=name)
@@ -89,12 +100,37 @@ def read_eval_metrics(path: Path) -> tuple[dict[str, Any] | None, dict[str, dict
             if file.attrs.get("kind") != KIND:
                 raise AdaptskyError(f"{path}: not an adaptsky eval file")
             results = json.loads(file["results_json"][()].decode())
+            check_searches(file)
             methods = {}
             for name, group in file["methods"].items():
                 tree = read_tree(group)
                 tree.pop("trajectory", None)
+                tree.pop(SEARCH, None)
                 label = str(tree.pop("label", name))
                 methods[label] = {key: np.asarray(value) for key, value in tree.items()}
     except (OSError, KeyError, ValueError) as error:
         raise AdaptskyError(f"{path}: damaged eval file ({str(error).splitlines()[0]})") from None
     return results.get("record"), methods
+
+
+def check_searches(file: h5py.File) -> None:
+    """Raise ValueError where a method's ``search`` group is not what :func:`write_eval`
+    writes: objective_bps (float, >= 0), rounds (integer, >= 1) and converged (bool), one per
+    layout, and seconds_per_layout >= 0."""
+    kinds = {"objective_bps": "f", "rounds": "iu", "converged": "b"}
+    for name, group in file.get("methods", {}).items():
+        search = group.get(SEARCH)
+        if search is None:
+            continue
+        layouts = file["layouts_m"].shape[0]
+        for key, kind in kinds.items():
+            data = search.get(key)
+            if not isinstance(data, h5py.Dataset) or data.shape != (layouts,) or \
+                    data.dtype.kind not in kind:
+                raise ValueError(f"methods/{name}/{SEARCH}/{key} is not one "
+                                 f"{'number' if kind != 'b' else 'bool'} per layout")
+        if not (np.all(search["objective_bps"][()] >= 0) and np.all(search["rounds"][()] >= 1)):
+            raise ValueError(f"methods/{name}/{SEARCH}: a negative objective or no round")
+        seconds = search.attrs.get("seconds_per_layout")
+        if not isinstance(seconds, float | np.floating) or not seconds >= 0:
+            raise ValueError(f"methods/{name}/{SEARCH}: no seconds_per_layout")

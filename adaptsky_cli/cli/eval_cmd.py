@@ -56,9 +56,11 @@ def _writable_new_file(path: Path) -> None:
 
 def show_results(results: dict[str, Any]) -> None:
     """The comparison table of an evaluation or a baseline, and the policy's share of the
-    oracle."""
-    from adaptsky.report.eval_table import methods_table, oracle_line
+    oracle (of best response for several UAVs)."""
+    from adaptsky.report.eval_table import methods_table, oracle_line, search_lines
     out.print(methods_table(results))
+    for line in search_lines(results):
+        out.print(line, markup=False)
     line = oracle_line(results)
     if line:
         out.print(line, markup=False)
@@ -92,8 +94,8 @@ def evaluate(
     layout_seed: LayoutSeed = 0,
     steps: Steps = 1000,
     compare: Annotated[str, typer.Option(
-        metavar="METHODS", help="comma-separated: soa, oracle, random, or other run "
-        "files")] = "soa,random",
+        metavar="METHODS", help="comma-separated: soa, oracle (one UAV), best-response, oma, "
+        "random, or other run files")] = "soa,random",
     out_file: Annotated[Path | None, typer.Option(
         "--out", metavar="FILE.h5", show_default=False,
         help="eval file to write (default: next to the run file)")] = None,
@@ -148,8 +150,9 @@ def show_training(results: dict[str, Any]) -> None:
 
 def baseline(
     scenario: ScenarioFile,
-    method: Annotated[str, typer.Option(metavar="soa|oracle|random", show_default=False,
-                                        help="the baseline to run")],
+    method: Annotated[str, typer.Option(
+        metavar="soa|oracle|best-response|oma|random", show_default=False,
+        help="the baseline to run (oracle: one UAV only)")],
     layouts: Layouts = None,
     layout_seed: LayoutSeed = 0,
     steps: Steps = 1000,
@@ -157,9 +160,9 @@ def baseline(
 ) -> None:
     """Run one baseline on a scenario.
 
-    The oracle also reports its optimum per layout."""
+    The oracle also reports its optimum per layout; best response and OMA what they found,
+    with their rounds."""
     from adaptsky.evaluation import api
-    from adaptsky.units import format_rate
     from adaptsky_cli.cli.progress_display import RichReporter
     if method not in api.BASELINES:
         raise AdaptskyError(f"--method: unknown method '{method}'; choose from "
@@ -173,14 +176,40 @@ def baseline(
              "alpha": result.trace.alpha[-1, i].tolist(),
              "rate_bps": result.trace.rate_bps[-1, i].tolist()}
             for i in range(results["layouts"])]
+    elif method in ("best-response", "oma"):
+        search = results["methods"][method]["search"]
+        results["found"] = [
+            {"uav_m": result.trace.uav_m[-1, i].tolist(),
+             "alpha": result.trace.alpha[-1, i].tolist(),
+             "rate_bps": result.trace.rate_bps[-1, i].tolist(),
+             "rounds": search["rounds"][i], "converged": search["converged"][i]}
+            for i in range(results["layouts"])]
     if as_json:
         print(json.dumps(results))
         return
     show_results(results)
-    if method == "oracle":
-        for i, best in enumerate(results["optimum"][:10]):
-            rates = ", ".join(format_rate(r) for r in best["rate_bps"])
-            out.print(f"layout {i}: UAV at {best['uav_m']}, alpha "
-                      f"{[round(a, 4) for a in best['alpha']]}, rates {rates}", markup=False)
-        if results["layouts"] > 10:
-            out.print(f"... {results['layouts'] - 10} more layouts (--json lists them all)")
+    found = results.get("optimum") or results.get("found") or []
+    for i, best in enumerate(found[:10]):
+        out.print(f"layout {i}: {_configuration(method, best)}", markup=False)
+    if len(found) > 10:
+        out.print(f"... {results['layouts'] - 10} more layouts (--json lists them all)")
+
+
+def _configuration(method: str, best: dict[str, Any]) -> str:
+    """What a search found on one layout, in words: the UAV or UAVs, the power shares (OMA
+    splits no power), the users' rates and, for best response and OMA, the rounds."""
+    import numpy as np
+
+    from adaptsky.units import format_rate
+
+    rates = ", ".join(format_rate(r) for r in best["rate_bps"])
+    if method == "oracle":  # (as it always was)
+        return (f"UAV at {best['uav_m']}, alpha {[round(a, 4) for a in best['alpha']]}, "
+                f"rates {rates}")
+    uav_m = np.round(best["uav_m"], 3).tolist()
+    where = f"UAVs at {uav_m}" if np.ndim(uav_m) == 2 else f"UAV at {uav_m}"
+    shares = ("OMA (half the band and half the power each)" if method == "oma" else
+              f"alpha {[round(a, 4) for a in best['alpha']]}")
+    rounds = best["rounds"]
+    return (f"{where}, {shares}, rates {rates}; {rounds} round{'s' if rounds != 1 else ''}, "
+            f"{'converged' if best['converged'] else 'not converged'}")

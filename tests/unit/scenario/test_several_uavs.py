@@ -1,6 +1,7 @@
 """The scenario keys of several UAVs (docs/model.md §9): defaults that leave every shipped
 scenario as it was, one line for each set-up that cannot work, and the refusal of U > 1 by
-train, eval, baseline and the Gymnasium env until they handle it (issue 23)."""
+train and the Gymnasium env until they handle it (issue 23); eval refuses a policy trained for
+another number of UAVs (tests/unit/evaluation/test_several_uavs_eval.py evaluates several)."""
 
 from __future__ import annotations
 
@@ -140,9 +141,8 @@ REFUSAL = ("uav.count: 2 UAVs: several UAVs are not trained or evaluated yet (is
            "modelled (docs/model.md §9); use uav.count = 1")
 
 
-@pytest.mark.parametrize("command", [["train", "--episodes", "1", "--steps", "2", "--quiet"],
-                                     ["baseline", "--method", "soa", "--steps", "2"]])
-def test_train_and_baseline_refuse_several_uavs_in_one_line(command, tmp_path, capsys):
+@pytest.mark.parametrize("command", [["train", "--episodes", "1", "--steps", "2", "--quiet"]])
+def test_train_refuses_several_uavs_in_one_line(command, tmp_path, capsys):
     path = tmp_path / "two.toml"
     path.write_text(SEVERAL)
     assert main([command[0], str(path), *command[1:]]) == 1
@@ -150,12 +150,14 @@ def test_train_and_baseline_refuse_several_uavs_in_one_line(command, tmp_path, c
     assert not list(tmp_path.glob("runs/*"))
 
 
-def test_eval_refuses_several_uavs_in_one_line(tiny_run, tmp_path, capsys):
+def test_eval_refuses_a_one_uav_policy_on_several_uavs_in_one_line(tiny_run, tmp_path, capsys):
     path = tmp_path / "two.toml"
     path.write_text(SEVERAL)
     assert main(["eval", "--checkpoint", str(tiny_run), "--scenario", str(path),
                  "--steps", "2"]) == 1
-    assert capsys.readouterr().err.strip().splitlines() == [f"{path}: {REFUSAL}"]
+    assert capsys.readouterr().err.strip().splitlines() == [
+        f"{tiny_run}: the policy was trained for one UAV but the evaluation scenario 'two' "
+        "has 2"]
 
 
 def test_the_environments_refuse_several_uavs(tmp_path):

@@ -1,0 +1,123 @@
+"""The baselines of an evaluation (docs/evaluation.md#baselines): which apply to a scenario,
+how much work each is, and one run on L layouts as a :class:`Method`.
+
+One UAV: SoA, the oracle, best response (the oracle itself), OMA and random. Several UAVs
+(docs/model.md §9): SoA per UAV, best response (the reference), OMA and random; the oracle
+is defined for one UAV and refused. The searches (oracle, best response, OMA) hold what they
+found for one step, as gains are deterministic; OMA's rates are its own (each user of a
+cluster on half the band with half the power), held as the search computed them, since the
+environment computes NOMA rates.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from adaptsky.errors import AdaptskyError
+from adaptsky.rollouts import several_uavs
+from adaptsky.rollouts.metrics import Method
+from adaptsky.rollouts.oracle import oracle, require_deterministic_gains
+from adaptsky.rollouts.rollout import Tick, Trace, hold, random_policy, rollout
+from adaptsky.rollouts.several_uavs import SearchResult
+from adaptsky.rollouts.soa import soa_configuration
+from adaptsky.scenario import Scenario
+from adaptsky.sim.actions import ActionSet
+from adaptsky.sim.batch import NomaUavBatch
+
+BASELINES = ("soa", "oracle", "best-response", "oma", "random")
+SEARCHES = ("oracle", "best-response", "oma")
+"""Searches over the lattice: they need deterministic gains and count layouts as progress."""
+REFERENCES = ("oracle", "best-response")
+"""What a policy's steady state is a percentage of, the first compared: the oracle (one UAV),
+else best response (our reference for several UAVs, never called the optimum)."""
+OMA_POWER_SHARE = 0.5
+"""Each OMA user's share of its cluster's power (and of its band): the trace's ``alpha``."""
+
+
+class EvaluationError(AdaptskyError):
+    pass
+
+
+def require_applies(scenario: Scenario, method: str, option: str = "") -> None:
+    """Refuse, in one line (starting with ``option``, the command's option, if given), a
+    baseline the scenario cannot have: the oracle for several UAVs; a search where gains are
+    drawn at random."""
+    count = scenario.uav.count
+    if method == "oracle" and count > 1:
+        where = f"{option}: " if option else ""
+        raise EvaluationError(f"{where}the oracle is defined for one UAV; use best-response "
+                              f"(scenario '{scenario.name}' has {count} UAVs)")
+    if method in SEARCHES:
+        require_deterministic_gains(scenario, "the oracle" if method == "oracle" else method)
+
+
+def baseline_work(method: str, steps: int, users_m: np.ndarray) -> tuple[int, str]:
+    """How much work a baseline is, for progress: (count, unit)."""
+    return (len(users_m), "layout") if method in SEARCHES else (steps, "step")
+
+
+def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarray,
+                 seed: int = 0, on_progress: Tick | None = None) -> Method:
+    """A baseline of :data:`BASELINES` on ``users_m`` (L, N, 2); ``on_progress`` hears the
+    units of :func:`baseline_work` done. The searches' details: ``seconds_per_layout`` and
+    ``objective_bps`` (L,); best response and OMA also ``rounds`` and ``converged`` (L,)."""
+    if method not in BASELINES:
+        raise EvaluationError(f"unknown method '{method}'; choose from {', '.join(BASELINES)}")
+    require_applies(scenario, method)
+    details: dict[str, Any] = {}
+    one_uav = scenario.uav.count == 1
+    if method == "soa":
+        if one_uav:
+            env = NomaUavBatch(scenario, num_envs=len(users_m), users_m=users_m)
+            uav_m, alpha_first = soa_configuration(env)
+        else:
+            uav_m, alpha_first = several_uavs.soa_per_uav(scenario, users_m)
+        trace = hold(scenario, uav_m, alpha_first, steps, users_m, seed, on_progress)
+    elif method == "oracle":
+        start = time.process_time()
+        best = oracle(scenario, users_m, on_progress)
+        details["seconds_per_layout"] = (time.process_time() - start) / len(users_m)
+        details["objective_bps"] = best.objective_bps
+        trace = hold(scenario, best.uav_m, best.alpha_first, 1, users_m, seed)
+    elif method in SEARCHES:
+        found = search(scenario, method, users_m, on_progress)
+        details |= search_details(found)
+        uav_m = found.uav_m[:, 0] if one_uav else found.uav_m
+        if method == "best-response":
+            alpha_first = found.alpha_first[:, 0] if one_uav else found.alpha_first
+            trace = hold(scenario, uav_m, alpha_first, 1, users_m, seed)
+        else:
+            trace = Trace(found.rate_bps[None].copy(), uav_m[None].copy(),
+                          np.full((1, *found.rate_bps.shape), OMA_POWER_SHARE))
+    else:
+        count = ActionSet.of(scenario).count
+        trace = rollout(scenario, random_policy(count, seed), steps, users_m, seed, on_progress)
+    return Method.of(method, scenario, trace, details)
+
+
+def search(scenario: Scenario, method: str, users_m: np.ndarray,
+           on_progress: Tick | None = None) -> SearchResult:
+    """Best response or OMA (:mod:`adaptsky.rollouts.several_uavs`) on ``users_m``; best
+    response of one UAV is the oracle, one search (1 round, converged)."""
+    if method == "oma":
+        return several_uavs.best_oma(scenario, users_m, on_layout=on_progress)
+    if scenario.uav.count > 1:
+        return several_uavs.best_response(scenario, users_m, on_layout=on_progress)
+    start = time.process_time()
+    best = oracle(scenario, users_m, on_progress)
+    layouts = len(users_m)
+    return SearchResult(best.objective_bps, best.uav_m[:, None], best.alpha_first[:, None],
+                        best.rate_bps, np.ones(layouts, dtype=np.int64),
+                        np.ones(layouts, dtype=np.bool_),
+                        (time.process_time() - start) / layouts)
+
+
+def search_details(found: SearchResult) -> dict[str, Any]:
+    """What an eval file keeps of a search besides its trace."""
+    return {"seconds_per_layout": float(found.seconds_per_layout),
+            "objective_bps": np.asarray(found.objective_bps, dtype=np.float64),
+            "rounds": np.asarray(found.rounds, dtype=np.int64),
+            "converged": np.asarray(found.converged, dtype=np.bool_)}
