@@ -6,7 +6,8 @@ evaluation layouts: the training layout (unless ``users.placement = "fresh"``, w
 none) and ``train.eval_layouts`` held-out uniform layouts drawn from ``train.eval_layout_seed``
 and paired near-far. Its steady state is the mean over the last 100 steps (as ``adaptsky
 eval`` measures it), compared with the oracle of each layout where the scenario allows one
-(``channel.los`` not ``"sampled"``).
+(``channel.los`` not ``"sampled"``); for several UAVs the reference is best response
+(docs/model.md §9), stored and reported in the oracle's place.
 
 The evaluation has environments and generators of its own (LoS draws from seed 0, as
 ``eval``): it changes nothing of training, which gives the same numbers with or without it.
@@ -24,7 +25,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from adaptsky.rollouts.metrics import STEADY_STEPS, percent_of
-from adaptsky.rollouts.oracle import has_oracle, oracle
+from adaptsky.rollouts.oracle import has_oracle
+from adaptsky.rollouts.several_uavs import best_response
 from adaptsky.scenario import Scenario
 from adaptsky.scenario.variants import eval_scenario
 from adaptsky.sim.layout import user_layouts
@@ -84,7 +86,8 @@ def evaluation_set(scenario: Scenario, oracle_bps: list[FloatArray] | None = Non
         layouts_m = user_layouts(variant, count)
         ceiling = next(stored, None)
         if ceiling is None:
-            ceiling = (oracle(variant, layouts_m).objective_bps if has_oracle(variant)
+            # the oracle; for several UAVs best response, our reference (docs/model.md §9)
+            ceiling = (best_response(variant, layouts_m).objective_bps if has_oracle(variant)
                        else np.full(count, np.nan))
         return LayoutGroup(variant, layouts_m, np.asarray(ceiling, dtype=np.float64))
 
