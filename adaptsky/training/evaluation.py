@@ -19,6 +19,7 @@ oracle, the same sum rates in bit/s.
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 
 import numpy as np
@@ -86,8 +87,7 @@ def evaluation_set(scenario: Scenario, oracle_bps: list[FloatArray] | None = Non
         layouts_m = user_layouts(variant, count)
         ceiling = next(stored, None)
         if ceiling is None:
-            # the oracle; for several UAVs best response, our reference (docs/model.md §9)
-            ceiling = (best_response(variant, layouts_m).objective_bps if has_oracle(variant)
+            ceiling = (reference_bps(variant, layouts_m) if has_oracle(variant)
                        else np.full(count, np.nan))
         return LayoutGroup(variant, layouts_m, np.asarray(ceiling, dtype=np.float64))
 
@@ -97,6 +97,21 @@ def evaluation_set(scenario: Scenario, oracle_bps: list[FloatArray] | None = Non
     if training is None and held_out is None:
         return None
     return EvaluationSet(training, held_out)
+
+
+_REFERENCES: dict[tuple[str, bytes], FloatArray] = {}
+
+
+def reference_bps(scenario: Scenario, layouts_m: FloatArray) -> FloatArray:
+    """The reference sum rate (L,) of every layout: the oracle; for several UAVs best
+    response (docs/model.md §9). Kept per process for the scenario's physics (not its name,
+    agent or training) and layouts, so the runs of a stack, which share them, search once
+    (best response takes minutes a layout)."""
+    physics = scenario.model_dump(mode="json", exclude={"name", "description", "agent", "train"})
+    key = (json.dumps(physics, sort_keys=True), layouts_m.tobytes())
+    if key not in _REFERENCES:
+        _REFERENCES[key] = best_response(scenario, layouts_m).objective_bps
+    return _REFERENCES[key].copy()
 
 
 def _nan_reduce(reduce: object, values: FloatArray) -> float:
