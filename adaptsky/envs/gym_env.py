@@ -1,26 +1,34 @@
-"""Gymnasium environments over :class:`NomaUavBatch`: ``adaptsky/NomaUav-v0`` and its native
-vector env.
+"""Gymnasium environments over the batched simulation: ``adaptsky/NomaUav-v0`` and its native
+vector env, for one UAV (:class:`NomaUavBatch`) or several (:class:`MultiUavBatch`,
+docs/model.md §9).
 
 Action Space
-    ``Discrete(2^(3+K))`` (``actions = "paper"``) or ``Discrete(3^(3+K))`` (``"with-hover"``);
-    see :mod:`adaptsky.sim.actions` for the encoding.
+    One UAV, by default: ``Discrete(2^(3+K))`` (``actions = "paper"``) or ``Discrete(3^(3+K))``
+    (``"with-hover"``); see :mod:`adaptsky.sim.actions` for the encoding. Several UAVs, by
+    default: ``MultiDiscrete([base] * U (3 + K_u))``, one sub-action per component (x, y, h,
+    alpha_1 .. alpha_K of UAV 0, then UAV 1, ...); ``action_space="discrete"`` gives the dense
+    index over them up to 2^16 actions, ``"multi-discrete"`` also serves one UAV
+    (:mod:`adaptsky.envs.action_spaces`).
 Observation Space
-    ``Box`` of shape (4 N + 1,), float32: per user [dx, dy, alpha, g], then h; scaling in
-    :mod:`adaptsky.sim.observation`. Its bounds are finite and hold every observation: g
-    between the weakest and strongest gain the scenario's geometry allows
+    One UAV: ``Box`` of shape (4 N + 1,), float32: per user [dx, dy, alpha, g], then h; scaling
+    in :mod:`adaptsky.sim.observation`. Several: ``Box`` of shape (5 N + 3 U,): per user
+    [dx, dy, alpha, g, I] to its serving UAV, then every UAV's [x, y, h]
+    (:mod:`adaptsky.sim.multi_observation`). Its bounds are finite and hold every observation:
+    g between the weakest and strongest gain the scenario's geometry allows
     (:mod:`adaptsky.sim.gain_bounds`; docs/environment.md, "Observation bounds").
 Rewards
-    Eq. 13 with the scenario's ``[reward]`` weights.
+    Eq. 13 with the scenario's ``[reward]`` weights, over all users.
 Starting State
-    UAV at ``uav.start_m``, every cluster's first user at ``uav.start_alpha``; users at their
-    layout positions (``users.placement = "fresh"``: a new uniform layout at every reset,
-    drawn from the environment's ``np_random``, unless ``users_m`` fixes it).
+    Every UAV at its start position, every cluster's first user at ``uav.start_alpha``; users
+    at their layout positions (``users.placement = "fresh"``: a new uniform layout at every
+    reset, drawn from the environment's ``np_random``, unless ``users_m`` fixes it).
 Episode End
     Truncation after ``train.steps`` steps; the network has no terminal state.
 Arguments
     ``scenario``: a path to a scenario file or a :class:`Scenario` (default: the shipped
     ``nyc_mmwave.toml``); ``users_m``: optional layout override (N, 2) (vector env:
     (B, N, 2)); ``render_mode``: ``None`` or ``"ansi"`` (a text summary of the state);
+    ``action_space``: ``None`` (the default above), ``"discrete"`` or ``"multi-discrete"``;
     single env: ``layout_index``, which of the scenario's layouts (for ``placement =
     "uniform"``: the i-th drawn, sub-environment i of the vector env); vector env:
     ``num_envs``.
@@ -38,32 +46,35 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from adaptsky.envs.action_spaces import action_space_kind, gym_action_space, to_dense
 from adaptsky.envs.registration import register_envs
 from adaptsky.scenario import Scenario, load_scenario
-from adaptsky.scenario.one_uav import require_one_uav
 from adaptsky.shipped_files import default_scenario_path
-from adaptsky.sim.batch import NetworkState, NomaUavBatch
+from adaptsky.sim.batch import NetworkState
 from adaptsky.sim.layout import uniform_layouts, user_layouts
+from adaptsky.sim.multi_batch import MultiNetworkState, MultiUavBatch, NetworkBatch, network_batch
+from adaptsky.sim.multi_observation import multi_observation_bounds
 from adaptsky.sim.observation import observation_bounds
 
 RENDER_MODES = ["ansi"]
 # nominal frames per second of a rendered episode (the model has no time per step)
 RENDER_FPS = 4
 INFO_KEYS = ("uav_m", "alpha", "gain", "los", "p_los", "rate_bps", "sum_rate_bps", "fairness")
+# several UAVs: also the interference every user hears (W)
+MULTI_INFO_KEYS = (*INFO_KEYS[:3], "interference_w", *INFO_KEYS[3:])
 
 
 def _resolve(scenario: Scenario | str | Path | None) -> Scenario:
     if scenario is None:
         scenario = default_scenario_path()
-    resolved = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
-    require_one_uav(resolved, str(scenario) if not isinstance(scenario, Scenario)
-                    else resolved.name)
-    return resolved
+    return scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
 
 
-def _spaces(scenario: Scenario, batch: NomaUavBatch) -> tuple[spaces.Box, spaces.Discrete]:
-    low, high = observation_bounds(scenario, batch.gain_bounds())
-    return spaces.Box(low, high, dtype=np.float32), spaces.Discrete(batch.actions.count)
+def observation_space(scenario: Scenario, batch: NetworkBatch) -> spaces.Box:
+    """The ``Box`` of one environment's observation: finite bounds from the scenario."""
+    bounds = multi_observation_bounds if isinstance(batch, MultiUavBatch) else observation_bounds
+    low, high = bounds(scenario, batch.gain_bounds())
+    return spaces.Box(low, high, dtype=np.float32)
 
 
 def _check_render_mode(render_mode: str | None) -> str | None:
@@ -73,28 +84,31 @@ def _check_render_mode(render_mode: str | None) -> str | None:
     return render_mode
 
 
-def render_text(batch: NomaUavBatch, index: int) -> str:
+def render_text(batch: NetworkBatch, index: int) -> str:
     """Environment ``index``'s state in a few lines of text (``render_mode="ansi"``)."""
     state = batch.state
     if state is None:
         return "not reset yet\n"
-    x, y, h = state.uav_m[index]
+    positions = np.reshape(state.uav_m[index], (-1, 3))
+    names = ["UAV"] if len(positions) == 1 else [f"UAV {u}" for u in range(len(positions))]
+    uavs = "  ".join(f"{name} x={x:.1f} y={y:.1f} h={h:.1f} m"
+                     for name, (x, y, h) in zip(names, positions, strict=True))
     rates = " ".join(f"{rate / 1e6:.1f}" for rate in state.rate_bps[index])
     alphas = " ".join(f"{alpha:.2f}" for alpha in state.alpha[index])
-    return (f"step {batch.t}/{batch.max_steps}  UAV x={x:.1f} y={y:.1f} h={h:.1f} m  "
+    return (f"step {batch.t}/{batch.max_steps}  {uavs}  "
             f"sum rate {state.sum_rate_bps[index] / 1e6:.1f} Mbit/s  "
             f"fairness {state.fairness[index]:.3f}\n"
             f"  rates Mbit/s: {rates}\n  alpha: {alphas}\n")
 
 
-class NomaUavEnv(gym.Env[np.ndarray, np.int64]):
-    """One UAV serving one layout (B = 1)."""
+class NomaUavEnv(gym.Env[np.ndarray, np.int64 | np.ndarray]):
+    """The scenario's UAVs serving one layout (B = 1)."""
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": RENDER_MODES, "render_fps": RENDER_FPS}
 
     def __init__(self, scenario: Scenario | str | Path | None = None,
                  users_m: np.ndarray | None = None, render_mode: str | None = None,
-                 layout_index: int = 0) -> None:
+                 layout_index: int = 0, action_space: str | None = None) -> None:
         self.render_mode = _check_render_mode(render_mode)
         self.scenario = _resolve(scenario)
         if layout_index < 0:
@@ -105,9 +119,11 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64]):
             raise ValueError("give users_m or layout_index, not both")
         else:
             layouts = np.asarray(users_m, dtype=np.float64)[None]
-        self.batch = NomaUavBatch(self.scenario, num_envs=1, users_m=layouts)
+        self.action_kind = action_space_kind(self.scenario, action_space)
+        self.batch = network_batch(self.scenario, num_envs=1, users_m=layouts)
         self._fresh = users_m is None and self.scenario.users.placement == "fresh"
-        self.observation_space, self.action_space = _spaces(self.scenario, self.batch)
+        self.observation_space = observation_space(self.scenario, self.batch)
+        self.action_space = gym_action_space(self.batch.actions, self.action_kind)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
               ) -> tuple[np.ndarray, dict[str, Any]]:
@@ -117,10 +133,17 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64]):
         obs, state = self.batch.reset(seed=seed)
         return obs[0], state.for_env(0)
 
-    def step(self, action: np.int64) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+    def step(self, action: np.int64 | np.ndarray
+             ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """One step; ``action`` a dense index, or the sub-actions (D,) of the MultiDiscrete
+        space."""
         if self.batch.t >= self.batch.max_steps:
             raise RuntimeError("episode is over: call reset()")
-        obs, reward, truncated, state = self.batch.step(np.array([action]))
+        if self.action_kind == "discrete":
+            dense = np.array([action])
+        else:
+            dense = to_dense(self.batch.actions, np.asarray(action)[None])
+        obs, reward, truncated, state = self.batch.step(dense)
         return obs[0], float(reward[0]), False, truncated, state.for_env(0)
 
     def render(self) -> str | None:
@@ -132,7 +155,8 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64]):
 
 
 class NomaUavVectorEnv(VectorEnv):
-    """B UAVs over B layouts, stepped together with numpy (no sub-processes).
+    """B networks (each of the scenario's UAVs) over B layouts, stepped together with numpy
+    (no sub-processes); actions (B,) dense indices or (B, D) sub-actions.
 
     Autoreset mode is next-step (set explicitly): all B episodes end together, and the step
     after the end resets every environment and returns the first observation, reward 0.
@@ -146,24 +170,27 @@ class NomaUavVectorEnv(VectorEnv):
         "render_fps": RENDER_FPS}
 
     def __init__(self, scenario: Scenario | str | Path | None = None, num_envs: int = 1,
-                 users_m: np.ndarray | None = None, render_mode: str | None = None) -> None:
+                 users_m: np.ndarray | None = None, render_mode: str | None = None,
+                 action_space: str | None = None) -> None:
         self.render_mode = _check_render_mode(render_mode)
         self.scenario = _resolve(scenario)
         self.num_envs = num_envs
-        self.batch = NomaUavBatch(self.scenario, num_envs=num_envs, users_m=users_m)
+        self.action_kind = action_space_kind(self.scenario, action_space)
+        self.batch = network_batch(self.scenario, num_envs=num_envs, users_m=users_m)
         self._fresh = users_m is None and self.scenario.users.placement == "fresh"
-        self.single_observation_space, self.single_action_space = _spaces(self.scenario,
-                                                                          self.batch)
+        self._info_keys = MULTI_INFO_KEYS if isinstance(self.batch, MultiUavBatch) else INFO_KEYS
+        self.single_observation_space = observation_space(self.scenario, self.batch)
+        self.single_action_space = gym_action_space(self.batch.actions, self.action_kind)
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self.action_space = batch_space(self.single_action_space, num_envs)
         self._needs_reset = True
         self._all_envs = np.ones(num_envs, dtype=bool)
 
-    def _info(self, state: NetworkState) -> dict[str, Any]:
+    def _info(self, state: NetworkState | MultiNetworkState) -> dict[str, Any]:
         """Every key with its mask ``_key`` (which environments have it: all), as
         Gymnasium's vector envs give them."""
         info: dict[str, Any] = {}
-        for key in INFO_KEYS:
+        for key in self._info_keys:
             info[key] = getattr(state, key)
             info[f"_{key}"] = self._all_envs.copy()
         return info
@@ -190,7 +217,11 @@ class NomaUavVectorEnv(VectorEnv):
         if self._needs_reset:
             obs, info = self.reset()
             return obs, np.zeros(self.num_envs), terminated, terminated.copy(), info
-        obs, reward, truncated, state = self.batch.step(np.asarray(actions))
+        if self.action_kind == "discrete":
+            dense = np.asarray(actions)
+        else:
+            dense = to_dense(self.batch.actions, np.asarray(actions))
+        obs, reward, truncated, state = self.batch.step(dense)
         self._needs_reset = truncated
         return obs, reward, terminated, np.full(self.num_envs, truncated), self._info(state)
 

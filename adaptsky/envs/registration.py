@@ -1,6 +1,7 @@
 """Registers ``adaptsky/NomaUav-v0`` with Gymnasium (done on ``import adaptsky`` or
 ``import adaptsky.envs.gym_env``); without a ``scenario`` argument it uses the shipped
-default.
+default. The one id serves scenarios of one UAV and of several (``uav.count > 1``: a
+MultiDiscrete action space by default, docs/environment.md, "Several UAVs").
 
 ``import adaptsky`` does not import Gymnasium for this (it takes about 0.2 s, which every
 ``adaptsky`` command would pay): where Gymnasium is not imported yet, the registration runs

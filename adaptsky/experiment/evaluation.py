@@ -24,6 +24,7 @@ from adaptsky.evaluation.api import (
     run_baseline,
     with_policy,
 )
+from adaptsky.experiment.models import PER_GROUP_KINDS
 from adaptsky.experiment.plan import Plan, RunSpec
 from adaptsky.progress import Reporter, WorkProgress
 from adaptsky.rollouts.metrics import Method
@@ -40,7 +41,8 @@ Metrics = dict[str, np.ndarray]
 @dataclass
 class Evaluations:
     """Per-layout metrics of every evaluated run's last policy (``runs``) and best policy
-    (``best``), by run name, and of every baseline (by method and sweep value); ``missing``
+    (``best``), by run name, and of every baseline (by method and sweep value, or by method
+    and group for a figure whose groups are x points, ``PER_GROUP_KINDS``); ``missing``
     says what could not be evaluated and why; ``no_best`` names the runs without a greedy
     evaluation during training, whose best policy is their last."""
 
@@ -91,6 +93,7 @@ def _evaluate_plan(plan: Plan, progress: WorkProgress) -> Evaluations:
     from adaptsky.experiment.runs import run_state  # imports torch: only when evaluating
 
     spec = plan.experiment.evaluation
+    per_group = plan.experiment.figure.kind in PER_GROUP_KINDS
     evaluations = Evaluations()
     folder = plan.out / "evals"
     points: dict[Any, RunSpec] = {}
@@ -105,7 +108,8 @@ def _evaluate_plan(plan: Plan, progress: WorkProgress) -> Evaluations:
             trained = parse_scenario(run.config, run.name)
             scenario = eval_scenario(trained, spec.layouts, spec.layout_seed)
             users_m = eval_layouts(scenario, spec.layouts)
-            first = layouts.setdefault(run.sweep_value, users_m)
+            point = group if per_group else run.sweep_value
+            first = layouts.setdefault(point, users_m)
             if not np.array_equal(first, users_m):
                 raise AdaptskyError(f"{plan.experiment_path}: group '{group}' is evaluated on "
                                     f"other layouts than group '{spec.policy}' (another area "
@@ -138,8 +142,8 @@ def _evaluate_plan(plan: Plan, progress: WorkProgress) -> Evaluations:
                     metrics = _store(path, scenario, method, mine, spec.steps, spec.layouts,
                                      spec.layout_seed, users_m)
                 (evaluations.runs if which == "last" else evaluations.best)[run.name] = metrics
-            if group == spec.policy:
-                points.setdefault(run.sweep_value, run)
+            if group == spec.policy or per_group:
+                points.setdefault(point, run)
     for value, run in points.items():
         scenario = eval_scenario(parse_scenario(run.config, run.name), spec.layouts,
                                  spec.layout_seed)

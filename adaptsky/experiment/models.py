@@ -13,8 +13,11 @@ from pydantic import Field, field_validator, model_validator
 
 from adaptsky.scenario.models import NAME_MAX_LENGTH, Section, safe_name
 
-FigureKind = Literal["learning-curves", "min-se-sweep", "layout-gains"]
-Baseline = Literal["soa", "oracle", "random"]
+FigureKind = Literal["learning-curves", "min-se-sweep", "layout-gains", "uav-count"]
+Baseline = Literal["soa", "oracle", "random", "best-response", "oma"]
+# figure kinds whose evaluated groups are each an x point of their own (their own scenario,
+# layouts and baselines) rather than rows over one set of layouts
+PER_GROUP_KINDS = ("uav-count",)
 PolicyKind = Literal["last", "best"]
 
 # Quantities each figure kind measures; a claim names one (``vs_<method>`` stands for a
@@ -25,6 +28,8 @@ QUANTITIES: dict[str, tuple[str, ...]] = {
     "min-se-sweep": ("max_min_se_served", "soa_max_min_se_served"),
     "layout-gains": ("beats_share_pct_vs_*", "mean_gain_pct_vs_*", "median_gain_pct_vs_*",
                      "max_gain_pct_vs_*", "steady_pct_of_oracle"),
+    "uav-count": ("sum_rate_bps", "fairness", "pct_of_best_response", "gain_vs_soa_pct",
+                  "noma_over_oma_pct"),
 }
 
 
@@ -136,9 +141,9 @@ class Experiment(Section):
         if len(set(evaluated)) != len(evaluated):
             raise ValueError("evaluation: a group is named twice in policy, compare_groups and "
                              f"also ({', '.join(evaluated)})")
-        if spec.also and self.figure.kind != "layout-gains":
+        if spec.also and self.figure.kind not in ("layout-gains", *PER_GROUP_KINDS):
             raise ValueError(f"evaluation.also: other groups are measured in a layout-gains "
-                             f"figure only, not in a {self.figure.kind} one")
+                             f"or uav-count figure only, not in a {self.figure.kind} one")
         for claim in self.claims:
             if not quantity_known(claim.quantity, self):
                 allowed = ", ".join(QUANTITIES[self.figure.kind])

@@ -328,7 +328,109 @@ def layout_gains(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
     return analysis
 
 
-NAMES = {"soa": "SoA", "random": "random", "oracle": "oracle"}
+UAV_COUNT_METHODS = (("soa", "SoA per UAV"), ("best-response", "best response"),
+                     ("oma", "OMA (best found)"))
+
+
+def uav_count(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
+    """E4: the greedy steady state of each group's policies (last, best; one group per number
+    of UAVs U, on its own training layout) against SoA per UAV, best response and OMA, sum
+    rate and fairness against U; the policy's share of best response, its gain over SoA,
+    and NOMA's gain over OMA (best response over the best OMA configuration)."""
+    experiment, analysis = plan.experiment, Analysis()
+    spec = experiment.evaluation
+    points: list[tuple[int, str]] = []
+    for group in (spec.policy, *spec.also):
+        runs = plan.group_runs(group)
+        if runs:
+            points.append((int(runs[0].config["uav"]["count"]), group))
+    points.sort()
+    bands = experiment.figure.band
+    lines: dict[str, dict[str, list[tuple[float, float, float, int]]]] = {}
+    xs: dict[str, list[float]] = {}
+    csv_rows: list[list[Any]] = []
+
+    def point(label: str, count: int, metric: str, values: list[float]) -> None:
+        mean, low, high = band(np.array([[v] for v in values]), bands)
+        lines.setdefault(label, {}).setdefault(metric, []).append(
+            (float(mean[0]), float(low[0]), float(high[0]), len(values)))
+        if metric == "sum_rate_bps":
+            xs.setdefault(label, []).append(float(count))
+        csv_rows.append([count, label, metric, float(mean[0]), float(low[0]), float(high[0]),
+                         len(values)])
+
+    for count, group in points:
+        title = experiment.group(group).title
+        base = {name: evaluations.baselines.get((name, group)) for name, _ in UAV_COUNT_METHODS}
+        reference = base["best-response"]
+        best_bps = float(np.mean(reference["mean_sum_rate_bps"])) if reference else None
+        soa_bps = float(np.mean(base["soa"]["mean_sum_rate_bps"])) if base["soa"] else None
+        for policy in spec.policies:
+            measured = evaluations.of(policy)
+            row = row_label(title, policy, spec.policies)
+            rates, fairness = [], []
+            for run in plan.group_runs(group):
+                mine = measured.runs.get(run.name)
+                if mine is None:
+                    continue
+                steady = float(np.mean(mine["steady_sum_rate_bps"]))
+                rates.append(steady)
+                fairness.append(float(np.mean(mine["fairness"])))
+                analysis.add(row, "sum_rate_bps", steady, best_bps)
+                analysis.add(row, "fairness", fairness[-1])
+                if best_bps:
+                    analysis.add(row, "pct_of_best_response", 100 * steady / best_bps, 100.0)
+                if soa_bps:
+                    analysis.add(row, "gain_vs_soa_pct", 100 * (steady - soa_bps) / soa_bps,
+                                 100 * (best_bps - soa_bps) / soa_bps if best_bps else None)
+            if rates:
+                label = f"{experiment.group(spec.policy).title.split(',')[0]}, {policy} policy"
+                point(label, count, "sum_rate_bps", rates)
+                point(label, count, "fairness", fairness)
+        for name, label in UAV_COUNT_METHODS:
+            metrics = base[name]
+            if metrics is None:
+                continue
+            point(label, count, "sum_rate_bps", [float(np.mean(metrics["mean_sum_rate_bps"]))])
+            point(label, count, "fairness", [float(np.mean(metrics["fairness"]))])
+        oma = base["oma"]
+        if best_bps and oma is not None:
+            oma_bps = float(np.mean(oma["mean_sum_rate_bps"]))
+            row = f"best response, {plural(count, 'UAV')}"
+            analysis.add(row, "noma_over_oma_pct", 100 * (best_bps - oma_bps) / oma_bps)
+            analysis.add(row, "sum_rate_bps", best_bps)
+            for name, key in (("best-response", "rounds"), ("best-response", "converged")):
+                found = (base[name] or {}).get(key)
+                if found is not None:
+                    analysis.details.setdefault(row, {})[key] = str(found.tolist())
+    if not lines:
+        analysis.notes.append("nothing has been evaluated: nothing to draw")
+        return analysis
+    series = {metric: [figures.Series(label, np.array(xs[label]),
+                                      *(np.array([p[i] for p in values[metric]])
+                                        for i in range(3)),
+                                      min(p[3] for p in values[metric]))
+                       for label, values in lines.items()]
+              for metric in ("sum_rate_bps", "fairness")}
+    scale, unit = rate_unit([float(np.max(line.high)) for line in series["sum_rate_bps"]])
+    png = out / f"{experiment.id}.png"
+    figures.uav_count(png, series["sum_rate_bps"], series["fairness"], title=_title(plan),
+                      ylabel=f"sum rate ({unit})", scale=scale)
+    _write_csv(out / f"{experiment.id}.csv",
+               ["uavs", "method", "metric", "mean", "low", "high", "runs"], csv_rows)
+    analysis.notes.append(
+        f"each group is one number of UAVs on its own training layout; a policy's value is the "
+        f"mean of the last 100 of {spec.steps} greedy steps (mean ± population standard "
+        "deviation over its runs), the baselines hold their configuration; best response is "
+        "our reference (each UAV in turn takes its best lattice point and power split with the "
+        "others fixed, docs/model.md §9), not an optimum; its column 'reachable' is best "
+        "response's own value")
+    analysis.files += [png, out / f"{experiment.id}.csv"]
+    return analysis
+
+
+NAMES = {"soa": "SoA", "random": "random", "oracle": "oracle",
+         "best-response": "best response", "oma": "OMA"}
 PAPER_WORDS = {"beats_share_pct": "beats on", "mean_gain_pct": "mean",
                "median_gain_pct": "median", "max_gain_pct": "max"}
 
@@ -343,7 +445,7 @@ def _paper_summary(plan: Plan, method: str) -> str:
 
 ANALYSES: dict[str, Callable[[Plan, Evaluations, Path], Analysis]] = {
     "learning-curves": learning_curves, "min-se-sweep": min_se_sweep,
-    "layout-gains": layout_gains}
+    "layout-gains": layout_gains, "uav-count": uav_count}
 
 
 def _title(plan: Plan) -> str:
@@ -357,6 +459,8 @@ def _format(quantity: str, value: float) -> str:
         return f"{value:.3f}"
     if "min_se" in quantity:
         return f"{value:g} bit/s/Hz"
+    if quantity == "noma_over_oma_pct":
+        return f"{value:+.1f}%"
     if quantity == "fairness_minus_soa":
         return f"{value:+.1f} points"
     if "gain" in quantity:

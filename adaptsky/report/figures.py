@@ -1,5 +1,6 @@
 """The paper's figures as PNG files: learning curves (Fig. 2), the minimum-spectral-efficiency
-sweep (Fig. 3) and per-layout gains (Fig. 4).
+sweep (Fig. 3), per-layout gains (Fig. 4), and ours: sum rate and fairness against the
+number of UAVs (E4).
 
 Drawn on a bare :class:`~matplotlib.figure.Figure` with the Agg canvas: no pyplot, no global
 state, no display needed. Each file is written whole or not at all.
@@ -156,4 +157,25 @@ def layout_gains(path: Path, gains_pct: dict[str, np.ndarray], *, title: str,
     axes.set(title=title, xlabel="sum-rate gain of the policy over the method (%)",
              ylabel="share of layouts", ylim=(0.0, 1.02))
     axes.legend(fontsize=8, loc="upper left")
+    _save(figure, path, dpi)
+
+
+def uav_count(path: Path, rates: list[Series], fairness: list[Series], *, title: str,
+              ylabel: str = "sum rate (Gbit/s)", scale: float = 1e9, dpi: int = DPI) -> None:
+    """E4: sum rate / ``scale`` (left) and Jain's fairness (right) against the number of
+    UAVs, a line with a band per method; integer ticks; the legend below the panels."""
+    figure = Figure(figsize=(9.0, 4.5), layout="constrained")
+    FigureCanvasAgg(figure)
+    left, right = figure.subplots(1, 2)
+    for axes, lines, label, divisor in ((left, rates, ylabel, scale),
+                                        (right, fairness, "Jain's fairness", 1.0)):
+        axes.grid(True, alpha=0.3)
+        _draw_series(axes, lines, divisor, marker="o")
+        axes.set(xlabel="UAVs", ylabel=label)
+        counts = sorted({float(x) for line in lines for x in line.x})
+        axes.set_xticks(counts, [f"{c:g}" for c in counts])
+    right.set_ylim(0.0, 1.02)
+    figure.suptitle(title)
+    handles, labels = left.get_legend_handles_labels()
+    figure.legend(handles, labels, loc="outside lower center", ncol=3, fontsize=8)
     _save(figure, path, dpi)

@@ -14,13 +14,27 @@
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
+from adaptsky.channels.contract import LinkGeometry
+from adaptsky.rollouts.objective import constrained_sum_rate
+from adaptsky.rollouts.oracle import (
+    POINTS_PER_CHUNK,
+    _best_alpha_first,
+    axis_lattice,
+    oracle,
+    require_deterministic_gains,
+)
 from adaptsky.scenario.models import Scenario
+from adaptsky.sim import noma
+from adaptsky.sim.batch import carrier_hz, deterministic_gain
+from adaptsky.sim.interference import oma_rates_bps
+from adaptsky.sim.multi_batch import MultiUavBatch
 
 FloatArray = NDArray[np.float64]
 DEFAULT_ROUNDS = 10
@@ -47,17 +61,216 @@ class SearchResult:
 
 def soa_per_uav(scenario: Scenario, users_m: FloatArray) -> tuple[FloatArray, FloatArray]:
     """UAV positions (L, U, 3) and first users' shares (L, U, K_u) of SoA per UAV on the
-    layouts ``users_m`` (L, N, 2)."""
-    raise NotImplementedError
+    layouts ``users_m`` (L, N, 2): each UAV at its group's 2D centroid at its start height,
+    each cluster's split of docs/model.md §6 planned from the LoS gains without
+    interference."""
+    env = MultiUavBatch(scenario, num_envs=len(users_m), users_m=users_m)
+    return _soa(env)
+
+
+def _soa(env: MultiUavBatch) -> tuple[FloatArray, FloatArray]:
+    scenario, association = env.scenario, env.association
+    layouts = env.layouts_m
+    members = association.serving_uav[:, None, :] == np.arange(env.num_uavs)[None, :, None]
+    centroid = (members[..., None] * layouts[:, None]).sum(axis=2) / members.sum(
+        axis=2)[..., None]                                                     # (L, U, 2)
+    height = np.broadcast_to(env.start_m[:, 2], centroid.shape[:2])[..., None]
+    uav_m = np.concatenate([centroid, height], axis=-1)
+    gain = env.channel.gain_los(env.geometry(uav_m, layouts)).reshape(
+        len(layouts), env.num_uavs, env.num_users)
+    rows = np.arange(len(layouts))[:, None, None]
+    uavs = np.arange(env.num_uavs)[None, :, None]
+    gain_first = gain[rows, uavs, association.first_user]
+    gain_second = gain[rows, uavs, association.second_user]
+    radio = scenario.radio
+    threshold = 2.0 ** scenario.reward.min_se
+    weak_gain = np.minimum(gain_first, gain_second)
+    alpha_weak = np.minimum(1.0, (threshold - 1) / threshold * (
+        1 + radio.noise_w / (radio.tx_power_w * radio.antenna_gain * weak_gain)))
+    alpha_first = np.where(gain_first >= gain_second, 1.0 - alpha_weak, alpha_weak)
+    return uav_m, alpha_first
+
+
+class _Search:
+    """Best responses of one layout (module doc): the lattice of every UAV, the fixed
+    association, and the constants of the rates."""
+
+    def __init__(self, env: MultiUavBatch, layout: int, oma: bool) -> None:
+        scenario = env.scenario
+        self.env, self.scenario, self.oma = env, scenario, oma
+        self.association = a = env.association
+        self.users_m = env.layouts_m[layout]
+        self.serving = a.serving_uav[layout]
+        self.cluster = a.cluster[layout]
+        self.first = a.first_user[layout]       # (U, K)
+        self.second = a.second_user[layout]
+        radio = scenario.radio
+        self.tx_power_w, self.antenna_gain = radio.tx_power_w, radio.antenna_gain
+        self.power = radio.tx_power_w * radio.antenna_gain       # P_T G
+        self.noise_w = radio.noise_w
+        self.bandwidth_hz = radio.bandwidth_hz
+        self.min_rate_bps = scenario.min_rate_bps
+        self.full_reuse = radio.reuse == "full"
+        uav, half_m = scenario.uav, scenario.area.side_m / 2
+        self.alphas = axis_lattice(uav.start_alpha, uav.power_step, uav.power_step,
+                                   1 - uav.power_step)
+        self.heights = [axis_lattice(h, uav.step_m[2], uav.min_height_m, uav.max_height_m)
+                        for h in env.start_m[:, 2]]
+        self.planes = []
+        for x0, y0, _ in env.start_m:
+            xs = axis_lattice(x0, uav.step_m[0], -half_m, half_m)
+            ys = axis_lattice(y0, uav.step_m[1], -half_m, half_m)
+            self.planes.append(np.stack(np.meshgrid(xs, ys, indexing="ij"), -1).reshape(-1, 2))
+        self.min_separation_m = uav.min_separation_m
+
+    def gains(self, points_m: FloatArray) -> FloatArray:
+        """Deterministic gains (M, N) from UAV positions ``points_m`` (M, 3) to every user."""
+        scenario = self.scenario
+        users = np.broadcast_to(self.users_m, (len(points_m), *self.users_m.shape))
+        geometry = LinkGeometry.between(points_m, users, user_height_m=scenario.users.height_m,
+                                        carrier_hz=carrier_hz(scenario),
+                                        bandwidth_hz=scenario.radio.bandwidth_hz)
+        return deterministic_gain(self.env.channel, scenario.channel.los, geometry)
+
+    def rates(self, gain: FloatArray, alpha_first: FloatArray) -> FloatArray:
+        """Every user's rate (..., N) with the gains (..., U, N) of every UAV and the shares
+        (..., U, K) (NOMA, SIC by effective gain), or OMA's rates."""
+        serving_gain, interference = self._serving(gain)
+        if self.oma:
+            return oma_rates_bps(serving_gain, interference, tx_power_w=self.tx_power_w,
+                                 antenna_gain=self.antenna_gain, noise_w=self.noise_w,
+                                 bandwidth_hz=self.bandwidth_hz)
+        scale = self.power / (interference + self.noise_w)
+        alpha_k = alpha_first[..., self.serving, self.cluster]
+        effective = scale * serving_gain
+        partner = np.empty_like(self.serving)
+        partner[self.first.ravel()] = self.second.ravel()
+        partner[self.second.ravel()] = self.first.ravel()
+        is_first = np.zeros(len(self.serving), dtype=bool)
+        is_first[self.first.ravel()] = True
+        alpha = np.where(is_first, alpha_k, 1.0 - alpha_k)
+        alpha_partner = 1.0 - alpha
+        other = effective[..., partner]
+        strong = (effective > other) | ((effective == other) & is_first)
+        sinr = noma.user_sinr(alpha, alpha_partner, effective, strong, np.array(1.0))
+        return noma.rate_bps(sinr, self.bandwidth_hz)
+
+    def _serving(self, gain: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Each user's serving gain (..., N) and interference I_i (..., N), W: under full
+        reuse P_T G times the gains of the other UAVs (every UAV has a cluster on every
+        subchannel: equal groups)."""
+        users = np.arange(len(self.serving))
+        serving_gain = gain[..., self.serving, users]
+        if not self.full_reuse:
+            return serving_gain, np.zeros(serving_gain.shape)
+        return serving_gain, self.power * (gain.sum(axis=-2) - serving_gain)
+
+    def objective(self, uav_m: FloatArray, alpha_first: FloatArray) -> float:
+        gain = self.gains(uav_m).reshape(len(uav_m), -1)                  # (U, N)
+        return float(constrained_sum_rate(self.rates(gain, alpha_first), self.min_rate_bps))
+
+    def respond(self, u: int, uav_m: FloatArray, alpha_first: FloatArray
+                ) -> tuple[float, FloatArray, FloatArray]:
+        """UAV ``u``'s best lattice point and shares with the others at ``uav_m`` (U, 3),
+        ``alpha_first`` (U, K): (objective, its position, its shares); ties to the first
+        point met."""
+        fixed_gain = self.gains(uav_m)                                      # (U, N)
+        others = np.arange(len(uav_m)) != u
+        plane = self.planes[u]
+        apart = np.ones(len(plane), dtype=bool)
+        for v in np.flatnonzero(others):   # the separation from every other UAV
+            apart &= np.hypot(*(plane - uav_m[v, :2]).T) >= self.min_separation_m
+        plane = plane[apart]
+        best = (-np.inf, uav_m[u], alpha_first[u])
+        per_chunk = max(1, POINTS_PER_CHUNK // max(1, len(plane)))
+        heights = self.heights[u]
+        for start in range(0, len(heights), per_chunk):
+            chunk_h = heights[start:start + per_chunk]
+            points = np.column_stack([np.tile(plane, (len(chunk_h), 1)),
+                                      np.repeat(chunk_h, len(plane))])
+            gain = np.broadcast_to(fixed_gain, (len(points), *fixed_gain.shape)).copy()
+            gain[:, u] = self.gains(points)
+            shares = np.broadcast_to(alpha_first, (len(points), *alpha_first.shape)).copy()
+            if not self.oma:
+                shares[:, u] = self._best_shares(u, gain)
+            rates = self.rates(gain, shares)
+            feasible = (rates >= self.min_rate_bps).all(axis=-1)
+            total = np.where(feasible, rates.sum(axis=-1), -np.inf)
+            index = int(np.argmax(total))
+            if total[index] > best[0]:
+                best = (float(total[index]), points[index], shares[index, u])
+        return best
+
+    def _best_shares(self, u: int, gain: FloatArray) -> FloatArray:
+        """UAV ``u``'s best first users' shares (M, K) on the grid, cluster by cluster: its
+        shares change no interference, so each cluster's sum rate is maximised alone (the
+        closed form of docs/model.md §6 with effective SNRs)."""
+        serving_gain, interference = self._serving(gain)
+        effective = self.power / (interference + self.noise_w) * serving_gain
+        alpha, _ = _best_alpha_first(effective[:, self.first[u]], effective[:, self.second[u]],
+                                     self.alphas, self.scenario, 1.0)
+        return np.where(np.isnan(alpha), self.alphas[0], alpha)
+
+
+def _search(scenario: Scenario, users_m: FloatArray, rounds: int, oma: bool,
+            on_layout: Callable[[int], None] | None) -> SearchResult:
+    """Best responses from SoA per UAV on every layout (module doc)."""
+    require_deterministic_gains(scenario)
+    if rounds < 1:
+        raise ValueError(f"rounds must be >= 1, got {rounds}")
+    started = time.process_time()
+    env = MultiUavBatch(scenario, num_envs=len(users_m), users_m=users_m)
+    start_uav, start_alpha = _soa(env)
+    num_layouts = len(users_m)
+    objective = np.zeros(num_layouts)
+    uav_m, alpha_first = start_uav.copy(), start_alpha.copy()
+    done_rounds = np.zeros(num_layouts, dtype=np.int64)
+    converged = np.zeros(num_layouts, dtype=bool)
+    rates = np.zeros((num_layouts, env.num_users))
+    for layout in range(num_layouts):
+        search = _Search(env, layout, oma)
+        positions, shares = uav_m[layout], alpha_first[layout]
+        value = search.objective(positions, shares)
+        for round_index in range(rounds):
+            before = value
+            for u in range(env.num_uavs):
+                found, point, alpha = search.respond(u, positions, shares)
+                if found > value:
+                    value = found
+                    positions[u], shares[u] = point, alpha
+            done_rounds[layout] = round_index + 1
+            if value - before <= RELATIVE_TOLERANCE * abs(before):
+                converged[layout] = True
+                break
+        objective[layout] = value
+        gain = search.gains(positions).reshape(env.num_uavs, env.num_users)
+        rates[layout] = search.rates(gain, shares)
+        if on_layout is not None:
+            on_layout(layout + 1)
+    if oma:
+        alpha_first = np.full(alpha_first.shape, np.nan)
+    seconds = (time.process_time() - started) / max(1, num_layouts)
+    return SearchResult(objective, uav_m, alpha_first, rates, done_rounds, converged, seconds)
 
 
 def best_response(scenario: Scenario, users_m: FloatArray, *, rounds: int = DEFAULT_ROUNDS,
                   on_layout: Callable[[int], None] | None = None) -> SearchResult:
-    """Best response on every layout (module doc); ``on_layout`` hears the layouts done."""
-    raise NotImplementedError
+    """Best response on every layout (module doc); ``on_layout`` hears the layouts done.
+    For one UAV, the oracle (one search, converged)."""
+    if scenario.uav.count == 1:
+        started = time.process_time()
+        found = oracle(scenario, users_m, on_layout)
+        seconds = (time.process_time() - started) / max(1, len(users_m))
+        count = len(users_m)
+        return SearchResult(found.objective_bps, found.uav_m[:, None], found.alpha_first[:, None],
+                            found.rate_bps, np.ones(count, dtype=np.int64),
+                            np.ones(count, dtype=bool), seconds)
+    return _search(scenario, users_m, rounds, False, on_layout)
 
 
 def best_oma(scenario: Scenario, users_m: FloatArray, *, rounds: int = DEFAULT_ROUNDS,
              on_layout: Callable[[int], None] | None = None) -> SearchResult:
-    """The best OMA configuration found the same way (module doc)."""
-    raise NotImplementedError
+    """The best OMA configuration found the same way (module doc): each cluster's two users
+    on half its band with half its power, R_i = (W/2) log2(1 + P_T G g_{u,i} / (I_i +
+    sigma^2)) (:func:`adaptsky.sim.interference.oma_rates_bps`)."""
+    return _search(scenario, users_m, rounds, True, on_layout)

@@ -1,0 +1,128 @@
+"""The network as a PettingZoo ``ParallelEnv``: one agent per UAV (SPEC.md 8.1).
+
+Agents
+    ``"uav_0"`` .. ``"uav_{U-1}"`` (one for U = 1), all acting at every step.
+Action Space
+    Per agent ``MultiDiscrete([base] * (3 + K_u))``: its own UAV's components x, y, h,
+    alpha_1 .. alpha_K, sub-action v meaning direction 2 v - 1 (``paper``) or v - 1
+    (``with-hover``). The agents' actions, in UAV order, are the sub-actions of the Gymnasium
+    env's MultiDiscrete action (:mod:`adaptsky.envs.action_spaces`).
+Observation Space
+    Every agent observes the whole network: the Gymnasium env's observation (U > 1: 5 N + 3 U
+    values, U = 1: 4 N + 1), the same for all agents; ``state()`` is that observation too and
+    ``state_space`` its ``Box`` (for centralised critics).
+Rewards
+    Every agent gets the network's reward (eq. 13 over all users).
+Episode End
+    Every agent truncated after ``train.steps`` steps, then ``agents`` is empty until
+    :meth:`reset`; never terminated.
+Arguments
+    Those of :class:`adaptsky.envs.gym_env.NomaUavEnv` but ``action_space``: ``scenario``,
+    ``users_m``, ``render_mode`` (``None`` or ``"ansi"``), ``layout_index``. Seeds, layouts and
+    ``info`` (the same dict for every agent, copied) are the Gymnasium env's.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+from gymnasium import spaces
+from pettingzoo import ParallelEnv
+
+from adaptsky.envs.action_spaces import multi_discrete
+from adaptsky.envs.gym_env import RENDER_FPS, RENDER_MODES, NomaUavEnv
+from adaptsky.scenario import Scenario
+
+AgentID = str
+
+
+class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
+    """One agent per UAV over one layout, all given the network's reward."""
+
+    metadata: ClassVar[dict[str, Any]] = {
+        "name": "adaptsky_noma_uav_v0", "render_modes": RENDER_MODES,
+        "render_fps": RENDER_FPS, "is_parallelizable": True}
+
+    def __init__(self, scenario: Scenario | str | Path | None = None,
+                 users_m: np.ndarray | None = None, render_mode: str | None = None,
+                 layout_index: int = 0) -> None:
+        self.env = NomaUavEnv(scenario, users_m=users_m, render_mode=render_mode,
+                              layout_index=layout_index, action_space="multi-discrete")
+        self.scenario = self.env.scenario
+        self.render_mode = self.env.render_mode
+        num_uavs = self.scenario.uav.count
+        self.possible_agents: list[AgentID] = [f"uav_{u}" for u in range(num_uavs)]
+        self.agents: list[AgentID] = []          # none until reset()
+        self.components_per_uav = self.env.batch.actions.num_components // num_uavs
+        box = self.env.observation_space
+        self.state_space = spaces.Box(box.low, box.high, dtype=np.float32)
+        self.observation_spaces = {agent: spaces.Box(box.low, box.high, dtype=np.float32)
+                                   for agent in self.possible_agents}
+        self.action_spaces = {
+            agent: multi_discrete(self.env.batch.actions, self.components_per_uav)
+            for agent in self.possible_agents}
+        self._observation: np.ndarray | None = None
+
+    def _known(self, agent: AgentID) -> AgentID:
+        if agent not in self.observation_spaces:
+            raise ValueError(f"unknown agent {agent!r}; agents: "
+                             f"{', '.join(self.possible_agents)}")
+        return agent
+
+    def observation_space(self, agent: AgentID) -> spaces.Box:
+        """The full observation's ``Box`` (every agent observes the whole network)."""
+        return self.observation_spaces[self._known(agent)]
+
+    def action_space(self, agent: AgentID) -> spaces.MultiDiscrete:
+        """The sub-actions of ``agent``'s UAV's 3 + K_u components."""
+        return self.action_spaces[self._known(agent)]
+
+    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None
+              ) -> tuple[dict[AgentID, np.ndarray], dict[AgentID, dict[str, Any]]]:
+        observation, info = self.env.reset(seed=seed, options=options)
+        self._observation = observation
+        self.agents = list(self.possible_agents)
+        return ({agent: observation.copy() for agent in self.agents},
+                {agent: dict(info) for agent in self.agents})
+
+    def step(self, actions: dict[AgentID, np.ndarray]) -> tuple[
+            dict[AgentID, np.ndarray], dict[AgentID, float], dict[AgentID, bool],
+            dict[AgentID, bool], dict[AgentID, dict[str, Any]]]:
+        """Every agent's sub-actions (3 + K_u,) at once; all agents act at every step."""
+        if not self.agents:
+            raise RuntimeError("no episode is running: call reset()")
+        missing = [agent for agent in self.agents if agent not in actions]
+        unknown = [str(agent) for agent in actions if agent not in self.agents]
+        if missing or unknown:
+            raise ValueError(f"actions must name every agent ({', '.join(self.agents)}); "
+                             f"missing: {', '.join(missing) or '-'}, unknown: "
+                             f"{', '.join(unknown) or '-'}")
+        shape = (self.components_per_uav,)
+        for agent in self.agents:
+            if np.shape(actions[agent]) != shape:
+                raise ValueError(f"the action of {agent} must have shape {shape}, got "
+                                 f"{np.shape(actions[agent])}")
+        joint = np.concatenate([np.asarray(actions[agent]) for agent in self.possible_agents])
+        observation, reward, terminated, truncated, info = self.env.step(joint)
+        self._observation = observation
+        agents = self.agents
+        if terminated or truncated:
+            self.agents = []
+        return ({agent: observation.copy() for agent in agents},
+                dict.fromkeys(agents, reward), dict.fromkeys(agents, terminated),
+                dict.fromkeys(agents, truncated), {agent: dict(info) for agent in agents})
+
+    def state(self) -> np.ndarray:
+        """The whole network's observation (``state_space``), for centralised critics."""
+        if self._observation is None:
+            raise RuntimeError("call reset() before state()")
+        return self._observation.copy()
+
+    def render(self) -> str | None:
+        """The state as text for ``render_mode="ansi"``; nothing without a render mode."""
+        return self.env.render()
+
+    def close(self) -> None:
+        self.env.close()
