@@ -36,9 +36,9 @@ from adaptsky.sim.layout import user_layouts
 from adaptsky.sim.observation import observation_size_of
 from adaptsky.store.run_file import RunReader
 
-__all__ = ["BASELINES", "EvaluationError", "baseline", "baseline_work", "evaluate",
-           "run_baseline"]
 POLICY = "policy"
+SEARCH_KEYS = ("objective_bps", "rounds", "converged")
+"""What ``results_json`` keeps of best response and OMA, per layout, under ``search``."""
 # what a policy's inputs are scaled by: they must match between training and evaluation
 OBSERVATION_SCALING = ("agent.observation", "agent.user_order", "area.side_m",
                        "uav.max_height_m")
@@ -305,10 +305,6 @@ def results_json(methods: list[Method], scenario: Scenario, steps: int, layouts:
                 "mean": float(np.nanmean(pct)), "median": float(np.nanmedian(pct)),
                 "layouts": pct.tolist()}
     return results
-
-
-SEARCH_KEYS = ("objective_bps", "rounds", "converged")
-"""What ``results_json`` keeps of best response and OMA, per layout, under ``search``."""
 
 
 def pct_key(reference: str) -> str:

@@ -100,19 +100,10 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
 
 def search(scenario: Scenario, method: str, users_m: np.ndarray,
            on_progress: Tick | None = None) -> SearchResult:
-    """Best response or OMA (:mod:`adaptsky.rollouts.several_uavs`) on ``users_m``; best
-    response of one UAV is the oracle, one search (1 round, converged)."""
-    if method == "oma":
-        return several_uavs.best_oma(scenario, users_m, on_layout=on_progress)
-    if scenario.uav.count > 1:
-        return several_uavs.best_response(scenario, users_m, on_layout=on_progress)
-    start = time.process_time()
-    best = oracle(scenario, users_m, on_progress)
-    layouts = len(users_m)
-    return SearchResult(best.objective_bps, best.uav_m[:, None], best.alpha_first[:, None],
-                        best.rate_bps, np.ones(layouts, dtype=np.int64),
-                        np.ones(layouts, dtype=np.bool_),
-                        (time.process_time() - start) / layouts)
+    """Best response (for one UAV the oracle: 1 round, converged) or OMA
+    (:mod:`adaptsky.rollouts.several_uavs`) on ``users_m``."""
+    run = several_uavs.best_oma if method == "oma" else several_uavs.best_response
+    return run(scenario, users_m, on_layout=on_progress)
 
 
 def search_details(found: SearchResult) -> dict[str, Any]:

@@ -5,6 +5,7 @@ best response and OMA for one UAV."""
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import h5py
@@ -14,57 +15,13 @@ import pytest
 from adaptsky.evaluation.api import eval_layouts, run_baseline
 from adaptsky.rollouts import several_uavs
 from adaptsky.rollouts.oracle import oracle
-from adaptsky.rollouts.several_uavs import SearchResult
-from adaptsky.scenario import load_scenario, parse_scenario
+from adaptsky.scenario import load_scenario
 from adaptsky.scenario.toml_writer import dumps
 from adaptsky.sim.multi_batch import network_batch
 from adaptsky.store.eval_file import read_eval_metrics
 from adaptsky.training import api
 from adaptsky_cli.cli.main import main
 from tests.conftest import SCENARIOS
-
-# the lead's implementations replace these fakes where they exist (module doc)
-REAL = True
-try:
-    several_uavs.soa_per_uav(parse_scenario({"name": "probe"}, "probe"), np.zeros((1, 4, 2)))
-except NotImplementedError:
-    REAL = False
-except Exception:  # implemented: a probe of the wrong shape may fail
-    pass
-
-
-def _fake_soa(scenario, users_m):
-    """Every UAV at its start, alpha 0.7."""
-    count, k = scenario.uav.count, scenario.clusters_per_uav
-    starts = np.array(scenario.uav_start_positions_m, dtype=np.float64)
-    return (np.broadcast_to(starts, (len(users_m), count, 3)).copy(),
-            np.full((len(users_m), count, k), 0.7))
-
-
-def _fake_search(oma: bool):
-    def search(scenario, users_m, *, rounds=10, on_layout=None):
-        uav_m, alpha = _fake_soa(scenario, users_m)
-        env = network_batch(scenario, len(users_m), users_m=users_m)
-        one = scenario.uav.count == 1
-        state = env.evaluate_at(uav_m[:, 0] if one else uav_m, alpha[:, 0] if one else alpha)
-        rate = state.rate_bps * (0.5 if oma else 1.0)
-        for done in range(len(users_m)):
-            if on_layout is not None:
-                on_layout(done + 1)
-        layouts = len(users_m)
-        return SearchResult(rate.sum(axis=-1), uav_m, np.full_like(alpha, np.nan) if oma
-                            else alpha, rate, np.arange(1, layouts + 1, dtype=np.int64),
-                            np.arange(layouts) % 2 == 0, 0.01)
-    return search
-
-
-@pytest.fixture(autouse=True)
-def baselines(monkeypatch):
-    """The fakes until the lead's implementations land."""
-    if not REAL:
-        monkeypatch.setattr(several_uavs, "soa_per_uav", _fake_soa)
-        monkeypatch.setattr(several_uavs, "best_response", _fake_search(oma=False))
-        monkeypatch.setattr(several_uavs, "best_oma", _fake_search(oma=True))
 
 
 def small(tmp_path: Path, name: str = "two", uavs: int = 2, **sections: dict) -> Path:
@@ -169,8 +126,8 @@ def test_eval_of_a_two_uav_run_against_the_searches(two_uav_run, tmp_path, capsy
     for name in ("policy", "soa", "best-response", "oma", "random"):
         assert name in captured.out
     text = " ".join(captured.out.split())  # (lines fold at the terminal's width)
-    assert REAL or "best-response: 2.0 rounds per layout on average (at most 3), converged on " \
-        "2 of 3 layouts" in text
+    assert re.search(r"best-response: [\d.]+ rounds per layout on average \(at most \d+\), "
+                     r"converged on 3 of 3 layouts; [\d.]+ s per layout", text)
     assert "% of best response on average" in text and "best-response search" in text
     with h5py.File(out, "r") as f:
         assert f["methods/policy/trajectory/uav_m"].shape == (20, 3, 2, 3)
@@ -219,3 +176,32 @@ def test_a_damaged_search_is_refused(two_uav_run, tmp_path, capsys):
     assert main(["inspect", str(out)]) == 1
     assert _lines(capsys) == [f"{out}: damaged eval file (methods/oma/search/rounds is not "
                               "one number per layout)"]
+
+
+def test_eval_refuses_a_one_uav_policy_on_two_uavs_in_one_line(tiny_run, tmp_path, capsys):
+    two = small(tmp_path)
+    assert main(["eval", "--checkpoint", str(tiny_run), "--scenario", str(two),
+                 "--steps", "2", "--out", str(tmp_path / "e.h5")]) == 1
+    assert _lines(capsys) == [f"{tiny_run}: the policy was trained for one UAV but the "
+                              "evaluation scenario 'two' has 2"]
+
+
+@pytest.mark.parametrize("uavs", [2, 3])
+def test_the_searches_are_held_as_found(uavs, tmp_path):
+    users = [[-8.0, -6.0], [-3.0, -9.0], [7.0, 8.0], [2.0, 4.0], [-6.0, 7.0], [8.0, -5.0]]
+    scenario = load_scenario(small(tmp_path, uavs=uavs, area={"side_m": 10.0 * uavs},
+                                   users={"count": 2 * uavs, "positions_m": users[:2 * uavs]}))
+    users_m = eval_layouts(scenario, 2)
+    best = run_baseline(scenario, "best-response", 7, users_m)
+    found = several_uavs.best_response(scenario, users_m)
+    # the environment's NOMA rates with the true interference are the search's own
+    assert best.trace.uav_m.shape == (1, 2, uavs, 3)
+    assert np.array_equal(best.trace.uav_m[0], found.uav_m)
+    assert best.trace.rate_bps[0] == pytest.approx(found.rate_bps, rel=1e-9)
+    assert best.details["objective_bps"] == pytest.approx(found.objective_bps, rel=1e-12)
+    oma = run_baseline(scenario, "oma", 7, users_m)
+    assert np.array_equal(oma.trace.rate_bps[0], several_uavs.best_oma(scenario,
+                                                                       users_m).rate_bps)
+    soa = run_baseline(scenario, "soa", 7, users_m)
+    assert np.all(best.metrics["mean_sum_rate_bps"] >= soa.metrics["mean_sum_rate_bps"]
+                  * (1 - 1e-12))
