@@ -106,7 +106,8 @@ def reproduce(*, experiment: str, out: Path | None = None, runs: int | None = No
 
 def reproduce_all(*, out: Path | None = None, **options: Any) -> tuple[list[ReproduceResult],
                                                                       Path | None]:
-    """:func:`reproduce` for every shipped experiment, one after the other into
+    """:func:`reproduce` for every shipped experiment of the paper (those with a
+    ``paper_figure``; ours, such as E4, run by name), one after the other into
     ``out/<id>`` (default reproduce/), then ``out/report.md``: an index linking each report,
     with every claims table, each experiment's wall time and the total. Stops after an
     interrupted experiment (the same call continues); no index with ``runs_only``."""
@@ -116,6 +117,8 @@ def reproduce_all(*, out: Path | None = None, **options: Any) -> tuple[list[Repr
     folder = out if out is not None else Path("reproduce")
     results = []
     for name in shipped_experiments():
+        if not load_experiment(name)[0].paper_figure:
+            continue
         result = reproduce(experiment=name, out=folder / name, **options)
         results.append(result)
         if result.interrupted:

@@ -13,8 +13,8 @@ from adaptsky_cli.cli.options import SEEDS_HELP, Device, Episodes, Steps, parse_
 def reproduce(
     experiment: Annotated[str, typer.Argument(
         metavar="EXPERIMENT", show_default=False,
-        help="a shipped experiment id (e1a, e1b, e2, e3), 'all' of them, or an experiment "
-        "file (TOML)")],
+        help="a shipped experiment id (the paper's e1a, e1b, e2, e3; ours e4, bdq), 'all' "
+        "(the paper's), or an experiment file (TOML)")],
     out: Annotated[Path | None, typer.Option(
         metavar="DIR", show_default=False,
         help="output folder: runs/, evals/, figures, CSVs, report.md (default: "

@@ -87,4 +87,4 @@ def test_malformed_experiment_is_one_line(tmp_path, capsys, change, message):
 def test_unknown_experiment_names_the_shipped_ones(capsys):
     assert main(["reproduce", "e9"]) == 1
     line = capsys.readouterr().err.strip()
-    assert line.startswith("e9: no such experiment") and "e1a, e1b, e2, e3" in line
+    assert line.startswith("e9: no such experiment") and "bdq, e1a, e1b, e2, e3, e4" in line

@@ -1,0 +1,79 @@
+"""Training with several UAVs (docs/model.md §9): a BDQ over every UAV's components, stacked
+over seeds (a seed in a stack equals the seed alone), resumed bit for bit (curves, weights,
+greedy evaluations and the best policy), greedy evaluations against best response on the
+training layout, and a run file that stores every UAV's position and opens for inspect."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from adaptsky.rollouts.several_uavs import best_response
+from adaptsky.scenario import parse_scenario
+from adaptsky.scenario.toml_writer import dumps
+from adaptsky.sim.layout import user_layouts
+from adaptsky.store.run_file import RunReader
+from adaptsky.training import api
+from adaptsky.training.stack_run import Member, StackRun
+from adaptsky_cli.cli.main import main
+from tests.unit.training.test_stack import assert_same_checkpoints, assert_same_results
+from tests.unit.training.test_train import assert_same_curves, curves
+
+TWO_UAVS = {
+    "name": "two_small",
+    "area": {"side_m": 20.0},
+    "users": {"positions_m": [[-8.0, 6.0], [-3.0, -7.0], [-9.0, -2.0], [-5.0, 8.0],
+                              [7.0, 5.0], [9.0, -8.0], [4.0, -1.0], [8.0, 9.0]],
+              "pairing": "near-far"},
+    "uav": {"count": 2, "start_m": [0.0, 0.0, 15.0], "min_height_m": 10.0,
+            "max_height_m": 20.0},
+    "reward": {"w_rate": 10.0},
+    "agent": {"algorithm": "bdq", "hidden_sizes": [16, 16], "batch_size": 16,
+              "memory_size": 200, "target_update_episodes": 2, "user_order": "clusters"},
+    "train": {"steps": 10, "eval_every": 1, "eval_steps": 30},
+}
+
+
+def _scenario_file(tmp_path: Path) -> Path:
+    path = tmp_path / "two_small.toml"
+    path.write_text(dumps(TWO_UAVS))
+    return path
+
+
+def test_a_seed_in_a_stack_equals_the_seed_alone():
+    scenario = parse_scenario(TWO_UAVS, "two")
+    stack = StackRun([Member(scenario, seed) for seed in (3, 4)])
+    alone = StackRun([Member(scenario, 4)])
+    for together, single in zip([stack.run_episode() for _ in range(2)],
+                                [alone.run_episode() for _ in range(2)], strict=True):
+        assert_same_results(together[1], single[0])
+        assert together[1].trajectory["uav_m"].shape == (10, 2, 3)
+    assert_same_checkpoints(stack.checkpoint(1), alone.checkpoint(0))
+
+
+def test_resume_equals_the_uninterrupted_run_and_evaluations_use_best_response(tmp_path):
+    args = {"scenario_path": _scenario_file(tmp_path), "seeds": [0, 1], "workers": 1,
+            "quiet": True}
+    first, _ = api.train(out=tmp_path / "a.h5", episodes=4, **args)
+    resumed, _ = api.train(out=tmp_path / "r.h5", episodes=2, **args)
+    assert main(["train", "--resume", str(resumed), "--episodes", "4", "--workers", "1",
+                 "--quiet"]) == 0
+    assert_same_curves(curves(resumed), curves(first))
+    scenario = parse_scenario(TWO_UAVS, "two")
+    reference = best_response(scenario, user_layouts(scenario, 1)).objective_bps[0]
+    with RunReader(first) as a, RunReader(resumed) as b:
+        for seed in (0, 1):
+            for name, value in a.checkpoint(seed)["agent"]["policy"].items():
+                assert np.array_equal(value, b.checkpoint(seed)["agent"]["policy"][name])
+            evaluations = a.evaluations(seed)
+            for name, value in evaluations.items():
+                assert np.array_equal(value, b.evaluations(seed)[name], equal_nan=True), name
+            # the share of best response: the greedy sum rate over the reference, in %
+            assert np.allclose(evaluations["pct_oracle"],
+                               100 * evaluations["sum_rate_bps"] / reference, rtol=1e-12)
+            assert (evaluations["pct_oracle"] > 0).all()
+            best_a, best_b = a.best(seed), b.best(seed)
+            assert best_a is not None and best_a["episode"] == best_b["episode"]
+            assert a.trajectory(seed)["uav_m"].shape == (10, 2, 3)
+    assert main(["inspect", str(first)]) == 0
