@@ -23,7 +23,7 @@ import numpy as np
 from adaptsky import __version__
 from adaptsky.experiment.calls import read_calls
 from adaptsky.experiment.evaluation import Evaluations, Metrics
-from adaptsky.experiment.models import Claim
+from adaptsky.experiment.models import PER_GROUP_KINDS, Claim
 from adaptsky.experiment.plan import Plan, RunSpec, shipped_experiments
 from adaptsky.report import figures
 from adaptsky.report.curves import LAST_EPISODES, band, curve_window
@@ -332,6 +332,19 @@ UAV_COUNT_METHODS = (("soa", "SoA per UAV"), ("best-response", "best response"),
                      ("oma", "OMA (best found)"))
 
 
+def _search_summary(metrics: Metrics) -> str:
+    """'3 rounds, converged, 61.2 s per layout' of a search's eval metrics."""
+    rounds, converged = metrics.get("search_rounds"), metrics.get("search_converged")
+    seconds = metrics.get("search_seconds_per_layout")
+    if rounds is None or converged is None:
+        return "(no search record)"
+    state = "converged" if bool(np.all(converged)) else (
+        f"converged on {int(np.sum(converged))} of {len(converged)} layouts")
+    text = f"{plural(int(np.max(rounds)), 'round')}, {state}"
+    return text + (f", {float(seconds):.3g} s per layout (process time)" if seconds is not None
+                   else "")
+
+
 def uav_count(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
     """E4: the greedy steady state of each group's policies (last, best; one group per number
     of UAVs U, on its own training layout) against SoA per UAV, best response and OMA, sum
@@ -399,10 +412,10 @@ def uav_count(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
             row = f"best response, {plural(count, 'UAV')}"
             analysis.add(row, "noma_over_oma_pct", 100 * (best_bps - oma_bps) / oma_bps)
             analysis.add(row, "sum_rate_bps", best_bps)
-            for name, key in (("best-response", "rounds"), ("best-response", "converged")):
-                found = (base[name] or {}).get(key)
-                if found is not None:
-                    analysis.details.setdefault(row, {})[key] = str(found.tolist())
+        searches = [f"{label} {_search_summary(base[name])}"
+                    for name, label in UAV_COUNT_METHODS[1:] if base[name] is not None]
+        if searches:
+            analysis.notes.append(f"{plural(count, 'UAV')}: " + "; ".join(searches))
     if not lines:
         analysis.notes.append("nothing has been evaluated: nothing to draw")
         return analysis
@@ -420,7 +433,8 @@ def uav_count(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
                ["uavs", "method", "metric", "mean", "low", "high", "runs"], csv_rows)
     analysis.notes.append(
         f"each group is one number of UAVs on its own training layout; a policy's value is the "
-        f"mean of the last 100 of {spec.steps} greedy steps (mean ± population standard "
+        f"mean of the last {min(100, spec.steps)} of {spec.steps} greedy steps (mean ± "
+        "population standard "
         "deviation over its runs), the baselines hold their configuration; best response is "
         "our reference (each UAV in turn takes its best lattice point and power split with the "
         "others fixed, docs/model.md §9), not an optimum; its column 'reachable' is best "
@@ -501,10 +515,12 @@ def command_line(plan: Plan) -> str:
     return " ".join(parts)
 
 
-def claims_table(claims: list[Claim], analysis: Analysis) -> list[str]:
+def claims_table(claims: list[Claim], analysis: Analysis, reference: str = "oracle"
+                 ) -> list[str]:
     """The rows of report.md's table: every claim, one row per measured policy (its group's
-    last or best), the paper's number, ours, the oracle's (the most any policy reaches)."""
-    lines = ["| claim | paper | policy | ours | reachable (oracle) | per run |",
+    last or best), the paper's number, ours, the ``reference``'s (the oracle's: the most any
+    policy reaches; best response's for several UAVs)."""
+    lines = [f"| claim | paper | policy | ours | reachable ({reference}) | per run |",
              "|---|---|---|---|---|---|"]
     for claim in claims:
         paper = claim.paper_text or (_format(claim.quantity, claim.paper)
@@ -589,7 +605,9 @@ def write_report(plan: Plan, evaluations: Evaluations, wall_s: float | None = No
     if analysis.files:
         lines += [f"![{experiment.id}]({analysis.files[0].name})", "",
                   f"Plotted numbers: [{analysis.files[1].name}]({analysis.files[1].name}).", ""]
-    table = claims_table(experiment.claims, analysis)
+    per_group = experiment.figure.kind in PER_GROUP_KINDS
+    table = claims_table(experiment.claims, analysis,
+                         "best response" if per_group else "oracle")
     lines += [*table, ""]
     compared = {name: experiment.group(name).title
                 for name in experiment.evaluation.compare_groups}
@@ -605,8 +623,10 @@ def write_report(plan: Plan, evaluations: Evaluations, wall_s: float | None = No
               f"R_e^tot and J_e are the means of the last {_window(first['episodes'])} "
               "per-episode means (docs/model.md, section 5); ours: mean ± population "
               "standard deviation (ddof = 0) over the runs; reachable: the same quantity "
-              "for the oracle, the best sum rate over every reachable position and power "
-              "split (docs/model.md, section 6).", ""]
+              + ("for best response, our reference of several UAVs (docs/model.md, section "
+                 "9)." if per_group else
+                 "for the oracle, the best sum rate over every reachable position and power "
+                 "split (docs/model.md, section 6)."), ""]
     report = out / "report.md"
     write_text_atomic(report, "\n".join(lines))
     return WrittenReport(report, [*analysis.files, report], table)

@@ -94,7 +94,7 @@ def write_eval(path: Path, results: dict[str, Any], methods: list[Method],
 
 def read_eval_metrics(path: Path) -> tuple[dict[str, Any] | None, dict[str, dict[str, np.ndarray]]]:
     """An eval file's ``record`` (what it evaluated, if written by ``reproduce``) and the
-    per-layout metrics of each method, by label."""
+    per-layout metrics of each method, by label (a search's datasets as ``search_<name>``)."""
     try:
         with h5py.File(path, "r") as file:
             if file.attrs.get("kind") != KIND:
@@ -105,9 +105,12 @@ def read_eval_metrics(path: Path) -> tuple[dict[str, Any] | None, dict[str, dict
             for name, group in file["methods"].items():
                 tree = read_tree(group)
                 tree.pop("trajectory", None)
-                tree.pop(SEARCH, None)
+                search = tree.pop(SEARCH, None) or {}
                 label = str(tree.pop("label", name))
                 methods[label] = {key: np.asarray(value) for key, value in tree.items()}
+                # a search's rounds, convergence and time, as search_<name>
+                methods[label] |= {f"{SEARCH}_{key}": np.asarray(value)
+                                   for key, value in search.items()}
     except (OSError, KeyError, ValueError) as error:
         raise AdaptskyError(f"{path}: damaged eval file ({str(error).splitlines()[0]})") from None
     return results.get("record"), methods

@@ -9,8 +9,9 @@ from adaptsky.experiment.plan import load_experiment, plan_experiment, shipped_e
 from adaptsky_cli.cli.main import main
 from tests.conftest import ROOT
 
-# runs per shipped experiment: E1a and E1b 10, E2 6 x 8 thresholds, E3 6 + 6 (docs/model.md §5)
-RUNS = {"e1a": 10, "e1b": 10, "e2": 48, "e3": 18}
+# runs per shipped experiment: E1a and E1b 10, E2 6 x 8 thresholds, E3 6 + 6 + 6
+# (docs/model.md §5); ours: E4 6 per number of UAVs, 1 to 4; bdq 6 + 6
+RUNS = {"e1a": 10, "e1b": 10, "e2": 48, "e3": 18, "e4": 24, "bdq": 12}
 
 
 def test_every_shipped_experiment_validates_and_plans(tmp_path):
@@ -65,7 +66,7 @@ GOOD = (ROOT / "experiments" / "e1a.toml").read_text()
     (lambda t: t.replace('[[claims]]', '[[groups]]\nname = "b"\nscenario = '
                          '"../scenarios/nyc_mmwave.toml"\nruns = 1\n\n[[claims]]', 1)
      .replace('policy = "adaptsky"', 'policy = "adaptsky"\nalso = ["b"]'),
-     "other groups are measured in a layout-gains figure only"),
+     "other groups are measured in a layout-gains or uav-count figure only"),
     (lambda t: t.replace('policy = "adaptsky"', 'policy = "adaptsky"\n'
                          'policies = ["best", "best"]'), "policies must be distinct"),
     (lambda t: t.replace('policy = "adaptsky"', 'policy = "adaptsky"\npolicies = ["first"]'),
