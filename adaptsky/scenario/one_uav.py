@@ -1,6 +1,6 @@
-"""What runs today: training, evaluation, baselines and the environments simulate one UAV.
-The physics of several (docs/model.md §9) is a library layer (``adaptsky.sim``) not yet wired
-into them, so they refuse ``uav.count > 1`` rather than run one UAV silently."""
+"""The guard of code that simulates exactly one UAV (``NomaUavBatch``, the paper's
+environment): a scenario of several UAVs goes to ``MultiUavBatch`` (``network_batch``,
+docs/model.md §9), never silently to one UAV."""
 
 from __future__ import annotations
 
@@ -12,6 +12,6 @@ def require_one_uav(scenario: Scenario, source: str) -> None:
     """A :class:`ScenarioError` line for a scenario of several UAVs (``source``: its file)."""
     count = scenario.uav.count
     if count > 1:
-        raise ScenarioError([f"{source}: uav.count: {count} UAVs: several UAVs are not trained "
-                             "or evaluated yet (issue 23), only modelled (docs/model.md §9); "
-                             "use uav.count = 1"])
+        raise ScenarioError([f"{source}: uav.count: {count} UAVs: NomaUavBatch simulates one "
+                             "UAV; several run on MultiUavBatch (adaptsky.sim.multi_batch."
+                             "network_batch chooses, docs/model.md §9)"])
