@@ -1,0 +1,139 @@
+"""Speed of several UAVs against one (issue 23; docs/model.md §9), on one CPU thread.
+
+(a) Links stepped per second (B x U x N per second) at B = 1024 environments: U = 4, N = 16
+    (:class:`~adaptsky.sim.multi_batch.MultiUavBatch`) must reach those of U = 1, N = 4
+    (:class:`~adaptsky.sim.batch.NomaUavBatch`): the cost of a link does not grow with the
+    number of UAVs. Best of three timed blocks per scenario, the two scenarios alternated.
+(b) Training seed-steps per second of a stack of S seeds (:class:`StackRun`, as training runs
+    them): BDQ at U = 4 must reach half of the dense DQN's at U = 1 (the one-UAV scenario with
+    ``agent.algorithm = "dqn"``). Timed whole episodes after a warm-up episode (so every timed
+    step makes an update).
+
+    .venv/bin/python benchmarks/several_uavs.py [--seconds 4] [--seeds 6] [--episodes 1]
+        [--one scenarios/one_uav_200m_mmwave.toml] [--four scenarios/four_uavs_mmwave.toml]
+        [--skip-training]
+
+Runs in about 1.5 minutes by default (most of it the training part); prints a table of the
+figures and the ratios against the thresholds (PASS / FAIL), and the load average.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from pathlib import Path
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import numpy as np  # noqa: E402
+import torch  # noqa: E402
+from rich.console import Console  # noqa: E402
+from rich.table import Table  # noqa: E402
+
+from adaptsky.scenario import Scenario, load_scenario  # noqa: E402
+from adaptsky.sim.multi_batch import network_batch  # noqa: E402
+from adaptsky.training.api import load_with_overrides  # noqa: E402
+from adaptsky.training.host import pin_threads  # noqa: E402
+from adaptsky.training.stack_run import Member, StackRun  # noqa: E402
+
+LINK_ENVS = 1024
+LINK_THRESHOLD = 1.0      # (a): U = 4 links/s over U = 1 links/s
+TRAINING_THRESHOLD = 0.5  # (b): BDQ U = 4 seed-steps/s over dense DQN U = 1
+
+
+def links_per_step(scenario: Scenario) -> int:
+    """U x N: the links of one environment."""
+    return scenario.uav.count * scenario.num_users
+
+
+def endless(scenario: Scenario) -> Scenario:
+    """``scenario`` whose time limit never ends a benchmark episode."""
+    return scenario.model_copy(update={"train": scenario.train.model_copy(
+        update={"steps": 10**9})})
+
+
+def batched_steps_per_second(scenario: Scenario, num_envs: int, seconds: float) -> float:
+    """Batched steps per second of ``num_envs`` environments (per-environment seeds, as
+    training makes them), timed over about ``seconds``."""
+    env = network_batch(endless(scenario), num_envs,
+                        seed=[np.random.SeedSequence([s, 0]) for s in range(num_envs)])
+    env.reset()
+    actions = np.random.default_rng(0).integers(0, env.actions.count, size=(64, num_envs))
+    for a in actions[:5]:  # warm up
+        env.step(a)
+    count, start = 0, time.perf_counter()
+    while (elapsed := time.perf_counter() - start) < seconds:
+        env.step(actions[count % len(actions)])
+        count += 1
+    return count / elapsed
+
+
+def link_rates(one: Scenario, four: Scenario, seconds: float) -> tuple[float, float]:
+    """Links per second of ``one`` and ``four``: best of three blocks each, alternated so
+    that drift in the machine's speed (a neighbour's load) hits both alike."""
+    best = [0.0, 0.0]
+    for _ in range(3):
+        for index, scenario in enumerate((one, four)):
+            rate = batched_steps_per_second(scenario, LINK_ENVS, seconds / 6)
+            best[index] = max(best[index], rate * LINK_ENVS * links_per_step(scenario))
+    return best[0], best[1]
+
+
+def seed_steps_per_second(scenario: Scenario, seeds: int, episodes: int) -> float:
+    """Seed-steps per second of a stack of ``seeds`` seeds on this CPU thread, over
+    ``episodes`` timed episodes after one warm-up episode whose memory holds a batch."""
+    run = StackRun([Member(scenario, seed) for seed in range(seeds)], torch.device("cpu"))
+    while run.algorithm.memory.size < scenario.agent.batch_size + 1 or run.episodes_done < 1:
+        run.run_episode()
+    start = time.perf_counter()
+    for _ in range(episodes):
+        run.run_episode()
+    return seeds * episodes * scenario.train.steps / (time.perf_counter() - start)
+
+
+def verdict(ratio: float, threshold: float) -> str:
+    return "PASS" if ratio >= threshold else "FAIL"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--one", default="scenarios/one_uav_200m_mmwave.toml",
+                        help="the scenario of one UAV (U = 1)")
+    parser.add_argument("--four", default="scenarios/four_uavs_mmwave.toml",
+                        help="the scenario of several UAVs (U = 4)")
+    parser.add_argument("--seconds", type=float, default=4.0,
+                        help="time per scenario for (a), seconds")
+    parser.add_argument("--seeds", type=int, default=6, help="seeds in a stack for (b)")
+    parser.add_argument("--episodes", type=int, default=1, help="timed episodes for (b)")
+    parser.add_argument("--skip-training", action="store_true", help="measure (a) only")
+    args = parser.parse_args()
+    pin_threads()
+    one, four = load_scenario(args.one), load_scenario(args.four)
+    console = Console(width=120)
+    table = Table("item", "measure", f"U = {one.uav.count}, N = {one.num_users}",
+                  f"U = {four.uav.count}, N = {four.num_users}", "ratio", "threshold",
+                  "verdict",
+                  title=f"several UAVs against one: torch {torch.__version__}, "
+                        f"{torch.get_num_threads()} thread")
+    one_rate, four_rate = link_rates(one, four, args.seconds)
+    ratio = four_rate / one_rate
+    table.add_row("(a)", f"links/s at B = {LINK_ENVS}", f"{one_rate:,.0f}", f"{four_rate:,.0f}",
+                  f"{ratio:.2f}", f">= {LINK_THRESHOLD:g}", verdict(ratio, LINK_THRESHOLD))
+    if not args.skip_training:
+        dense = load_with_overrides(Path(args.one), ["agent.algorithm=dqn"])[0]
+        one_train = seed_steps_per_second(dense, args.seeds, args.episodes)
+        four_train = seed_steps_per_second(four, args.seeds, args.episodes)
+        ratio = four_train / one_train
+        table.add_row("(b)", f"seed-steps/s, {args.seeds} seeds",
+                      f"{one_train:,.0f} ({dense.agent.algorithm})",
+                      f"{four_train:,.0f} ({four.agent.algorithm})", f"{ratio:.2f}",
+                      f">= {TRAINING_THRESHOLD:g}", verdict(ratio, TRAINING_THRESHOLD))
+    console.print(table)
+    load = os.getloadavg()
+    print(f"load average: {load[0]:.2f}, {load[1]:.2f}, {load[2]:.2f}")
+
+
+if __name__ == "__main__":
+    main()
