@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
+from adaptsky.channels.contract import ChannelModel, LinkGeometry
 from adaptsky.scenario import Scenario, load_scenario
 from adaptsky.sim import noma
 from adaptsky.sim.batch import build_channel, carrier_hz, reward_weights
@@ -75,12 +76,24 @@ def reference_observation(scenario: Scenario, uav_m: np.ndarray, users_m: np.nda
                           axis=1).astype(np.float32)
 
 
+def plain_draws(channel: ChannelModel) -> ChannelModel:
+    """``channel`` whose ``sample_los`` is its own override (calling the base class's), so
+    that ``link_gains`` asks it for every environment's draws on a geometry of that
+    environment's rows, the plain way, rather than drawing the uniforms itself."""
+    class PlainDraws(type(channel)):  # type: ignore[misc,valid-type]
+        def sample_los(self, geometry: LinkGeometry, rng: np.random.Generator
+                       ) -> np.ndarray:
+            return super().sample_los(geometry, rng)
+
+    return PlainDraws(channel.params)
+
+
 class Reference:
     """The network of ``env``'s scenario and association, stepped the plain way."""
 
     def __init__(self, env: MultiUavBatch, seeds: list[np.random.SeedSequence]) -> None:
         self.scenario, self.env = env.scenario, env
-        self.channel = build_channel(env.scenario)
+        self.channel = plain_draws(build_channel(env.scenario))
         self.dynamics = Dynamics.of(env.scenario, env.num_envs)
         self.rngs = [np.random.default_rng(seed) for seed in seeds]
         start = np.broadcast_to(env.start_m, (env.num_envs, *env.start_m.shape))
