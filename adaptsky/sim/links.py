@@ -52,8 +52,12 @@ def link_gains(channel: ChannelModel, los_mode: str, geometry: LinkGeometry,
     if los_mode == "always":
         gain, los = channel.gain_los(geometry), np.ones(geometry.shape, dtype=bool)
     elif los_mode == "sampled":
-        los = _drawn(lambda rows, _, r: channel.sample_los(rows, r), geometry, None, rng,
-                     num_uavs)
+        if type(channel).sample_los is ChannelModel.sample_los:
+            # the base class's draw, one uniform per link below P_LoS, with the P_LoS at hand
+            los = _uniforms(geometry.shape, rng, num_uavs) < p_los
+        else:
+            los = _drawn(lambda rows, _, r: channel.sample_los(rows, r), geometry, None, rng,
+                         num_uavs)
         gain = np.where(los, channel.gain_los(geometry), channel.gain_nlos(geometry))
     elif los_mode == "expected":
         gain, los = channel.expected_gain(geometry), p_los > 0.5
@@ -63,6 +67,21 @@ def link_gains(channel: ChannelModel, los_mode: str, geometry: LinkGeometry,
         gain = gain * _drawn(channel.sample_fading, geometry, los, rng, num_uavs)
     shape = (geometry.shape[0] // num_uavs, num_uavs, geometry.shape[1])
     return gain.reshape(shape), los.reshape(shape), p_los.reshape(shape)
+
+
+def _uniforms(shape: tuple[int, ...], rng: Generators, num_uavs: int) -> FloatArray:
+    """Uniform draws in [0, 1) of every link (B*U, N): ``rng.random(shape)``, or with a list
+    of generators environment b's ``num_uavs`` rows from generator b, the numbers
+    ``ChannelModel.sample_los`` draws from it for those rows (written in place, without a
+    geometry per environment)."""
+    if rng is None:
+        raise ValueError("sampled LoS and fading draw from a generator; pass rng")
+    if not isinstance(rng, list):
+        return rng.random(shape)
+    draws = np.empty(shape)
+    for b, generator in enumerate(rng):
+        generator.random(out=draws[b * num_uavs:(b + 1) * num_uavs])
+    return draws
 
 
 def _drawn(draw: Callable[[LinkGeometry, Any, np.random.Generator], np.ndarray],

@@ -33,12 +33,12 @@ from adaptsky.sim.batch import (
     reward_weights,
 )
 from adaptsky.sim.gain_bounds import gain_range, reachable_heights
-from adaptsky.sim.interference import noma_rates, serving_gain
+from adaptsky.sim.interference import serving_gain
 from adaptsky.sim.layout import user_layouts
 from adaptsky.sim.links import all_links_geometry, link_gains
 from adaptsky.sim.multi_observation import MultiObserver
 from adaptsky.sim.separation import separated
-from adaptsky.sim.state import Dynamics, SimState, step
+from adaptsky.sim.state import Dynamics, SimState, step, users_xy
 
 FloatArray = NDArray[np.float64]
 Seed = int | np.random.SeedSequence | list[np.random.SeedSequence] | None
@@ -120,6 +120,16 @@ class MultiUavBatch:
         self._speed_m = scenario.users.speed_m_per_step
         self.start_m = np.array(scenario.uav_start_positions_m, dtype=np.float64)  # (U, 3)
         self._observer = MultiObserver(scenario)
+        if radio.reuse not in ("full", "orthogonal"):
+            raise ValueError(f"unknown reuse {radio.reuse!r}; use full or orthogonal")
+        self._full_reuse = radio.reuse == "full"
+        self._carrier_hz = carrier_hz(scenario)
+        # user antenna heights of every link (B*U, N), and h - h_UT needs a subtraction only
+        # where they are > 0 (as LinkGeometry.between)
+        self._user_height_m = np.full((num_envs * self.num_uavs, self.num_users),
+                                      scenario.users.height_m)
+        self._user_height_m.flags.writeable = False
+        self._users_above_ground = bool(self._user_height_m.any())
         if users_m is None:
             users_m = user_layouts(scenario, num_envs)
         self._associate(users_m)
@@ -153,6 +163,41 @@ class MultiUavBatch:
             pairs = np.stack([self.association.first_user, self.association.second_user],
                              axis=-1)
             self.observation_order = pairs.reshape(self.num_envs, self.num_users)
+        self._index()
+
+    def _index(self) -> None:
+        """Flat index arrays of the association, made once per layout, that put a step's
+        arrays in user order with one ``take`` each (docs/model.md §9), each (B, N):
+
+        ``_serving_link`` the position of user i's serving link in the links (B, U, N);
+        ``_partner_flat`` its cluster partner's in a (B, N) array; ``_alpha_source`` its
+        alpha_k's in the configuration (B, U, 3 + K); ``_is_first`` whether it is its
+        cluster's first user; ``_interferer`` (B, U, N) whether UAV u' interferes with it
+        (:func:`adaptsky.sim.interference.interference_w`); and, for the observation, the
+        users in observation order: ``_observed`` their positions in a (B, N) array and
+        ``_observed_uav_xy`` (2, B, N) the positions of their serving UAV's x and y in the
+        configuration.
+        """
+        association = self.association
+        num_envs, n, num_uavs = self.num_envs, self.num_users, self.num_uavs
+        width = self._dynamics.config_low.shape[-1]     # 3 + K
+        rows = np.arange(num_envs)[:, None]
+        serving = association.serving_uav
+        self._serving_link = rows * (num_uavs * n) + serving * n + np.arange(n)
+        self._partner_flat = rows * n + association.partner
+        uav_base = rows * (num_uavs * width) + serving * width
+        self._alpha_source = uav_base + 3 + association.cluster
+        self._is_first = association.is_first
+        interferer = np.moveaxis(association.has_cluster[:, association.cluster], 0, 1)
+        interferer &= np.arange(num_uavs)[None, :, None] != serving[:, None, :]
+        self._interferer = interferer
+        order = (np.broadcast_to(np.arange(n), (num_envs, n)) if self.observation_order is None
+                 else self.observation_order)
+        self._observed = rows * n + order
+        observed_base = np.take_along_axis(uav_base, order, axis=1)
+        self._observed_uav_xy = np.stack([observed_base, observed_base + 1])
+        self._repeated_of: FloatArray | None = None    # see _repeated_users
+        self._repeated: FloatArray | None = None
 
     def set_layouts(self, users_m: FloatArray) -> None:
         """New home positions of the users (B, N, 2), associated anew; they take effect at the
@@ -259,11 +304,11 @@ class MultiUavBatch:
         headings = self._headings() if self._speed_m else None
         moved = step(before, actions, dynamics, headings)
         config = moved.config
-        positions = separated(before.uav_m, config[..., :3],
-                              self.scenario.uav.min_separation_m)
-        if positions is not config[..., :3]:
+        moved_m = config[..., :3]
+        positions = separated(before.uav_m, moved_m, self.scenario.uav.min_separation_m)
+        if positions is not moved_m:
             config = np.concatenate([positions, config[..., 3:]], axis=-1)
-        self.sim_state = SimState(config, moved.users_m, moved.t)
+        self.sim_state = SimState._new(config, moved.users_m, moved.t)
         self.state = self._evaluate(self.sim_state)
         return self._obs, self.state.reward, self.sim_state.t >= self._max_steps, self.state
 
@@ -278,30 +323,87 @@ class MultiUavBatch:
         self.state = self._evaluate(self.sim_state)
         return self.state
 
+    def _repeated_users(self, users_m: FloatArray) -> FloatArray:
+        """``users_m`` (B, N, 2) repeated for every UAV (B*U, N, 2), the users of the links'
+        geometry: kept until the users move (made once per move, not once per step)."""
+        if users_m is not self._repeated_of:
+            repeated = np.repeat(users_m, self.num_uavs, axis=0)
+            repeated.flags.writeable = False
+            self._repeated_of, self._repeated = users_m, repeated
+        assert self._repeated is not None
+        return self._repeated
+
+    def _links_geometry(self, uav_m: FloatArray, users_m: FloatArray) -> LinkGeometry:
+        """:meth:`geometry` of the links (B*U, N), the same numbers, made from x and y offsets
+        laid out (B, U, N) (contiguous, as the channel computes fastest) and the users'
+        repeated positions kept from step to step."""
+        num_envs, num_uavs, n = self.num_envs, self.num_uavs, self.num_users
+        shape, flat = (num_envs, num_uavs, n), (num_envs * num_uavs, n)
+        x_m, y_m = users_xy(users_m)                  # (B, N) each
+        dx_m = np.subtract(x_m[:, None, :], uav_m[:, :, 0:1])   # user - UAV, as between()
+        dy_m = np.subtract(y_m[:, None, :], uav_m[:, :, 1:2])
+        height_m = np.empty(shape)
+        height_m[...] = uav_m[:, :, 2:3]
+        height_m = height_m.reshape(flat)
+        user_height_m = self._user_height_m
+        return LinkGeometry._from_offsets(
+            dx_m.reshape(flat), dy_m.reshape(flat), height_m, user_height_m,
+            np.reshape(uav_m, (num_envs * num_uavs, 3)), self._repeated_users(users_m),
+            self._carrier_hz, self.bandwidth_hz,
+            height_m - user_height_m if self._users_above_ground else height_m)
+
     def _evaluate(self, state: SimState) -> MultiNetworkState:
         """Gains of every link, interference, SIC order, SINR and rates (docs/model.md §9),
-        eq. 9 over all users and eq. 13; also sets ``_obs``."""
-        uav_m, users_m = state.uav_m, state.users_m
+        eq. 9 over all users and eq. 13; also sets ``_obs``.
+
+        The numbers of :func:`adaptsky.sim.links.link_gains` and
+        :func:`adaptsky.sim.interference.noma_rates`, bit for bit, with the association's
+        index arrays made once per layout (:meth:`_index`)
+        (tests/unit/sim/test_multi_batch_numbers.py).
+        """
+        config, users_m = state.config, state.users_m
+        uav_m = config[..., :3]
         gains, los, p_los = link_gains(self.channel, self._los_mode,
-                                       self.geometry(uav_m, users_m),
+                                       self._links_geometry(uav_m, users_m),
                                        self.rngs if self.rngs is not None else self.rng,
                                        num_uavs=self.num_uavs)
-        association = self.association
-        rates = noma_rates(state.alpha_first, gains, association, **self._radio)
-        serving = association.serving_uav[:, None, :]
-        link_los = np.take_along_axis(los, serving, axis=1)[:, 0]
-        link_p_los = np.take_along_axis(p_los, serving, axis=1)[:, 0]
-        rate_bps = rates.rate_bps
+        radio = self._radio
+        tx_power_w, antenna_gain = radio["tx_power_w"], radio["antenna_gain"]
+        serving_link = self._serving_link
+        gain = gains.take(serving_link)
+        link_los, link_p_los = los.take(serving_link), p_los.take(serving_link)
+        # I_i (interference_w), the SIC order by c_i = g_i / (I_i + sigma^2) (strong_users)
+        if self._full_reuse:
+            interference = tx_power_w * antenna_gain * np.where(self._interferer, gains,
+                                                                 0.0).sum(axis=1)
+        else:
+            interference = np.zeros(gain.shape)
+        noise_plus = interference + radio["noise_w"]
+        effective = gain / noise_plus
+        partner = self._partner_flat
+        effective_partner, gain_partner = effective.take(partner), gain.take(partner)
+        is_first = self._is_first
+        strong = (effective > effective_partner) | ((effective == effective_partner) & (
+            (gain > gain_partner) | ((gain == gain_partner) & is_first)))
+        # alpha_i and the partner's share (user_shares), SINR and rates (noma_rates)
+        alpha_k = config.take(self._alpha_source)
+        second_share = 1.0 - alpha_k
+        alpha = np.where(is_first, alpha_k, second_share)
+        alpha_partner = np.where(is_first, second_share, alpha_k)
+        snr_scale = tx_power_w * antenna_gain / noise_plus
+        sinr = noma.user_sinr(alpha, alpha_partner, gain, strong, snr_scale)
+        rate_bps = noma.rate_bps(sinr, radio["bandwidth_hz"])
         fairness = noma.jain_fairness(rate_bps)
-        rewards = noma.reward(rate_bps, rates.gain, fairness, self.bandwidth_hz, self.weights)
-        rows = np.arange(self.num_envs)[:, None]
-        alpha_k = state.alpha_first[rows, association.serving_uav, association.cluster]
-        alpha = np.where(association.is_first, alpha_k, 1.0 - alpha_k)
-        self._obs = self._observer(uav_m, users_m, association.serving_uav, alpha, rates.gain,
-                                   rates.interference_w, self.observation_order)
-        return MultiNetworkState(uav_m.copy(), alpha, rates.gain, rates.interference_w,
-                                 link_los, link_p_los, rates.strong, rate_bps,
-                                 rate_bps.sum(axis=-1), fairness, rewards)
+        rewards = noma.reward(rate_bps, gain, fairness, self.bandwidth_hz, self.weights)
+        observed = self._observed
+        uav_xy = config.take(self._observed_uav_xy)              # (2, B, N)
+        users = users_xy(users_m).reshape(2, -1).take(observed, axis=1)
+        self._obs = self._observer.from_offsets(
+            uav_xy[0] - users[0], uav_xy[1] - users[1], uav_m, alpha.take(observed),
+            gain.take(observed), interference.take(observed))
+        return MultiNetworkState(uav_m.copy(), alpha, gain, interference, link_los,
+                                 link_p_los, strong, rate_bps, rate_bps.sum(axis=-1), fairness,
+                                 rewards)
 
     def observation(self) -> NDArray[np.float32]:
         assert self.state is not None, "call reset() first"

@@ -44,26 +44,46 @@ class MultiObserver:
         """From the UAVs (B, U, 3), users (B, N, 2), each user's serving UAV, share, serving
         gain and interference (B, N); ``order`` (B, N) lists the users in observation order
         (None: as listed)."""
-        num_envs, num_users = gain.shape
+        if order is not None:   # every feature is elementwise: permute the users first
+            users_m = np.take_along_axis(users_m, order[..., None], axis=1)
+            serving_uav, alpha, gain, interference_w = (
+                np.take_along_axis(values, order, axis=1)
+                for values in (serving_uav, alpha, gain, interference_w))
         serving_m = np.take_along_axis(uav_m, serving_uav[..., None], axis=1)   # (B, N, 3)
-        features = np.empty((num_envs, num_users, FEATURES_PER_USER))
-        features[..., :2] = serving_m[..., :2] - users_m
+        return self.from_offsets(serving_m[..., 0] - users_m[..., 0],
+                                 serving_m[..., 1] - users_m[..., 1], uav_m, alpha, gain,
+                                 interference_w)
+
+    def from_offsets(self, dx_m: FloatArray, dy_m: FloatArray, uav_m: FloatArray,
+                     alpha: FloatArray, gain: FloatArray, interference_w: FloatArray
+                     ) -> NDArray[np.float32]:
+        """The observations from every user's offsets x_u - x_i and y_u - y_i to its serving
+        UAV, share, serving gain and interference (each (B, N), users in observation order)
+        and the UAVs ``uav_m`` (B, U, 3): each feature is computed in float64 and rounded
+        once to float32, straight into its place."""
+        num_envs, num_users = gain.shape
+        num_uavs = uav_m.shape[1]
+        width = FEATURES_PER_USER * num_users
+        obs = np.empty((num_envs, width + FEATURES_PER_UAV * num_uavs), dtype=np.float32)
+        features = obs[:, :width].reshape(num_envs, num_users, FEATURES_PER_USER)
+        uavs = obs[:, width:].reshape(num_envs, num_uavs, FEATURES_PER_UAV)
         features[..., 2] = alpha
         inr = interference_w / self.noise_w
-        uavs = np.array(uav_m, dtype=np.float64)
         if self.scaled:
-            features[..., :2] /= self.half_side_m
+            half_side_m = self.half_side_m
+            features[..., 0] = dx_m / half_side_m
+            features[..., 1] = dy_m / half_side_m
             features[..., 3] = (10.0 * np.log10(gain) - GAIN_DB_CENTER) / GAIN_DB_SCALE
             features[..., 4] = 10.0 * np.log10(1.0 + inr) / GAIN_DB_SCALE
-            uavs[..., :2] /= self.half_side_m
-            uavs[..., 2] /= self.max_height_m
+            uavs[..., :2] = uav_m[..., :2] / half_side_m
+            uavs[..., 2] = uav_m[..., 2] / self.max_height_m
         else:
+            features[..., 0] = dx_m
+            features[..., 1] = dy_m
             features[..., 3] = gain
             features[..., 4] = inr
-        if order is not None:
-            features = np.take_along_axis(features, order[..., None], axis=1)
-        return np.concatenate([features.reshape(num_envs, -1),
-                               uavs.reshape(num_envs, -1)], axis=1).astype(np.float32)
+            uavs[...] = uav_m
+        return obs
 
 
 def multi_observation_bounds(scenario: Scenario, gains: tuple[float, float] | None = None
