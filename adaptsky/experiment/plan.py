@@ -29,6 +29,12 @@ def shipped_experiments() -> dict[str, Path]:
     return {} if folder is None else {path.stem: path for path in sorted(folder.glob("*.toml"))}
 
 
+def paper_experiments() -> list[str]:
+    """The shipped experiments of the paper (those with a ``paper_figure``), in id order:
+    what ``reproduce all`` runs."""
+    return [name for name in shipped_experiments() if load_experiment(name)[0].paper_figure]
+
+
 def experiment_path(name: str) -> Path:
     """A shipped id (``e3``) or the path of an experiment file."""
     shipped = shipped_experiments()

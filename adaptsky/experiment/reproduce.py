@@ -15,7 +15,7 @@ from typing import Any
 from adaptsky.errors import AdaptskyError
 from adaptsky.experiment.calls import read_calls, record_call
 from adaptsky.experiment.executors import make_executor, stacks
-from adaptsky.experiment.plan import Plan, load_experiment, plan_experiment, shipped_experiments
+from adaptsky.experiment.plan import Plan, load_experiment, paper_experiments, plan_experiment
 from adaptsky.experiment.runs import run_state
 from adaptsky.experiment.sweep import SweepOutcome, run_sweep
 from adaptsky.progress import LogLines, Reporter
@@ -116,9 +116,7 @@ def reproduce_all(*, out: Path | None = None, **options: Any) -> tuple[list[Repr
     start = time.monotonic()
     folder = out if out is not None else Path("reproduce")
     results = []
-    for name in shipped_experiments():
-        if not load_experiment(name)[0].paper_figure:
-            continue
+    for name in paper_experiments():
         result = reproduce(experiment=name, out=folder / name, **options)
         results.append(result)
         if result.interrupted:

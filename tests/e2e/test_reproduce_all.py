@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from adaptsky.experiment.plan import shipped_experiments
+from adaptsky.experiment.plan import paper_experiments
 from adaptsky.store.eval_file import read_eval_metrics
 from adaptsky_cli.cli.main import main
 
@@ -51,8 +51,9 @@ def _row(report: str, claim: str) -> list[list[str]]:
 
 def test_every_experiment_is_reported_and_indexed(everything):
     index = (everything / "report.md").read_text()
-    assert sorted(shipped_experiments()) == ["e1a", "e1b", "e2", "e3"]
-    for name in shipped_experiments():
+    assert paper_experiments() == ["e1a", "e1b", "e2", "e3"]
+    assert not (everything / "e4").exists() and not (everything / "bdq").exists()
+    for name in paper_experiments():
         assert (everything / name / "report.md").is_file()
         assert f"[{name}/report.md]({name}/report.md)" in index
         assert (everything / name / f"{name}.png").stat().st_size > 10_000
@@ -64,7 +65,7 @@ def test_every_experiment_is_reported_and_indexed(everything):
 
 
 def test_every_call_is_recorded_with_its_wall_time(everything):
-    for name in shipped_experiments():
+    for name in paper_experiments():
         calls = json.loads((everything / name / "calls.json").read_text())
         assert len(calls) == 1
         assert calls[0]["wall_s"] > 0 and calls[0]["runs_trained"] >= 1
