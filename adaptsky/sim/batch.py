@@ -56,6 +56,27 @@ def carrier_hz(scenario: Scenario) -> float:
     return DEFAULT_CARRIER_HZ if value is None else value
 
 
+def scenario_geometry(scenario: Scenario, uav_m: FloatArray, users_m: FloatArray
+                      ) -> LinkGeometry:
+    """The links between UAVs ``uav_m`` (B', 3) and users ``users_m`` (B', N, 2) in
+    ``scenario`` (its user height, carrier and bandwidth; docs/plugins.md, the geometry)."""
+    return LinkGeometry.between(uav_m, users_m, user_height_m=scenario.users.height_m,
+                                carrier_hz=carrier_hz(scenario),
+                                bandwidth_hz=scenario.radio.bandwidth_hz)
+
+
+def generators(seed: int | np.random.SeedSequence | list[np.random.SeedSequence] | None,
+               num_envs: int) -> tuple[list[np.random.Generator] | None, np.random.Generator]:
+    """``(rngs, rng)``: for a list of ``num_envs`` seeds a generator per environment (and an
+    unseeded shared one), else None and one shared generator from ``seed``."""
+    rngs = None
+    if isinstance(seed, list):
+        if len(seed) != num_envs:
+            raise ValueError(f"seed must list {num_envs} seeds, got {len(seed)}")
+        rngs = [np.random.default_rng(s) for s in seed]
+    return rngs, np.random.default_rng(None if isinstance(seed, list) else seed)
+
+
 def reward_weights(scenario: Scenario) -> noma.RewardWeights:
     r = scenario.reward
     return noma.RewardWeights(w_rate=r.w_rate, w_fairness=r.w_fairness, w_gain=r.w_gain,
@@ -273,20 +294,12 @@ class NomaUavBatch:
     def _seed(self, seed: int | np.random.SeedSequence | list[np.random.SeedSequence] | None
               ) -> None:
         """New generators: one per environment for a list of B seeds, else one shared."""
-        self.rngs: list[np.random.Generator] | None = None
-        if isinstance(seed, list):
-            if len(seed) != self.num_envs:
-                raise ValueError(f"seed must list {self.num_envs} seeds, got {len(seed)}")
-            self.rngs = [np.random.default_rng(s) for s in seed]
-        self.rng = np.random.default_rng(None if isinstance(seed, list) else seed)
+        self.rngs, self.rng = generators(seed, self.num_envs)
 
     def geometry(self, uav_m: FloatArray, users_m: FloatArray) -> LinkGeometry:
         """The links between UAVs ``uav_m`` (B', 3) and users ``users_m`` (B', N, 2) in this
-        scenario (its user height, carrier and bandwidth; docs/plugins.md, the geometry)."""
-        scenario = self.scenario
-        return LinkGeometry.between(uav_m, users_m, user_height_m=scenario.users.height_m,
-                                    carrier_hz=carrier_hz(scenario),
-                                    bandwidth_hz=scenario.radio.bandwidth_hz)
+        scenario (:func:`scenario_geometry`)."""
+        return scenario_geometry(self.scenario, uav_m, users_m)
 
     def gain_bounds(self) -> tuple[float, float] | None:
         """The smallest and largest gain a step can give, linear (``gain_bounds.gain_range``:

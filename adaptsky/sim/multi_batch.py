@@ -15,6 +15,7 @@ numbers these functions give bit for bit with U = 1 (tests/unit/sim/test_several
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,7 +31,9 @@ from adaptsky.sim.batch import (
     carrier_hz,
     deterministic_gain,
     fading_active,
+    generators,
     reward_weights,
+    scenario_geometry,
 )
 from adaptsky.sim.gain_bounds import gain_range, reachable_heights
 from adaptsky.sim.interference import serving_gain
@@ -208,12 +211,7 @@ class MultiUavBatch:
 
     def _seed(self, seed: Seed) -> None:
         """New generators: one per environment for a list of B seeds, else one shared."""
-        self.rngs: list[np.random.Generator] | None = None
-        if isinstance(seed, list):
-            if len(seed) != self.num_envs:
-                raise ValueError(f"seed must list {self.num_envs} seeds, got {len(seed)}")
-            self.rngs = [np.random.default_rng(s) for s in seed]
-        self.rng = np.random.default_rng(None if isinstance(seed, list) else seed)
+        self.rngs, self.rng = generators(seed, self.num_envs)
 
     def _headings(self) -> FloatArray:
         """The step's user headings (B, N), rad: from the shared generator, or row b from
@@ -241,13 +239,8 @@ class MultiUavBatch:
         if fading_active(self.channel):
             return None
         scenario = self.scenario
-
-        def one_uav_geometry(uav_m: FloatArray, users_m: FloatArray) -> LinkGeometry:
-            return LinkGeometry.between(uav_m, users_m, user_height_m=scenario.users.height_m,
-                                        carrier_hz=carrier_hz(scenario),
-                                        bandwidth_hz=scenario.radio.bandwidth_hz)
-
-        return gain_range(self.channel, scenario.channel.los, one_uav_geometry,
+        return gain_range(self.channel, scenario.channel.los,
+                          functools.partial(scenario_geometry, scenario),
                           reachable_heights(scenario.uav), scenario.area.side_m)
 
     # ---- state ---------------------------------------------------------------------------
