@@ -101,6 +101,7 @@ class BdqAgent(Section):
 
     algorithm: Literal["bdq"] = Field(description="the learning algorithm: 'bdq' (the "
                                       "branching dueling Q-network)")
+    preset: str = _as_dqn("preset")
     hidden_sizes: list[LayerSize] = _as_dqn("hidden_sizes")
     loss: Literal["mse", "huber"] = Field("mse", description="TD loss per branch, averaged "
                                           "over the branches and the batch")
@@ -120,6 +121,22 @@ class BdqAgent(Section):
     target_tau: float = _as_dqn("target_tau")
     lr_end: float | None = _as_dqn("lr_end")
     lr_decay_steps: float = _as_dqn("lr_decay_steps")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _apply_preset(cls, data: Any) -> Any:
+        """A preset's values for the BDQ's keys (its target is always the double one) under
+        the keys given explicitly."""
+        if not isinstance(data, dict):
+            return data
+        from adaptsky.scenario.presets import preset_values
+
+        name = data.get("preset", "paper")
+        if not isinstance(name, str):
+            return data
+        values = {key: value for key, value in preset_values(name).items()
+                  if key in cls.model_fields}
+        return {**values, **data}
 
     @model_validator(mode="after")
     def _memory_holds_a_batch(self) -> BdqAgent:
