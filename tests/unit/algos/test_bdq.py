@@ -193,6 +193,19 @@ def test_bdq_is_an_algorithm_with_its_own_keys():
     assert str(error.value) == "s.toml: agent.batchsize: unknown key; did you mean 'batch_size'?"
 
 
+def test_a_preset_gives_the_keys_bdq_has_under_the_keys_given():
+    tuned = parse_scenario({"name": "x", "agent": {**BDQ_AGENT, "preset": "tuned",
+                                                   "epsilon_end": 0.05}}).agent
+    assert (tuned.epsilon_end, tuned.epsilon_decay_steps, tuned.lr_end, tuned.user_order) == (
+        0.05, 30_000.0, 1e-4, "clusters")
+    paper = parse_scenario({"name": "x", "agent": BDQ_AGENT}).agent
+    assert (paper.preset, paper.epsilon_end, paper.epsilon_decay_steps, paper.lr_end) == (
+        "paper", 0.1, 200.0, None)
+    with pytest.raises(ScenarioError) as error:
+        parse_scenario({"name": "x", "agent": {**BDQ_AGENT, "preset": "fast"}}, "s.toml")
+    assert str(error.value) == "s.toml: agent: unknown preset 'fast'; choose from paper, tuned"
+
+
 def test_a_seed_in_a_stack_equals_the_seed_alone():
     base = stack_scenario(agent=BDQ_AGENT)
     stack = StackRun([Member(base, seed) for seed in (11, 12, 13)])
