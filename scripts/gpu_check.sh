@@ -57,7 +57,8 @@ missing=$("$python" - <<'PY'
 import importlib.util
 names = {"pydantic": "pydantic", "gymnasium": "gymnasium", "tomli_w": "tomli-w",
          "distributed": "distributed", "typer": "typer", "rich": "rich", "h5py": "h5py",
-         "threadpoolctl": "threadpoolctl", "matplotlib": "matplotlib", "torch": "torch"}
+         "threadpoolctl": "threadpoolctl", "matplotlib": "matplotlib", "torch": "torch",
+         "pettingzoo": "pettingzoo"}
 print(" ".join(pkg for module, pkg in names.items() if importlib.util.find_spec(module) is None))
 PY
 )
