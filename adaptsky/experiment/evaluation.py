@@ -145,6 +145,11 @@ def _evaluate_plan(plan: Plan, progress: WorkProgress) -> Evaluations:
                 (evaluations.runs if which == "last" else evaluations.best)[run.name] = metrics
             if group == spec.policy or per_group:
                 points.setdefault(point, run)
+    if per_group:   # a group's baselines need no finished run: its scenario is planned
+        for group in (spec.policy, *spec.also):
+            planned = plan.group_runs(group)
+            if planned and group not in points:
+                points[group] = planned[0]
     for value, run in points.items():
         scenario = eval_scenario(parse_scenario(run.config, run.name), spec.layouts,
                                  spec.layout_seed)
