@@ -21,7 +21,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from adaptsky.channels.contract import LinkGeometry
 from adaptsky.rollouts.objective import constrained_sum_rate
 from adaptsky.rollouts.oracle import (
     POINTS_PER_CHUNK,
@@ -30,9 +29,10 @@ from adaptsky.rollouts.oracle import (
     oracle,
     require_deterministic_gains,
 )
+from adaptsky.rollouts.soa import soa_shares
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim import noma
-from adaptsky.sim.batch import carrier_hz, deterministic_gain
+from adaptsky.sim.batch import deterministic_gain, scenario_geometry
 from adaptsky.sim.interference import oma_rates_bps
 from adaptsky.sim.multi_batch import MultiUavBatch
 
@@ -82,13 +82,7 @@ def _soa(env: MultiUavBatch) -> tuple[FloatArray, FloatArray]:
     uavs = np.arange(env.num_uavs)[None, :, None]
     gain_first = gain[rows, uavs, association.first_user]
     gain_second = gain[rows, uavs, association.second_user]
-    radio = scenario.radio
-    threshold = 2.0 ** scenario.reward.min_se
-    weak_gain = np.minimum(gain_first, gain_second)
-    alpha_weak = np.minimum(1.0, (threshold - 1) / threshold * (
-        1 + radio.noise_w / (radio.tx_power_w * radio.antenna_gain * weak_gain)))
-    alpha_first = np.where(gain_first >= gain_second, 1.0 - alpha_weak, alpha_weak)
-    return uav_m, alpha_first
+    return uav_m, soa_shares(scenario, gain_first, gain_second)
 
 
 class _Search:
@@ -104,6 +98,12 @@ class _Search:
         self.cluster = a.cluster[layout]
         self.first = a.first_user[layout]       # (U, K)
         self.second = a.second_user[layout]
+        # each user's cluster partner and whether it is the first user (alpha_k is its share)
+        self.partner = np.empty_like(self.serving)
+        self.partner[self.first.ravel()] = self.second.ravel()
+        self.partner[self.second.ravel()] = self.first.ravel()
+        self.is_first = np.zeros(len(self.serving), dtype=bool)
+        self.is_first[self.first.ravel()] = True
         radio = scenario.radio
         self.tx_power_w, self.antenna_gain = radio.tx_power_w, radio.antenna_gain
         self.power = radio.tx_power_w * radio.antenna_gain       # P_T G
@@ -127,10 +127,8 @@ class _Search:
         """Deterministic gains (M, N) from UAV positions ``points_m`` (M, 3) to every user."""
         scenario = self.scenario
         users = np.broadcast_to(self.users_m, (len(points_m), *self.users_m.shape))
-        geometry = LinkGeometry.between(points_m, users, user_height_m=scenario.users.height_m,
-                                        carrier_hz=carrier_hz(scenario),
-                                        bandwidth_hz=scenario.radio.bandwidth_hz)
-        return deterministic_gain(self.env.channel, scenario.channel.los, geometry)
+        return deterministic_gain(self.env.channel, scenario.channel.los,
+                                  scenario_geometry(scenario, points_m, users))
 
     def rates(self, gain: FloatArray, alpha_first: FloatArray) -> FloatArray:
         """Every user's rate (..., N) with the gains (..., U, N) of every UAV and the shares
@@ -143,11 +141,7 @@ class _Search:
         scale = self.power / (interference + self.noise_w)
         alpha_k = alpha_first[..., self.serving, self.cluster]
         effective = scale * serving_gain
-        partner = np.empty_like(self.serving)
-        partner[self.first.ravel()] = self.second.ravel()
-        partner[self.second.ravel()] = self.first.ravel()
-        is_first = np.zeros(len(self.serving), dtype=bool)
-        is_first[self.first.ravel()] = True
+        partner, is_first = self.partner, self.is_first
         alpha = np.where(is_first, alpha_k, 1.0 - alpha_k)
         alpha_partner = 1.0 - alpha
         other = effective[..., partner]

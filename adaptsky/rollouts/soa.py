@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from adaptsky.scenario.models import Scenario
 from adaptsky.sim.batch import NomaUavBatch
 
 FloatArray = NDArray[np.float64]
@@ -28,11 +29,17 @@ def soa_configuration(env: NomaUavBatch) -> tuple[FloatArray, FloatArray]:
     gain = env.channel.gain_los(env.geometry(uav_m, env.layouts_m))
     gain_first = np.take_along_axis(gain, env.first_user, axis=1)
     gain_second = np.take_along_axis(gain, env.second_user, axis=1)
+    return uav_m, soa_shares(scenario, gain_first, gain_second)
+
+
+def soa_shares(scenario: Scenario, gain_first: FloatArray, gain_second: FloatArray
+               ) -> FloatArray:
+    """Each cluster's first user's share from the LoS gains of its two users (module doc):
+    the weak user gets the least share that meets R_min, the strong one the rest."""
     radio = scenario.radio
     threshold = 2.0 ** scenario.reward.min_se
     weak_gain = np.minimum(gain_first, gain_second)
     alpha_weak = np.minimum(1.0, (threshold - 1) / threshold * (
         1 + radio.noise_w / (radio.tx_power_w * radio.antenna_gain * weak_gain)))
     first_strong = gain_first >= gain_second
-    alpha_first = np.where(first_strong, 1.0 - alpha_weak, alpha_weak)
-    return uav_m, alpha_first
+    return np.where(first_strong, 1.0 - alpha_weak, alpha_weak)
