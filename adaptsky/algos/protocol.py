@@ -29,6 +29,9 @@ class Algorithm(Protocol):
     size: int
     epsilon: float
     """The exploration rate of the last :meth:`act` (a learning-curve column)."""
+    reward_parts: int
+    """1: :meth:`observe` takes eq. 13's reward (S,); G > 1: its parts per UAV (S, G), from
+    the environment's ``reward_parts`` (the BDQ with ``agent.reward_split = "per-uav"``)."""
 
     def begin_episode(self, global_step: int) -> None:
         """A new episode starts at ``global_step`` (its schedules move on)."""
@@ -43,7 +46,8 @@ class Algorithm(Protocol):
 
     def observe(self, observations: NDArray[np.float32], actions: NDArray[np.int64],
                 rewards: NDArray[np.float64], next_observations: NDArray[np.float32]) -> None:
-        """One step of every member (S, ...), to learn from (stored, for the DQN)."""
+        """One step of every member (S, ...), to learn from (stored, for the DQN); rewards
+        (S,), or (S, G) with :attr:`reward_parts` G > 1."""
 
     def update(self) -> None:
         """Learn: one update of every member where it is due (after :meth:`observe`)."""

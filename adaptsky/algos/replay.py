@@ -1,7 +1,8 @@
 """Replay memories of a stack of members: one ring buffer per member, on the training device.
 
 A transition is one float32 row [s | s' | r | 1 - terminated | a], where a is one column (the
-DQN's action index) or ``action_width`` columns (a branching agent's sub-action per branch).
+DQN's action index) or ``action_width`` columns (a branching agent's sub-action per branch),
+and r one column or ``reward_width`` (the BDQ's reward per UAV, ``agent.reward_split``).
 ``terminated`` (a true terminal state: no bootstrap) is kept apart from time-limit truncation,
 which is not stored at all: a truncated transition still bootstraps from its next observation.
 Sampling indices are drawn on the host from each member's own generator; the rows are gathered
@@ -19,7 +20,7 @@ from numpy.typing import NDArray
 
 class Batch(NamedTuple):
     """A mini-batch per member, on the device: (S, B, obs) observations, (S, B) the rest but
-    actions of more than one column, (S, B, width)."""
+    actions or rewards of more than one column, (S, B, width)."""
 
     observations: torch.Tensor
     actions: torch.Tensor
@@ -32,10 +33,12 @@ class StackedReplay:
     """S fixed-capacity memories; each overwrites its oldest transitions first."""
 
     def __init__(self, stack: int, capacity: int, observation_size: int,
-                 device: torch.device, action_width: int = 1) -> None:
+                 device: torch.device, action_width: int = 1, reward_width: int = 1) -> None:
         self.capacity, self.obs_size = capacity, observation_size
-        self.action_width = action_width
-        self.width = 2 * observation_size + 2 + action_width
+        self.action_width, self.reward_width = action_width, reward_width
+        self.width = 2 * observation_size + 1 + reward_width + action_width
+        # the column of 1 - terminated; the rewards sit just before it
+        self._alive = 2 * observation_size + reward_width
         self.rows = torch.zeros(stack, capacity, self.width, device=device)
         self._flat = self.rows.view(stack * capacity, self.width)
         self._host = self.rows.numpy() if device.type == "cpu" else None
@@ -48,18 +51,21 @@ class StackedReplay:
     def add(self, observations: NDArray[np.float32], actions: NDArray[np.integer],
             rewards: NDArray[np.floating], next_observations: NDArray[np.float32],
             terminated: NDArray[np.bool_]) -> None:
-        """One transition per member, host arrays with leading axis S (actions (S,), or
-        (S, width))."""
-        n = self.obs_size
+        """One transition per member, host arrays with leading axis S (actions and rewards
+        (S,), or (S, width))."""
+        n, alive = self.obs_size, self._alive
         row = self._row if self._host is None else self._host[:, self.position]
         row[:, :n] = observations
         row[:, n:2 * n] = next_observations
-        row[:, 2 * n] = rewards
-        row[:, 2 * n + 1] = ~terminated
-        if self.action_width == 1:
-            row[:, 2 * n + 2] = actions
+        if self.reward_width == 1:
+            row[:, 2 * n] = rewards
         else:
-            row[:, 2 * n + 2:] = actions
+            row[:, 2 * n:alive] = rewards
+        row[:, alive] = ~terminated
+        if self.action_width == 1:
+            row[:, alive + 1] = actions
+        else:
+            row[:, alive + 1:] = actions
         if self._host is None:
             self.rows[:, self.position] = torch.from_numpy(row).to(self.rows.device)
         self.position = (self.position + 1) % self.capacity
@@ -82,19 +88,21 @@ class StackedReplay:
         flat = index.view(-1) if stack == 1 else (index + self._offsets).view(-1)
         rows = self._flat.index_select(0, flat)
         rows = rows.view(stack, batch, self.width)
-        n = self.obs_size
-        actions = rows[..., -1] if self.action_width == 1 else rows[..., 2 * n + 2:]
-        return Batch(rows[..., :n], actions.long(), rows[..., 2 * n],
-                     rows[..., n:2 * n], rows[..., 2 * n + 1])
+        n, alive = self.obs_size, self._alive
+        actions = rows[..., -1] if self.action_width == 1 else rows[..., alive + 1:]
+        rewards = rows[..., 2 * n] if self.reward_width == 1 else rows[..., 2 * n:alive]
+        return Batch(rows[..., :n], actions.long(), rewards, rows[..., n:2 * n],
+                     rows[..., alive])
 
     def arrays(self, member: int) -> dict[str, np.ndarray]:
         """A member's stored rows of every field in storage order (for checkpoints)."""
         rows = self.rows[member, :self.size].cpu().numpy()
-        n = self.obs_size
-        actions = rows[:, -1] if self.action_width == 1 else rows[:, 2 * n + 2:]
+        n, alive = self.obs_size, self._alive
+        actions = rows[:, -1] if self.action_width == 1 else rows[:, alive + 1:]
+        rewards = rows[:, 2 * n] if self.reward_width == 1 else rows[:, 2 * n:alive]
         return {"observations": rows[:, :n].copy(), "actions": actions.astype(np.int64),
-                "rewards": rows[:, 2 * n].copy(), "next_observations": rows[:, n:2 * n].copy(),
-                "terminated": rows[:, 2 * n + 1] == 0}
+                "rewards": rewards.copy(), "next_observations": rows[:, n:2 * n].copy(),
+                "terminated": rows[:, alive] == 0}
 
     def load(self, member: int, arrays: dict[str, np.ndarray], position: int) -> None:
         """Refill a member from :meth:`arrays` output and the write ``position`` saved with it
@@ -105,7 +113,8 @@ class StackedReplay:
                              f"{self.capacity}")
         row = np.concatenate([np.asarray(arrays["observations"], np.float32),
                               np.asarray(arrays["next_observations"], np.float32),
-                              np.asarray(arrays["rewards"], np.float32)[:, None],
+                              np.asarray(arrays["rewards"], np.float32).reshape(
+                                  size, self.reward_width),
                               ~np.asarray(arrays["terminated"], bool)[:, None],
                               np.asarray(arrays["actions"], np.float32).reshape(
                                   size, self.action_width)], axis=1)

@@ -40,6 +40,7 @@ from adaptsky.sim.interference import serving_gain
 from adaptsky.sim.layout import user_layouts
 from adaptsky.sim.links import all_links_geometry, link_gains
 from adaptsky.sim.multi_observation import MultiObserver
+from adaptsky.sim.reward import reward_per_uav
 from adaptsky.sim.separation import separated
 from adaptsky.sim.state import Dynamics, SimState, step, users_xy
 
@@ -401,6 +402,12 @@ class MultiUavBatch:
     def observation(self) -> NDArray[np.float32]:
         assert self.state is not None, "call reset() first"
         return self._obs
+
+    def reward_parts(self, state: MultiNetworkState) -> FloatArray:
+        """Eq. 13 of ``state`` in parts (B, U), one per UAV
+        (:func:`adaptsky.sim.reward.reward_per_uav`)."""
+        return reward_per_uav(state.rate_bps, state.gain, state.fairness, self.bandwidth_hz,
+                              self.weights, self.association.serving_uav, self.num_uavs)
 
 
 NetworkBatch = NomaUavBatch | MultiUavBatch

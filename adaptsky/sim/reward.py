@@ -219,3 +219,33 @@ class RewardFromSums:
         inputs = tuple.__new__(RewardInputs, (se_sum, fairness, gain_sum, self.num_users,
                                               None, None, None))
         return weighted_sum(self._weighted_terms, inputs)
+
+
+def reward_per_uav(rates_bps: FloatArray, gains: FloatArray, fairness: FloatArray,
+                   bandwidth_hz: float, weights: RewardWeights, serving_uav: NDArray[np.integer],
+                   num_uavs: int) -> FloatArray:
+    """Eq. 13 in parts (..., U), one per UAV (docs/model.md §9, the BDQ's ``reward_split``):
+    part u is every term's value over UAV u's users (``serving_uav`` (..., N) names each
+    user's UAV) times the term's indicator over all users, and 1/U of w_f J (Jain's index is
+    not a sum over users). The parts add up to :func:`reward` (up to rounding)."""
+    whole = RewardInputs.from_rates(rates_bps, gains, fairness, bandwidth_hz,
+                                    weights.min_rate_bps)
+    assert whole.se is not None and whole.satisfied is not None
+    weighted = with_weights(REWARD_TERMS, weights)
+    parts = []
+    for uav in range(num_uavs):
+        mine = serving_uav == uav
+        se = np.where(mine, whole.se, 0.0)
+        inputs = RewardInputs(se_sum=se.sum(axis=-1), fairness=fairness / num_uavs,
+                              gain_sum=np.where(mine, gains, 0.0).sum(axis=-1),
+                              num_users=whole.num_users, se=se,
+                              satisfied=whole.satisfied & mine,
+                              min_rate_bps=whole.min_rate_bps)
+        part = None
+        for term, weight in weighted:
+            value = weight * term.value(inputs)
+            if term.indicator is not None:
+                value = value * term.indicator(whole)
+            part = value if part is None else part + value
+        parts.append(part)
+    return np.stack(parts, axis=-1)

@@ -127,6 +127,8 @@ class StackRun:
         algorithm, steps = self.algorithm, self.scenario.train.steps
         start = self.episodes_done * steps
         states, rewards, chosen = [], [], []
+        # the reward per UAV where the algorithm learns from its parts
+        split = getattr(self.env, "reward_parts", None) if algorithm.reward_parts > 1 else None
         algorithm.begin_episode(start)
         if self.scenario.users.placement == "fresh":
             self.env.set_layouts(episode_layouts(self.scenario, self._seeds, self.episodes_done))
@@ -136,7 +138,8 @@ class StackRun:
             for tau in range(steps):
                 actions = algorithm.act(obs, start + tau)
                 next_obs, reward, _, state = self.env.step(actions)
-                algorithm.observe(obs, actions, reward, next_obs)
+                algorithm.observe(obs, actions, reward if split is None else split(state),
+                                  next_obs)
                 algorithm.update()
                 states.append(state)
                 rewards.append(reward)

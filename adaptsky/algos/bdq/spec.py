@@ -18,6 +18,8 @@ from adaptsky.sim.observation import observation_size_of
 
 # /seeds/<S>/checkpoint/replay/actions: the sub-action of each of the D branches per row
 BRANCH_ACTIONS = Field("actions", "int", ("R", "D"))
+# /seeds/<S>/checkpoint/replay/rewards with agent.reward_split = "per-uav": G parts per row
+REWARD_PARTS = Field("rewards", "float", ("R", "G"))
 
 
 def _config(scenario: Scenario) -> BdqAgent:
@@ -29,6 +31,17 @@ def _config(scenario: Scenario) -> BdqAgent:
 def action_set(scenario: Scenario) -> ActionSet:
     """The action components (branches) and their sub-actions of ``scenario``."""
     return ActionSet.of(scenario)
+
+
+def value_groups(config: BdqAgent, actions: ActionSet) -> int:
+    """G, the value outputs and reward parts: one per UAV with ``reward_split = "per-uav"``,
+    else one."""
+    return actions.num_uavs if config.reward_split == "per-uav" else 1
+
+
+def reward_groups(scenario: Scenario) -> int:
+    """G of a scenario's BDQ (:func:`value_groups`)."""
+    return value_groups(_config(scenario), action_set(scenario))
 
 
 class BdqSpec(DqnSpec):
@@ -46,22 +59,33 @@ class BdqSpec(DqnSpec):
     }
 
     def network(self, scenario: Scenario) -> dict[str, tuple[int, ...]]:
-        """Torso, ``value`` (1) and ``advantage`` (D b: the branches one after another)."""
+        """Torso, ``value`` (G: 1, or one per UAV) and ``advantage`` (D b: the branches one
+        after another)."""
         actions = action_set(scenario)
         return network_shapes(observation_size_of(scenario),
                               actions.num_components * actions.base,
-                              _config(scenario).hidden_sizes, dueling=True)
+                              _config(scenario).hidden_sizes, dueling=True,
+                              values=reward_groups(scenario))
+
+    def replay_fields_of(self, scenario: Scenario) -> tuple[Field, ...]:
+        """The replay's fields: rewards (R, G) where the branches learn G > 1 parts."""
+        if reward_groups(scenario) == 1:
+            return self.replay_fields
+        return tuple(REWARD_PARTS if field.name == "rewards" else field
+                     for field in self.replay_fields)
 
     def replay_symbols(self, scenario: Scenario) -> dict[str, int]:
         return {"O": observation_size_of(scenario),
-                "D": action_set(scenario).num_components}
+                "D": action_set(scenario).num_components, "G": reward_groups(scenario)}
 
     def memory_parts(self, scenario: Scenario, seeds: int, workers: int) -> dict[str, float]:
-        """:func:`replay_network_parts` with a head of 1 + D b outputs and D action columns
-        (no large head matrix: M is (1 + D b) x D b)."""
+        """:func:`replay_network_parts` with a head of G + D b outputs and D action columns,
+        and G - 1 more reward columns (no large head matrix: M is (G + D b) x D b)."""
         actions = action_set(scenario)
-        head = 1.0 + actions.num_components * actions.base
-        return replay_network_parts(scenario, seeds, workers, head, actions.num_components)
+        groups = reward_groups(scenario)
+        head = groups + actions.num_components * actions.base
+        return replay_network_parts(scenario, seeds, workers, head,
+                                    actions.num_components + groups - 1)
 
     def build(self, scenario: Scenario, seeds: list[int], rngs: list[Any],
               observation_size: int, num_actions: int, device: Any = "cpu",

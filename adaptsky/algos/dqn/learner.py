@@ -30,10 +30,12 @@ class DqnLearner:
         self.size, self.num_actions = len(seeds), num_actions
         self.agent = self._networks(observation_size, seeds, device)
         self.memory = StackedReplay(self.size, config.memory_size, observation_size,
-                                    self.agent.device, self.agent.action_width)
+                                    self.agent.device, self.agent.action_width,
+                                    self.agent.values)
         self.device_step = DeviceStep(self.agent, self.memory, config.batch_size, graphs)
         self.window = NStepWindow(config.n_step, config.gamma)
         self.epsilon = config.epsilon_start
+        self.reward_parts = self.agent.values
         self._reward_scale = np.array(config.reward_scale)
         self._terminated = np.zeros(self.size, dtype=bool)  # T is a truncation
 
@@ -67,7 +69,8 @@ class DqnLearner:
 
     def observe(self, observations: NDArray[np.float32], actions: NDArray[np.int64],
                 rewards: NDArray[np.float64], next_observations: NDArray[np.float32]) -> None:
-        """Store the step's n-step row (rewards scaled by ``reward_scale``)."""
+        """Store the step's n-step row (rewards (S,), or (S, G) parts of the reward where the
+        networks learn G values, scaled by ``reward_scale``)."""
         ready = self.window.push(observations, self.agent.stored_actions(actions),
                                  rewards * self._reward_scale, next_observations)
         if ready is not None:

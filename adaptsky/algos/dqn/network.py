@@ -25,16 +25,18 @@ class QNetwork(nn.Module):
 
     Dueling: Q = V + A - mean_a A, the mean taken per sample (the released code subtracts one
     mean over the whole batch, a bug; docs/model.md §4). Plain: Q from one linear head.
+    ``values`` > 1 makes a value head of that many outputs (the BDQ's per-UAV values; its
+    forward is :class:`adaptsky.algos.bdq.stacked.StackedBdq`'s, not this one's).
     """
 
     def __init__(self, observation_size: int, num_actions: int, hidden_sizes: list[int],
-                 dueling: bool) -> None:
+                 dueling: bool, values: int = 1) -> None:
         super().__init__()
         self.dueling = dueling
         self.torso = mlp([observation_size, *hidden_sizes])
         last = hidden_sizes[-1]
         if dueling:
-            self.value = nn.Linear(last, 1)
+            self.value = nn.Linear(last, values)
             self.advantage = nn.Linear(last, num_actions)
         else:
             self.q = nn.Linear(last, num_actions)

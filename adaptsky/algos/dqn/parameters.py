@@ -9,15 +9,17 @@ from itertools import pairwise
 
 
 def network_shapes(obs: int, actions: int, hidden_sizes: Iterable[int],
-                   dueling: bool) -> dict[str, tuple[int, ...]]:
+                   dueling: bool, values: int = 1) -> dict[str, tuple[int, ...]]:
     """The Q-network's parameters in ``QNetwork.parameters()`` order (the optimizer state's
-    order), named and shaped as torch names them ((out, in) weights)."""
+    order), named and shaped as torch names them ((out, in) weights); a dueling head has
+    ``values`` value outputs (one, or one per reward part of the BDQ)."""
     sizes = [obs, *hidden_sizes]
     shapes: dict[str, tuple[int, ...]] = {}
     for index, (size_in, size_out) in enumerate(pairwise(sizes)):
         shapes[f"torso.{2 * index}.weight"] = (size_out, size_in)
         shapes[f"torso.{2 * index}.bias"] = (size_out,)
-    for head, width in (("value", 1), ("advantage", actions)) if dueling else (("q", actions),):
+    heads = (("value", values), ("advantage", actions)) if dueling else (("q", actions),)
+    for head, width in heads:
         shapes[f"{head}.weight"] = (width, sizes[-1])
         shapes[f"{head}.bias"] = (width,)
     return shapes

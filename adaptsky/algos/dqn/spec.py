@@ -96,6 +96,10 @@ class DqnSpec:
         """The network's parameters of ``scenario``, named and shaped as torch names them."""
         return network(scenario)
 
+    def replay_fields_of(self, scenario: Scenario) -> tuple[Field, ...]:
+        """The replay's fields in a checkpoint of ``scenario``."""
+        return self.replay_fields
+
     def replay_symbols(self, scenario: Scenario) -> dict[str, int]:
         """The sizes the replay's fields name, but R."""
         return {"O": observation_size_of(scenario)}
@@ -138,9 +142,10 @@ class DqnSpec:
             check.fail(f"{replay.name}/@position", f"is {stored_position}",
                        f"{position} after {episodes_done} episodes of "
                        f"{scenario.train.steps} steps")
-        check.exact_members(replay, [field.name for field in self.replay_fields])
+        fields = self.replay_fields_of(scenario)
+        check.exact_members(replay, [field.name for field in fields])
         symbols = {**self.replay_symbols(scenario), "R": rows}
-        for field in self.replay_fields:
+        for field in fields:
             check.dataset(replay, field, symbols)
 
     def policy_of(self, checkpoint: Tree) -> Tree:

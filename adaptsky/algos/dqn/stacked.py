@@ -54,9 +54,9 @@ class Layer:
 
 
 def layer_plan(observation_size: int, num_actions: int, hidden_sizes: list[int],
-               dueling: bool) -> list[Layer]:
-    """The layers of the network, the head last (width 1 + A when dueling)."""
-    head = num_actions + 1 if dueling else num_actions
+               dueling: bool, values: int = 1) -> list[Layer]:
+    """The layers of the network, the head last (width ``values`` + A when dueling)."""
+    head = num_actions + values if dueling else num_actions
     sizes = [observation_size, *hidden_sizes, head]
     layers, offset = [], 0
     for size_in, size_out in pairwise(sizes):
@@ -101,6 +101,8 @@ class StackedDqn:
 
     action_width = 1
     """Replay columns of one action (the action index)."""
+    values = 1
+    """Value outputs of a dueling head, and reward columns of a replay row."""
 
     def __init__(self, config: DqnAgent | BdqAgent, observation_size: int, num_actions: int,
                  seeds: list[int], device: str | torch.device = "cpu") -> None:
@@ -111,9 +113,9 @@ class StackedDqn:
         self.size = len(seeds)
         self.device = torch.device(device)
         self.layers = layer_plan(observation_size, num_actions, config.hidden_sizes,
-                                 self.dueling)
+                                 self.dueling, self.values)
         self.names = list(network_shapes(observation_size, num_actions,
-                                         config.hidden_sizes, self.dueling))
+                                         config.hidden_sizes, self.dueling, self.values))
         # rows padded to whole vectors: elementwise kernels then treat every element alike,
         # whatever the stack size (no scalar tail loop that rounds differently)
         used = self.layers[-1].end
@@ -157,7 +159,7 @@ class StackedDqn:
     def _initial_row(self, seed: int, width: int) -> np.ndarray:
         torch.manual_seed(seed)
         net = QNetwork(self.observation_size, self.num_actions, self.config.hidden_sizes,
-                       self.dueling)
+                       self.dueling, self.values)
         row = np.zeros(width, dtype=np.float32)
         row[:self.layers[-1].end] = self.row_from_state(
             {k: v.numpy() for k, v in net.state_dict().items()})
@@ -198,7 +200,7 @@ class StackedDqn:
     def _host_greedy(self, out: np.ndarray) -> np.ndarray:
         """Greedy actions from the head's output on the host."""
         if self.dueling:  # the constant V and mean(A) do not change the argmax
-            out = out[..., 1:]
+            out = out[..., self.values:]
         return out.argmax(axis=-1)
 
     def stored_actions(self, actions: np.ndarray) -> np.ndarray:
@@ -340,7 +342,8 @@ class StackedDqn:
             arrays += [weight.T.copy(), row[layer.bias_at:layer.end].copy()]
         if self.dueling:
             head_w, head_b = arrays[-2:]
-            arrays[-2:] = [head_w[:1], head_b[:1], head_w[1:], head_b[1:]]
+            v = self.values
+            arrays[-2:] = [head_w[:v], head_b[:v], head_w[v:], head_b[v:]]
         return dict(zip(self.names, arrays, strict=True))
 
     def state_arrays(self, member: int) -> dict[str, Any]:

@@ -53,20 +53,23 @@ def _affine(weight: np.ndarray, bias: np.ndarray, x: list[float]) -> list[float]
 
 
 def plain_q(weights: dict[str, np.ndarray], observation: np.ndarray, branches: int,
-            sub_actions: int) -> list[list[float]]:
-    """Q_d(s, a_d) = V(s) + A_d(s, a_d) - mean_a' A_d(s, a') by loops, [d][a_d]."""
+            sub_actions: int, groups: int = 1) -> list[list[float]]:
+    """Q_d(s, a_d) = V_g(s) + A_d(s, a_d) - mean_a' A_d(s, a') by loops, [d][a_d], g the
+    group of branch d (one group: V(s); else the branches in ``groups`` equal runs)."""
     x = [float(v) for v in observation]
     layer = 0
     while f"torso.{2 * layer}.weight" in weights:
         x = _relu(_affine(weights[f"torso.{2 * layer}.weight"],
                           weights[f"torso.{2 * layer}.bias"], x))
         layer += 1
-    value = _affine(weights["value.weight"], weights["value.bias"], x)[0]
+    values = _affine(weights["value.weight"], weights["value.bias"], x)
+    assert len(values) == groups
     advantage = _affine(weights["advantage.weight"], weights["advantage.bias"], x)
     q = []
     for d in range(branches):
         branch = advantage[d * sub_actions:(d + 1) * sub_actions]
         mean = sum(branch) / sub_actions
+        value = values[d // (branches // groups)]
         q.append([value + a - mean for a in branch])
     return q
 
@@ -75,25 +78,30 @@ def _argmax(values: list[float]) -> int:
     return max(range(len(values)), key=lambda index: (values[index], -index))
 
 
-def _agent(mode: str = "paper", seeds: tuple[int, ...] = (0, 1), **keys: object
-           ) -> tuple[StackedBdq, ActionSet]:
-    config = BdqAgent(**{"algorithm": "bdq", "hidden_sizes": [8, 6], **keys})
-    actions = ActionSet(2, mode)  # 2 clusters: 5 branches
+def _agent(mode: str = "paper", seeds: tuple[int, ...] = (0, 1), uavs: int = 1,
+           **keys: object) -> tuple[StackedBdq, ActionSet]:
+    """2 clusters per UAV, 5 branches each; with ``uavs`` > 1 a value per UAV."""
+    split = {"reward_split": "per-uav"} if uavs > 1 else {}
+    config = BdqAgent(**{"algorithm": "bdq", "hidden_sizes": [8, 6], **split, **keys})
+    actions = ActionSet(2, mode, uavs)
     return StackedBdq(config, 9, actions, list(seeds)), actions
 
 
-@pytest.mark.parametrize("mode", ["paper", "with-hover"])
-def test_forward_pass_and_greedy_action_follow_the_formula(mode):
-    agent, actions = _agent(mode)
+@pytest.mark.parametrize(("mode", "uavs"), [("paper", 1), ("with-hover", 1), ("paper", 2)])
+def test_forward_pass_and_greedy_action_follow_the_formula(mode, uavs):
+    agent, actions = _agent(mode, uavs=uavs)
+    branches = 5 * uavs
     observations = np.random.default_rng(1).normal(size=(2, 5, 9)).astype(np.float32)
     q = agent.q_values(torch.from_numpy(observations)).numpy()
-    assert q.shape == (2, 5, 5 * actions.base)
+    assert q.shape == (2, 5, branches * actions.base)
     greedy_host = agent.greedy(observations)
     greedy_torch = agent.device_greedy(torch.from_numpy(observations)).numpy()
     for member in range(2):
         weights = agent.policy_arrays(member)
+        assert weights["value.weight"].shape == (uavs, 6)
         for row in range(5):
-            expected = plain_q(weights, observations[member, row], 5, actions.base)
+            expected = plain_q(weights, observations[member, row], branches, actions.base,
+                               uavs)
             np.testing.assert_allclose(q[member, row], np.concatenate(expected), rtol=1e-5,
                                        atol=1e-6)
             digits = [_argmax(branch) for branch in expected]
@@ -103,45 +111,51 @@ def test_forward_pass_and_greedy_action_follow_the_formula(mode):
                 2 * a - 1 if mode == "paper" else a - 1 for a in digits]
 
 
-@pytest.mark.parametrize("loss", ["mse", "huber"])
-def test_td_update_follows_the_shared_double_target_and_the_branch_mean_loss(loss):
+@pytest.mark.parametrize(("loss", "uavs"), [("mse", 1), ("huber", 1), ("mse", 2), ("huber", 3)])
+def test_td_update_follows_the_shared_double_target_and_the_branch_mean_loss(loss, uavs):
+    """One UAV (or ``reward_split = "team"``): one target for every branch; per UAV: UAV
+    u's branches bootstrap from their own mean and learn from r_u."""
     gamma = 0.9
-    agent, actions = _agent(gamma=gamma, loss=loss)
-    other, _ = _agent(seeds=(7, 8))
+    agent, actions = _agent(gamma=gamma, loss=loss, uavs=uavs)
+    other, _ = _agent(seeds=(7, 8), uavs=uavs)
     agent.target.copy_(other.params)  # a target network unlike the policy network
     rng = np.random.default_rng(2)
-    batch, branches, base = 4, 5, actions.base
+    batch, branches, base = 4, 5 * uavs, actions.base
+    per_uav = branches // uavs
     observations = rng.normal(size=(2, batch, 9)).astype(np.float32)
     next_observations = rng.normal(size=(2, batch, 9)).astype(np.float32)
     chosen = rng.integers(base, size=(2, batch, branches))
-    rewards = rng.normal(size=(2, batch)).astype(np.float32)
+    rewards = rng.normal(size=(2, batch, uavs)).astype(np.float32)
     not_terminal = np.array([[1, 0, 1, 1], [1, 1, 1, 0]], dtype=np.float32)
     policies = [agent.policy_arrays(member) for member in range(2)]
     targets = [agent.state_from_row(agent.target[member].numpy()) for member in range(2)]
 
-    def target(member: int, i: int) -> float:
-        """y = r + gamma (1/D) sum_d Q^-_d(s', argmax_a' Q_d(s', a')), by loops."""
-        online_next = plain_q(policies[member], next_observations[member, i], branches, base)
-        target_next = plain_q(targets[member], next_observations[member, i], branches, base)
-        bootstrap = sum(target_next[d][_argmax(online_next[d])]
-                        for d in range(branches)) / branches
-        return float(rewards[member, i]) + gamma * float(not_terminal[member, i]) * bootstrap
+    def target(member: int, i: int, u: int) -> float:
+        """y_u = r_u + gamma (1/D_u) sum_{d of u} Q^-_d(s', argmax_a' Q_d(s', a')), by
+        loops."""
+        online_next = plain_q(policies[member], next_observations[member, i], branches, base,
+                              uavs)
+        target_next = plain_q(targets[member], next_observations[member, i], branches, base,
+                              uavs)
+        mine = range(u * per_uav, (u + 1) * per_uav)
+        bootstrap = sum(target_next[d][_argmax(online_next[d])] for d in mine) / per_uav
+        return (float(rewards[member, i, u])
+                + gamma * float(not_terminal[member, i]) * bootstrap)
 
     expected_loss = []
     for member in range(2):
         total = 0.0
         for i in range(batch):
-            y = target(member, i)
-            q = plain_q(policies[member], observations[member, i], branches, base)
+            q = plain_q(policies[member], observations[member, i], branches, base, uavs)
             for d in range(branches):
-                error = y - q[d][chosen[member, i, d]]
+                error = target(member, i, d // per_uav) - q[d][chosen[member, i, d]]
                 total += error**2 if loss == "mse" else (
                     0.5 * error**2 if abs(error) < 1 else abs(error) - 0.5)
         expected_loss.append(total / (batch * branches))
 
     agent.update(torch.from_numpy(observations), torch.from_numpy(chosen),
-                 torch.from_numpy(rewards), torch.from_numpy(next_observations),
-                 torch.from_numpy(not_terminal))
+                 torch.from_numpy(rewards[..., 0] if uavs == 1 else rewards),
+                 torch.from_numpy(next_observations), torch.from_numpy(not_terminal))
     np.testing.assert_allclose(agent.loss_sum.numpy(), expected_loss, rtol=1e-5)
 
     # the gradient of that loss by autograd through the same loops, the target held fixed
@@ -150,7 +164,6 @@ def test_td_update_follows_the_shared_double_target_and_the_branch_mean_loss(los
                   for name, value in policies[member].items()}
         total = torch.zeros((), dtype=torch.float64)
         for i in range(batch):
-            y = target(member, i)
             x = torch.from_numpy(observations[member, i]).double()
             layer = 0
             while f"torso.{2 * layer}.weight" in params:
@@ -161,7 +174,8 @@ def test_td_update_follows_the_shared_double_target_and_the_branch_mean_loss(los
             advantage = params["advantage.weight"] @ x + params["advantage.bias"]
             for d in range(branches):
                 branch = advantage[d * base:(d + 1) * base]
-                error = y - (value[0] + branch[chosen[member, i, d]] - branch.mean())
+                error = target(member, i, d // per_uav) - (
+                    value[d // per_uav] + branch[chosen[member, i, d]] - branch.mean())
                 total = total + (error**2 if loss == "mse" else torch.nn.functional.huber_loss(
                     error, torch.zeros_like(error), delta=1.0))
         (total / (batch * branches)).backward()
@@ -177,6 +191,38 @@ def test_replay_stores_a_sub_action_per_branch():
     stored = agent.stored_actions(dense)
     assert stored.shape == (3, 5)
     assert np.array_equal(actions.encode(2 * stored - 1), dense)
+
+
+def test_replay_keeps_the_reward_of_every_uav_apart():
+    """Rows [s | s' | r_1 .. r_G | 1 - terminated | a_1 .. a_D]: what goes in comes out, in
+    a batch, in a checkpoint's arrays and after loading them."""
+    from adaptsky.algos.replay import StackedReplay
+
+    memory = StackedReplay(2, 4, 3, torch.device("cpu"), action_width=5, reward_width=2)
+    rng = np.random.default_rng(3)
+    rows = []
+    for _ in range(3):
+        row = (rng.normal(size=(2, 3)).astype(np.float32), rng.integers(2, size=(2, 5)),
+               rng.normal(size=(2, 2)).astype(np.float32),
+               rng.normal(size=(2, 3)).astype(np.float32), rng.random(2) < 0.5)
+        memory.add(*row)
+        rows.append(row)
+    batch = memory.gather(torch.tensor([[2, 0], [1, 1]]))
+    for member, index in ((0, 2), (0, 0), (1, 1)):
+        at = [2, 0].index(index) if member == 0 else 0
+        obs, actions, rewards, next_obs, terminated = rows[index]
+        assert np.array_equal(batch.observations[member, at], obs[member])
+        assert np.array_equal(batch.actions[member, at], actions[member])
+        assert np.array_equal(batch.rewards[member, at], rewards[member])
+        assert np.array_equal(batch.next_observations[member, at], next_obs[member])
+        assert batch.not_terminal[member, at] == (not terminated[member])
+    arrays = memory.arrays(1)
+    assert arrays["rewards"].shape == (3, 2) and arrays["actions"].shape == (3, 5)
+    assert np.array_equal(arrays["rewards"], np.stack([row[2][1] for row in rows]))
+    other = StackedReplay(2, 4, 3, torch.device("cpu"), action_width=5, reward_width=2)
+    other.load(1, arrays, memory.position)
+    for name, value in other.arrays(1).items():
+        assert np.array_equal(value, arrays[name]), name
 
 
 def test_bdq_is_an_algorithm_with_its_own_keys():

@@ -8,6 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from adaptsky.rollouts.several_uavs import best_response
 from adaptsky.scenario import parse_scenario
@@ -35,14 +36,22 @@ TWO_UAVS = {
 }
 
 
-def _scenario_file(tmp_path: Path) -> Path:
+SPLITS = ["team", "per-uav"]
+
+
+def _with_split(split: str) -> dict:
+    return {**TWO_UAVS, "agent": {**TWO_UAVS["agent"], "reward_split": split}}
+
+
+def _scenario_file(tmp_path: Path, split: str = "team") -> Path:
     path = tmp_path / "two_small.toml"
-    path.write_text(dumps(TWO_UAVS))
+    path.write_text(dumps(_with_split(split)))
     return path
 
 
-def test_a_seed_in_a_stack_equals_the_seed_alone():
-    scenario = parse_scenario(TWO_UAVS, "two")
+@pytest.mark.parametrize("split", SPLITS)
+def test_a_seed_in_a_stack_equals_the_seed_alone(split):
+    scenario = parse_scenario(_with_split(split), "two")
     stack = StackRun([Member(scenario, seed) for seed in (3, 4)])
     alone = StackRun([Member(scenario, 4)])
     for together, single in zip([stack.run_episode() for _ in range(2)],
@@ -52,20 +61,32 @@ def test_a_seed_in_a_stack_equals_the_seed_alone():
     assert_same_checkpoints(stack.checkpoint(1), alone.checkpoint(0))
 
 
-def test_resume_equals_the_uninterrupted_run_and_evaluations_use_best_response(tmp_path):
-    args = {"scenario_path": _scenario_file(tmp_path), "seeds": [0, 1], "workers": 1,
+@pytest.mark.parametrize("split", SPLITS)
+def test_resume_equals_the_uninterrupted_run_and_evaluations_use_best_response(tmp_path,
+                                                                               split):
+    args = {"scenario_path": _scenario_file(tmp_path, split), "seeds": [0, 1], "workers": 1,
             "quiet": True}
     first, _ = api.train(out=tmp_path / "a.h5", episodes=4, **args)
     resumed, _ = api.train(out=tmp_path / "r.h5", episodes=2, **args)
     assert main(["train", "--resume", str(resumed), "--episodes", "4", "--workers", "1",
                  "--quiet"]) == 0
     assert_same_curves(curves(resumed), curves(first))
-    scenario = parse_scenario(TWO_UAVS, "two")
+    scenario = parse_scenario(_with_split(split), "two")
+    values = 2 if split == "per-uav" else 1
     reference = best_response(scenario, user_layouts(scenario, 1)).objective_bps[0]
     with RunReader(first) as a, RunReader(resumed) as b:
         for seed in (0, 1):
-            for name, value in a.checkpoint(seed)["agent"]["policy"].items():
+            checkpoint = a.checkpoint(seed)
+            for name, value in checkpoint["agent"]["policy"].items():
                 assert np.array_equal(value, b.checkpoint(seed)["agent"]["policy"][name])
+            # a value per UAV, and the replay keeps each UAV's part of every reward
+            assert checkpoint["agent"]["policy"]["value.weight"].shape == (values, 16)
+            stored = checkpoint["replay"]["rewards"]
+            assert stored.shape == ((40, 2) if values == 2 else (40,))
+            assert np.array_equal(stored, b.checkpoint(seed)["replay"]["rewards"])
+            if values == 2:  # the last episode's rows: its parts add up to its rewards
+                np.testing.assert_allclose(stored[-10:].sum(axis=-1),
+                                           a.trajectory(seed)["reward"], rtol=1e-6)
             evaluations = a.evaluations(seed)
             for name, value in evaluations.items():
                 assert np.array_equal(value, b.evaluations(seed)[name], equal_nan=True), name
