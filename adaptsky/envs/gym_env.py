@@ -59,7 +59,8 @@ from adaptsky.sim.observation import observation_bounds
 RENDER_MODES = ["ansi"]
 # nominal frames per second of a rendered episode (the model has no time per step)
 RENDER_FPS = 4
-INFO_KEYS = ("uav_m", "alpha", "gain", "los", "p_los", "rate_bps", "sum_rate_bps", "fairness")
+INFO_KEYS = ("uav_m", "alpha", "gain", "los", "p_los", "rate_bps", "sum_rate_bps", "fairness",
+             "energy_j")
 # several UAVs: also the interference every user hears (W)
 MULTI_INFO_KEYS = (*INFO_KEYS[:3], "interference_w", *INFO_KEYS[3:])
 

@@ -26,6 +26,7 @@ from adaptsky.rollouts.soa import soa_configuration
 from adaptsky.scenario import Scenario
 from adaptsky.sim.actions import ActionSet
 from adaptsky.sim.batch import NomaUavBatch
+from adaptsky.sim.multi_batch import network_batch
 
 BASELINES = ("soa", "oracle", "best-response", "oma", "random")
 SEARCHES = ("oracle", "best-response", "oma")
@@ -90,8 +91,10 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
             alpha_first = found.alpha_first[:, 0] if one_uav else found.alpha_first
             trace = hold(scenario, uav_m, alpha_first, 1, users_m, seed)
         else:
+            hover_j = network_batch(scenario, len(users_m), users_m=users_m).hover_energy_j
             trace = Trace(found.rate_bps[None].copy(), uav_m[None].copy(),
-                          np.full((1, *found.rate_bps.shape), OMA_POWER_SHARE))
+                          np.full((1, *found.rate_bps.shape), OMA_POWER_SHARE),
+                          hover_j[None].copy())
     else:
         count = ActionSet.of(scenario).count
         trace = rollout(scenario, random_policy(count, seed), steps, users_m, seed, on_progress)

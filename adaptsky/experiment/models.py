@@ -13,7 +13,8 @@ from pydantic import Field, field_validator, model_validator
 
 from adaptsky.scenario.models import NAME_MAX_LENGTH, Section, safe_name
 
-FigureKind = Literal["learning-curves", "min-se-sweep", "layout-gains", "uav-count"]
+FigureKind = Literal["learning-curves", "min-se-sweep", "layout-gains", "uav-count",
+                     "energy-front"]
 Baseline = Literal["soa", "oracle", "random", "best-response", "oma"]
 # figure kinds whose evaluated groups are each an x point of their own (their own scenario,
 # layouts and baselines) rather than rows over one set of layouts
@@ -30,7 +31,11 @@ QUANTITIES: dict[str, tuple[str, ...]] = {
                      "max_gain_pct_vs_*", "steady_pct_of_oracle"),
     "uav-count": ("sum_rate_bps", "fairness", "pct_of_best_response", "gain_vs_soa_pct",
                   "noma_over_oma_pct"),
+    "energy-front": ("sum_rate_bps", "energy_efficiency_bpj", "ee_ratio_vs_unweighted",
+                     "sum_rate_pct_of_unweighted", "still_share_pct", "vertical_share_pct"),
 }
+# the key an energy-front figure sweeps (its x points are reward weights)
+ENERGY_SWEEP_KEY = "reward.w_energy"
 
 
 class Sweep(Section):
@@ -141,6 +146,13 @@ class Experiment(Section):
         if len(set(evaluated)) != len(evaluated):
             raise ValueError("evaluation: a group is named twice in policy, compare_groups and "
                              f"also ({', '.join(evaluated)})")
+        policy = self.group(spec.policy)
+        if self.figure.kind == "energy-front" and (
+                policy.sweep is None or policy.sweep.key != ENERGY_SWEEP_KEY
+                or 0 not in policy.sweep.values):
+            raise ValueError(f"an energy-front figure needs the evaluated group "
+                             f"'{spec.policy}' swept over {ENERGY_SWEEP_KEY} with 0 among "
+                             "the values (the weight every other is compared with)")
         if spec.also and self.figure.kind not in ("layout-gains", *PER_GROUP_KINDS):
             raise ValueError(f"evaluation.also: other groups are measured in a layout-gains "
                              f"or uav-count figure only, not in a {self.figure.kind} one")

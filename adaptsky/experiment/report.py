@@ -27,8 +27,11 @@ from adaptsky.experiment.models import PER_GROUP_KINDS, Claim
 from adaptsky.experiment.plan import Plan, RunSpec, shipped_experiments
 from adaptsky.report import figures
 from adaptsky.report.curves import LAST_EPISODES, band, curve_window
+from adaptsky.report.energy_figure import FrontPoint, draw_energy_front
 from adaptsky.report.plot_runs import BAND_NOTES, curve_series, write_curves_csv
 from adaptsky.rollouts.metrics import compare
+from adaptsky.scenario import parse_scenario
+from adaptsky.sim.energy import efficiency_bound_bpj
 from adaptsky.store.atomic import utc_timestamp, write_text_atomic
 from adaptsky.store.run_file import RunReader
 from adaptsky.units import format_duration, format_rate, plural, rate_unit
@@ -449,6 +452,100 @@ PAPER_WORDS = {"beats_share_pct": "beats on", "mean_gain_pct": "mean",
                "median_gain_pct": "median", "max_gain_pct": "max"}
 
 
+def _steady(evaluations: Evaluations, run: RunSpec, metric: str) -> float | None:
+    metrics = evaluations.runs.get(run.name)
+    return None if metrics is None or metric not in metrics else float(metrics[metric][0])
+
+
+def energy_front(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
+    """E5 (ours): per reward weight w_e and evaluated policy (last, best), each run's greedy
+    steady state on the training layout: sum rate, energy efficiency, both against the same
+    seed's run at w_e = 0, and how it flies (the share of moves that stay in place and that
+    change height); the front of sum rate against energy efficiency, the hovering baselines,
+    and the most energy efficiency any policy can reach (docs/model.md §10)."""
+    experiment, analysis = plan.experiment, Analysis()
+    spec = experiment.evaluation
+    group = experiment.group(spec.policy)
+    values = sorted({run.sweep_value for run in plan.group_runs(group.name)})
+    by_value = {value: _done_runs([r for r in plan.group_runs(group.name)
+                                   if r.sweep_value == value]) for value in values}
+    first = spec.policies[0]
+    points, rows = [], []
+    for policy in spec.policies:
+        measured = evaluations.of(policy)
+        unweighted = {run.seed: run for run in by_value.get(0, by_value.get(0.0, []))}
+        for value in values:
+            row = f"{row_label(group.title, policy, spec.policies)}, w_e = {value:g}"
+            rates, effs = [], []
+            for run in by_value[value]:
+                rate = _steady(measured, run, "steady_sum_rate_bps")
+                eff = _steady(measured, run, "steady_energy_efficiency_bpj")
+                if rate is None or eff is None:
+                    continue
+                rates.append(rate)
+                effs.append(eff)
+                analysis.add(row, "sum_rate_bps", rate)
+                analysis.add(row, "energy_efficiency_bpj", eff)
+                for name in ("still", "vertical"):
+                    share = _steady(measured, run, f"steady_{name}_share")
+                    if share is not None:
+                        analysis.add(row, f"{name}_share_pct", 100 * share)
+                base = unweighted.get(run.seed)
+                base_rate = None if base is None else _steady(measured, base,
+                                                              "steady_sum_rate_bps")
+                base_eff = None if base is None else _steady(
+                    measured, base, "steady_energy_efficiency_bpj")
+                if base_rate and base_eff:  # paired by seed
+                    analysis.add(row, "ee_ratio_vs_unweighted", eff / base_eff)
+                    analysis.add(row, "sum_rate_pct_of_unweighted", 100 * rate / base_rate)
+            if not rates:
+                continue
+            rate_band = band(np.array(rates)[:, None], experiment.figure.band)
+            ee_band = band(np.array(effs)[:, None], experiment.figure.band)
+            rate3 = (float(rate_band[0][0]), float(rate_band[1][0]), float(rate_band[2][0]))
+            ee3 = (float(ee_band[0][0]), float(ee_band[1][0]), float(ee_band[2][0]))
+            rows.append([value, policy, len(rates), *rate3, *ee3])
+            if policy == first:
+                points.append(FrontPoint(f"$w_e$ = {value:g}", ee3, rate3, len(rates)))
+    references: dict[str, tuple[float, float]] = {}
+    bound = None
+    for name, label in (("oracle", "oracle (hovers)"), ("soa", "SoA (hovers)")):
+        metrics = evaluations.baselines.get((name, values[0] if values else None))
+        if metrics is not None and "steady_energy_efficiency_bpj" in metrics:
+            references[label] = (float(metrics["steady_energy_efficiency_bpj"][0]),
+                                 float(metrics["steady_sum_rate_bps"][0]))
+            rows.append([values[0], name, 1, references[label][1], references[label][1],
+                         references[label][1], references[label][0], references[label][0],
+                         references[label][0]])
+            if name == "oracle":
+                run = next(iter(by_value.get(values[0], [])), None) or plan.group_runs(
+                    group.name)[0]
+                scenario = parse_scenario(run.config, run.name)
+                bound = efficiency_bound_bpj(scenario, references[label][1])
+    if not points:
+        analysis.notes.append("no run has finished: nothing to draw")
+        return analysis
+    png = out / f"{experiment.id}.png"
+    draw_energy_front(png, points, references, bound, title=_title(plan))
+    _write_csv(out / f"{experiment.id}.csv",
+               ["w_energy", "policy", "runs", "sum_rate_mean_bps", "sum_rate_low_bps",
+                "sum_rate_high_bps", "ee_mean_bpj", "ee_low_bpj", "ee_high_bpj"], rows)
+    if bound is not None:
+        for row in analysis.rows:
+            analysis.bounds.setdefault(row, {})["energy_efficiency_bpj"] = [bound]
+        analysis.notes.append(
+            f"the most energy efficiency any policy can reach on this layout is "
+            f"{bound / 1e6:.1f} Mbit/J: no step carries more than the oracle's sum rate, nor "
+            "costs less than the least power of one step (docs/model.md §10)")
+    analysis.notes.append(
+        "each run's greedy policy is measured over the last 100 of "
+        f"{spec.steps} steps on the training layout; ratios and percentages pair each run "
+        "with the run of the same seed at w_e = 0; 'still': moves that keep the UAV's "
+        "horizontal position, 'vertical': moves that change its height")
+    analysis.files += [png, out / f"{experiment.id}.csv"]
+    return analysis
+
+
 def _paper_summary(plan: Plan, method: str) -> str:
     """'paper: beats on 67%, mean +39.11%, max +275.4%' from the claims about ``method``."""
     texts = [f"{PAPER_WORDS[c.quantity.removesuffix(f'_vs_{method}')]} {c.paper_text}"
@@ -459,7 +556,7 @@ def _paper_summary(plan: Plan, method: str) -> str:
 
 ANALYSES: dict[str, Callable[[Plan, Evaluations, Path], Analysis]] = {
     "learning-curves": learning_curves, "min-se-sweep": min_se_sweep,
-    "layout-gains": layout_gains, "uav-count": uav_count}
+    "layout-gains": layout_gains, "uav-count": uav_count, "energy-front": energy_front}
 
 
 def _title(plan: Plan) -> str:
@@ -477,6 +574,10 @@ def _format(quantity: str, value: float) -> str:
         return f"{value:+.1f}%"
     if quantity == "fairness_minus_soa":
         return f"{value:+.1f} points"
+    if quantity.endswith("_bpj"):
+        return f"{value / 1e6:.1f} Mbit/J"
+    if "ratio" in quantity:
+        return f"{value:.3f}x"
     if "gain" in quantity:
         return f"{value:+.1f}%"
     return f"{value:.1f}%"

@@ -22,12 +22,56 @@ def meets_min_rate(rate_bps: NDArray[np.float64], min_rate_bps: float) -> NDArra
     return rate_bps >= min_rate_bps * (1 - MIN_RATE_TOLERANCE)
 
 
-def layout_metrics(trace: Trace, bandwidth_hz: float, min_rate_bps: float
-                   ) -> dict[str, NDArray[np.float64]]:
+def energy_efficiency_bpj(sum_rate_bps: NDArray[np.float64], energy_j: NDArray[np.float64],
+                          step_s: float) -> NDArray[np.float64]:
+    """EE = sum_t R_tot,t step_s / sum_t E_t, bit/J, over the first (step) axis; E_t summed
+    over the UAVs already (docs/model.md §10)."""
+    return sum_rate_bps.sum(axis=0) * step_s / energy_j.sum(axis=0)
+
+
+def motion_shares(uav_m: NDArray[np.float64]) -> dict[str, NDArray[np.float64]]:
+    """Per layout, over the last 100 moves of every UAV (positions (T, L, 3) or (T, L, U,
+    3)): the share in which a UAV stayed where it was horizontally, and the share in which
+    it changed its height (how a policy flies; docs/model.md §10). A trace of one step is a
+    held configuration (the baselines): it stays, always."""
+    moves = np.diff(uav_m[-STEADY_STEPS - 1:], axis=0)          # (T', L, [U,] 3)
+    if not len(moves):
+        layouts = uav_m.shape[1]
+        return {"steady_still_share": np.ones(layouts),
+                "steady_vertical_share": np.zeros(layouts)}
+    still = (moves[..., 0] == 0) & (moves[..., 1] == 0)
+    vertical = moves[..., 2] != 0
+    axes = (0, 2) if moves.ndim == 4 else 0                      # steps (and UAVs)
+    return {"steady_still_share": still.mean(axis=axes),
+            "steady_vertical_share": vertical.mean(axis=axes)}
+
+
+def energy_metrics(trace: Trace, step_s: float) -> dict[str, NDArray[np.float64]]:
+    """Per layout (L,): the energy of all steps and UAVs (J), the mean power over the last
+    100 steps (W, all UAVs), the energy efficiency over all steps and over the last 100
+    (bit/J) and :func:`motion_shares`; for several UAVs also each UAV's energy (L, U)."""
+    per_uav = trace.energy_j
+    energy = per_uav if per_uav.ndim == 2 else per_uav.sum(axis=-1)        # (T, L)
+    sum_rate = trace.sum_rate_bps
+    metrics = {
+        "energy_j": energy.sum(axis=0),
+        "steady_power_w": energy[-STEADY_STEPS:].mean(axis=0) / step_s,
+        "energy_efficiency_bpj": energy_efficiency_bpj(sum_rate, energy, step_s),
+        "steady_energy_efficiency_bpj": energy_efficiency_bpj(
+            sum_rate[-STEADY_STEPS:], energy[-STEADY_STEPS:], step_s),
+    } | motion_shares(trace.uav_m)
+    if per_uav.ndim == 3:
+        metrics["uav_energy_j"] = per_uav.sum(axis=0)
+    return metrics
+
+
+def layout_metrics(trace: Trace, bandwidth_hz: float, min_rate_bps: float,
+                   step_s: float = 1.0) -> dict[str, NDArray[np.float64]]:
     """Per layout (L,): mean sum rate over the steps, over the last 100 steps (steady
     state), mean Jain index, the smallest user's mean spectral efficiency, the share of steps
-    with every user at or above R_min (over all steps, and over the last 100); and the final
-    UAV position (L, 3), or every UAV's (L, U, 3) for several UAVs."""
+    with every user at or above R_min (over all steps, and over the last 100); the final
+    UAV position (L, 3), or every UAV's (L, U, 3) for several UAVs; and the energy of
+    :func:`energy_metrics` with steps of ``step_s`` seconds."""
     sum_rate = trace.sum_rate_bps
     all_met = meets_min_rate(trace.rate_bps, min_rate_bps).all(axis=-1)
     return {
@@ -38,7 +82,7 @@ def layout_metrics(trace: Trace, bandwidth_hz: float, min_rate_bps: float
         "satisfied_share": all_met.mean(axis=0),
         "steady_satisfied_share": all_met[-STEADY_STEPS:].mean(axis=0),
         "final_uav_m": trace.uav_m[-1],
-    }
+    } | energy_metrics(trace, step_s)
 
 
 def percent_of(steady_bps: NDArray[np.float64], reference_bps: NDArray[np.float64]
@@ -88,5 +132,6 @@ class Method:
     @classmethod
     def of(cls, name: str, scenario: Scenario, trace: Trace,
            details: dict[str, Any] | None = None) -> Method:
-        metrics = layout_metrics(trace, scenario.radio.bandwidth_hz, scenario.min_rate_bps)
+        metrics = layout_metrics(trace, scenario.radio.bandwidth_hz, scenario.min_rate_bps,
+                                 scenario.uav.step_s)
         return cls(name, trace, metrics, details or {})

@@ -138,6 +138,8 @@ class Uav(Section):
     actions: Literal["paper", "with-hover"] = Field(
         "paper", description="'paper': each component in {-1,+1}; 'with-hover': in {-1,0,+1}"
     )
+    step_s: float = Field(1.0, gt=0, le=3600, description="duration of a step, s: the speed "
+                          "of a move and the energy of a step (docs/model.md §10)")
     count: int = Field(1, ge=1, le=MAX_UAVS, description="number of UAVs U (docs/model.md §9)")
     start_positions_m: list[Annotated[list[CoordinateM], Field(min_length=3, max_length=3)]] | (
         None) = Field(None, description="start [x, y, h] of every UAV, m; default: start_m "
@@ -233,6 +235,9 @@ class Reward(Section):
                                description="w_s, per user at or above R_min")
     w_unsatisfied: float = Field(0.0, ge=0, le=MAX_REWARD_WEIGHT,
                                  description="w_u, SE of users below R_min")
+    w_energy: float = Field(0.0, ge=0, le=MAX_REWARD_WEIGHT,
+                            description="w_e, the step's propulsion and transmit energy in "
+                            "hover steps, subtracted (docs/model.md §10)")
 
 
 class Train(Section):

@@ -22,6 +22,7 @@ from adaptsky.channels.registry import get_model_class
 from adaptsky.scenario.models import Scenario
 from adaptsky.scenario.one_uav import require_one_uav
 from adaptsky.sim import noma
+from adaptsky.sim.energy import EnergyAccount
 from adaptsky.sim.gain_bounds import gain_range, reachable_heights
 from adaptsky.sim.layout import pair_users, user_layouts
 from adaptsky.sim.observation import FEATURES_PER_USER, Observer, observe
@@ -81,7 +82,7 @@ def reward_weights(scenario: Scenario) -> noma.RewardWeights:
     r = scenario.reward
     return noma.RewardWeights(w_rate=r.w_rate, w_fairness=r.w_fairness, w_gain=r.w_gain,
                               w_satisfied=r.w_satisfied, w_unsatisfied=r.w_unsatisfied,
-                              min_rate_bps=scenario.min_rate_bps)
+                              min_rate_bps=scenario.min_rate_bps, w_energy=r.w_energy)
 
 
 @dataclass(frozen=True)
@@ -90,7 +91,9 @@ class NetworkState:
 
     gain is the linear gain of one antenna pair used for the rates (with the step's fading
     where the channel model draws it); los the LoS state of each link (for ``los =
-    "expected"``: P_LoS > 0.5); p_los the LoS probability.
+    "expected"``: P_LoS > 0.5); p_los the LoS probability; energy_j the UAV's propulsion and
+    transmit energy of the step (docs/model.md §10; a hovering step after a reset or for a
+    held configuration).
     """
 
     uav_m: FloatArray
@@ -102,12 +105,13 @@ class NetworkState:
     sum_rate_bps: FloatArray
     fairness: FloatArray
     reward: FloatArray
+    energy_j: FloatArray
 
     @classmethod
     def _new(cls, uav_m: FloatArray, alpha: FloatArray, gain: FloatArray,
              los: NDArray[np.bool_], p_los: FloatArray, rate_bps: FloatArray,
-             sum_rate_bps: FloatArray, fairness: FloatArray, reward: FloatArray
-             ) -> NetworkState:
+             sum_rate_bps: FloatArray, fairness: FloatArray, reward: FloatArray,
+             energy_j: FloatArray) -> NetworkState:
         """The state with these fields, made without the frozen dataclass's ``__init__``,
         which sets each field through ``object.__setattr__`` (for the environment's step):
         each field is written straight into the instance's ``__dict__``, the cheapest way."""
@@ -122,6 +126,7 @@ class NetworkState:
         fields["sum_rate_bps"] = sum_rate_bps
         fields["fairness"] = fairness
         fields["reward"] = reward
+        fields["energy_j"] = energy_j
         return state
 
     def for_env(self, index: int) -> dict[str, np.ndarray | float]:
@@ -135,6 +140,7 @@ class NetworkState:
             "rate_bps": self.rate_bps[index].copy(),
             "sum_rate_bps": float(self.sum_rate_bps[index]),
             "fairness": float(self.fairness[index]),
+            "energy_j": float(self.energy_j[index]),
         }
 
 
@@ -191,6 +197,7 @@ class NomaUavBatch:
             raise ValueError(f"users_m must have shape {(num_envs, self.num_users, 2)}, "
                              f"got {users_m.shape}")
         self._start_m = np.array(scenario.uav.start_m, dtype=np.float64)
+        self._energy = EnergyAccount(scenario, self.weights, (num_envs,))
         self._pair(users_m)
         self._prepare_step()
         self._seed(seed)
@@ -414,11 +421,13 @@ class NomaUavBatch:
         """alpha (B, N) of every user from the first users' shares (B, K)."""
         return self._to_users(alpha_first, 1.0 - alpha_first)
 
-    def _evaluate(self, state: SimState) -> NetworkState:
-        """The network in ``state``; also sets ``_obs``.
+    def _evaluate(self, state: SimState, energy_j: FloatArray | None = None) -> NetworkState:
+        """The network in ``state`` after a step of energy ``energy_j`` (B,) (None: a hovering
+        step); also sets ``_obs``.
 
-        Eq. 2 (SINR) in user order, eq. 3 (rates), eq. 9 (Jain) and eq. 13 (reward); the sums
-        over users of R, R^2, R/W (and g where the reward needs it) are one reduction.
+        Eq. 2 (SINR) in user order, eq. 3 (rates), eq. 9 (Jain) and eq. 13 (reward, with its
+        energy term where ``reward.w_energy`` is set); the sums over users of R, R^2, R/W (and
+        g where the reward needs it) are one reduction.
         """
         config = state.config
         uav_m = one_uav(config)[:, :3]
@@ -453,11 +462,16 @@ class NomaUavBatch:
         fairness = noma.jain_from_sums(total, sums[1], self._num_users)
         rewards = reward(rates, gain, fairness, sums[2],
                          sums[3] if reward.needs_gain_sum else None)
+        energy = self._energy
+        if energy_j is None:
+            energy_j = energy.hover_j
+        if energy.weighted:
+            rewards = energy.rewarded(rewards, energy_j)
         # the observer writes the gains over the partners' shares and scales every row in
         # place (alpha is divided by 1, which leaves it as it is)
         self._obs = self._observer(features, gain, uav_m[:, 2], self._order_flat)
         return NetworkState._new(uav_m.copy(), alpha, gain, los, p_los, rates, total,
-                                 fairness, rewards)
+                                 fairness, rewards, energy_j)
 
     def _users_xy(self, users_m: FloatArray) -> FloatArray:
         """:func:`~adaptsky.sim.state.users_xy` of ``users_m``, kept until the users move
@@ -496,6 +510,11 @@ class NomaUavBatch:
         """Step 0: UAV at the start, first users' shares at start_alpha, users at home."""
         self.sim_state = SimState(self._config(self._start_m, self.scenario.uav.start_alpha),
                                   user_positions(self.layouts_m), 0)
+
+    @property
+    def hover_energy_j(self) -> FloatArray:
+        """Each UAV's energy of a hovering step (B,) or (B, U), J (docs/model.md §10)."""
+        return self._energy.hover_j
 
     @property
     def users_m(self) -> FloatArray:
@@ -540,7 +559,10 @@ class NomaUavBatch:
             raise RuntimeError("call reset() before step()")
         dynamics = self._dynamics
         actions = dynamics.checked(actions)    # before anything is drawn
-        sim_state = self.sim_state = step(self.sim_state, actions, dynamics,
+        before = self.sim_state
+        sim_state = self.sim_state = step(before, actions, dynamics,
                                           self._headings() if self._speed_m else None)
-        state = self.state = self._evaluate(sim_state)
+        energy_j = self._energy.of_move(one_uav(before.config)[:, :3],
+                                        one_uav(sim_state.config)[:, :3])
+        state = self.state = self._evaluate(sim_state, energy_j)
         return self._obs, state.reward, sim_state.t >= self._max_steps, state

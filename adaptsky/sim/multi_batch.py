@@ -35,6 +35,7 @@ from adaptsky.sim.batch import (
     reward_weights,
     scenario_geometry,
 )
+from adaptsky.sim.energy import EnergyAccount
 from adaptsky.sim.gain_bounds import gain_range, reachable_heights
 from adaptsky.sim.interference import serving_gain
 from adaptsky.sim.layout import user_layouts
@@ -57,7 +58,9 @@ class MultiNetworkState:
     fading where the channel draws it), ``interference_w`` the other UAVs' power it hears
     (W), ``los`` and ``p_los`` of its serving link, ``strong`` whether it is its cluster's
     strong user (SIC by the effective gain), ``rate_bps``; per environment the sum rate,
-    Jain's index over all users and the reward (eq. 13).
+    Jain's index over all users and the reward (eq. 13); ``energy_j`` (B, U) each UAV's
+    energy of the step (docs/model.md §10; hovering after a reset or for a held
+    configuration).
     """
 
     uav_m: FloatArray
@@ -71,13 +74,14 @@ class MultiNetworkState:
     sum_rate_bps: FloatArray
     fairness: FloatArray
     reward: FloatArray
+    energy_j: FloatArray
 
     def for_env(self, index: int) -> dict[str, np.ndarray | float]:
         """The state of environment ``index`` as a Gymnasium ``info`` dict."""
         info: dict[str, np.ndarray | float] = {
             name: getattr(self, name)[index].copy()
             for name in ("uav_m", "alpha", "gain", "interference_w", "los", "p_los",
-                         "rate_bps")}
+                         "rate_bps", "energy_j")}
         info["sum_rate_bps"] = float(self.sum_rate_bps[index])
         info["fairness"] = float(self.fairness[index])
         return info
@@ -161,6 +165,8 @@ class MultiUavBatch:
         start_gain = start_gain.reshape(self.num_envs, self.num_uavs, self.num_users)
         self.association: Association = associate(
             serving, serving_gain(start_gain, serving), scenario.users.pairing, self.num_uavs)
+        self._energy = EnergyAccount(scenario, self.weights, (self.num_envs, self.num_uavs),
+                                     self.association.clusters_per_uav)
         # users in observation order: as listed, or UAV by UAV and cluster by cluster
         self.observation_order: NDArray[np.intp] | None = None
         if scenario.agent.user_order == "clusters":
@@ -303,7 +309,8 @@ class MultiUavBatch:
         if positions is not moved_m:
             config = np.concatenate([positions, config[..., 3:]], axis=-1)
         self.sim_state = SimState._new(config, moved.users_m, moved.t)
-        self.state = self._evaluate(self.sim_state)
+        self.state = self._evaluate(self.sim_state,
+                                    self._energy.of_move(before.uav_m, positions))
         return self._obs, self.state.reward, self.sim_state.t >= self._max_steps, self.state
 
     def evaluate_at(self, uav_m: FloatArray, alpha_first: FloatArray) -> MultiNetworkState:
@@ -346,9 +353,11 @@ class MultiUavBatch:
             self._carrier_hz, self.bandwidth_hz,
             height_m - user_height_m if self._users_above_ground else height_m)
 
-    def _evaluate(self, state: SimState) -> MultiNetworkState:
+    def _evaluate(self, state: SimState, energy_j: FloatArray | None = None
+                  ) -> MultiNetworkState:
         """Gains of every link, interference, SIC order, SINR and rates (docs/model.md §9),
-        eq. 9 over all users and eq. 13; also sets ``_obs``.
+        eq. 9 over all users and eq. 13 (with its energy term where ``reward.w_energy`` is
+        set) after a step of energy ``energy_j`` (B, U) (None: hovering); also sets ``_obs``.
 
         The numbers of :func:`adaptsky.sim.links.link_gains` and
         :func:`adaptsky.sim.interference.noma_rates`, bit for bit, with the association's
@@ -389,6 +398,10 @@ class MultiUavBatch:
         rate_bps = noma.rate_bps(sinr, radio["bandwidth_hz"])
         fairness = noma.jain_fairness(rate_bps)
         rewards = noma.reward(rate_bps, gain, fairness, self.bandwidth_hz, self.weights)
+        if energy_j is None:
+            energy_j = self._energy.hover_j
+        if self._energy.weighted:
+            rewards = self._energy.rewarded(rewards, energy_j)
         observed = self._observed
         uav_xy = config.take(self._observed_uav_xy)              # (2, B, N)
         users = users_xy(users_m).reshape(2, -1).take(observed, axis=1)
@@ -397,17 +410,25 @@ class MultiUavBatch:
             gain.take(observed), interference.take(observed))
         return MultiNetworkState(uav_m.copy(), alpha, gain, interference, link_los,
                                  link_p_los, strong, rate_bps, rate_bps.sum(axis=-1), fairness,
-                                 rewards)
+                                 rewards, energy_j)
 
     def observation(self) -> NDArray[np.float32]:
         assert self.state is not None, "call reset() first"
         return self._obs
 
+    @property
+    def hover_energy_j(self) -> FloatArray:
+        """Each UAV's energy of a hovering step (B,) or (B, U), J (docs/model.md §10)."""
+        return self._energy.hover_j
+
     def reward_parts(self, state: MultiNetworkState) -> FloatArray:
         """Eq. 13 of ``state`` in parts (B, U), one per UAV
         (:func:`adaptsky.sim.reward.reward_per_uav`)."""
-        return reward_per_uav(state.rate_bps, state.gain, state.fairness, self.bandwidth_hz,
-                              self.weights, self.association.serving_uav, self.num_uavs)
+        parts = reward_per_uav(state.rate_bps, state.gain, state.fairness, self.bandwidth_hz,
+                               self.weights, self.association.serving_uav, self.num_uavs)
+        if self._energy.weighted:
+            parts = parts + self._energy.reward_parts(state.energy_j)
+        return parts
 
 
 NetworkBatch = NomaUavBatch | MultiUavBatch

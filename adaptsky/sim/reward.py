@@ -6,7 +6,9 @@ r = w_r R_tot/W 1[all R_i >= R_min] + w_f J 1[R_min = 0] + w_g sum g_i
 Each summand is a :class:`RewardTerm`: a name, its weight's key in the scenario's ``[reward]``
 section (also the field of :class:`RewardWeights`), the value it weighs, and the indicator of
 eq. 13 that multiplies it, if any. The reward is the weighted sum over :data:`REWARD_TERMS`,
-in that order; a new term (propulsion energy, for instance) is one more entry.
+in that order. The energy term of docs/model.md §10, - w_e E_t / (P(0) step_s), needs the
+step's flight, not the users' rates: the environment adds it (``adaptsky.sim.energy``), and
+only where ``w_energy`` is set, so that every other reward keeps its bits.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ class RewardWeights:
     w_satisfied: float | FloatArray = 0.0
     w_unsatisfied: float | FloatArray = 0.0
     min_rate_bps: float | FloatArray = 0.0
+    w_energy: float | FloatArray = 0.0
 
 
 def stack_weights(weights: list[RewardWeights]) -> RewardWeights:

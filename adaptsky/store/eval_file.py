@@ -80,7 +80,8 @@ def write_eval(path: Path, results: dict[str, Any], methods: list[Method],
             trace = method.trace
             write_tree(group.create_group("trajectory"), {
                 "sum_rate_bps": trace.sum_rate_bps, "rate_bps": trace.rate_bps,
-                "uav_m": trace.uav_m, "alpha": trace.alpha}, compress=True)
+                "uav_m": trace.uav_m, "alpha": trace.alpha, "energy_j": trace.energy_j},
+                compress=True)
             if "rounds" in method.details:  # best response and OMA
                 search = group.create_group(SEARCH)
                 write_tree(search, {key: np.asarray(method.details[key]) for key in

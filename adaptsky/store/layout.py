@@ -33,8 +33,10 @@ from adaptsky.sim.actions import ActionSet
 from adaptsky.sim.observation import observation_size_of
 
 KIND = "adaptsky-run"
-FORMAT_VERSION = 2  # what this adaptsky writes (2: greedy evaluations and the best policy)
-SUPPORTED_VERSIONS = (1, 2)  # what it reads
+# what this adaptsky writes (2: greedy evaluations and the best policy; 3: energy)
+FORMAT_VERSION = 3
+SUPPORTED_VERSIONS = (1, 2, 3)  # what it reads
+ENERGY_VERSION = 3  # the first format with the energy of every episode and step
 MAX_PLUGINS = 64
 
 Needs = Literal["curves", "all"]
@@ -55,6 +57,11 @@ EPISODES = (
     Field("loss", "float", ("E",)),  # NaN before the first update
     Field("mean_rate_bps", "float", ("E", "N"), "bit/s"),
     Field("mean_alpha", "float", ("E", "N")),
+)
+# format 3: the episode's propulsion and transmit energy of every UAV, and bit per joule
+ENERGY_EPISODES = (
+    Field("energy_j", "float", ("E",), "J"),
+    Field("energy_efficiency_bpj", "float", ("E",), "bit/J"),
 )
 # /seeds/<S>/evaluations/ (format 2): one row per greedy evaluation ("V" rows), NaN where a
 # column does not apply (adaptsky.training.evaluation)
@@ -81,6 +88,9 @@ TRAJECTORY = (
     Field("reward", "float", ("T",)),
     Field("action", "int", ("T",)),
 )
+# format 3: each step's energy (docs/model.md §10), of every UAV for several
+STEP_ENERGY = Field("energy_j", "float", ("T",), "J")
+SEVERAL_UAVS_STEP_ENERGY = Field("energy_j", "float", ("T", "U"), "J")
 # several UAVs (docs/model.md §9): every UAV's position per step
 SEVERAL_UAVS_POSITIONS = Field("uav_m", "float", ("T", "U", 3), "m")
 # attributes: name -> type ("int", "str", "json", "rng": a numpy bit generator's state as JSON)
@@ -99,7 +109,8 @@ CONFIG_SECTIONS = ("area", "users", "uav", "radio", "channel", "reward", "agent"
 CONFIG_KEYS = {"train": ("episodes", "steps", "seeds", "checkpoint_every"),
                "users": ("count",), "uav": ("actions",), "channel": ("model",)}
 
-UNITS = {field.name: field.units for field in (*EPISODES, *TRAJECTORY, *EVALUATIONS)}
+UNITS = {field.name: field.units for field in (*EPISODES, *ENERGY_EPISODES, *TRAJECTORY,
+                                               STEP_ENERGY, *EVALUATIONS)}
 UNITS |= {field.name: field.units for spec in ALGORITHMS.values() for field in spec.fields}
 UNITS |= {"training_layouts_m": "m", "heldout_layouts_m": "m", "training_oracle_bps": "bit/s",
           "heldout_oracle_bps": "bit/s"}
@@ -110,6 +121,12 @@ class Sizes:
     """What a stored scenario implies for the layout."""
 
     scenario: Scenario
+    version: int = FORMAT_VERSION
+
+    @property
+    def episodes(self) -> tuple[Field, ...]:
+        """The learning curves' datasets: with the energy from format 3."""
+        return EPISODES + ENERGY_EPISODES if self.version >= ENERGY_VERSION else EPISODES
 
     @property
     def symbols(self) -> dict[str, int]:
@@ -120,11 +137,13 @@ class Sizes:
     @property
     def trajectory(self) -> tuple[Field, ...]:
         """The trajectory's datasets: :data:`TRAJECTORY`, with every UAV's position
-        (T, U, 3) for several UAVs."""
-        if self.scenario.uav.count == 1:
-            return TRAJECTORY
-        return tuple(SEVERAL_UAVS_POSITIONS if field.name == "uav_m" else field
-                     for field in TRAJECTORY)
+        (T, U, 3) for several UAVs, and from format 3 each step's energy."""
+        several = self.scenario.uav.count > 1
+        fields = TRAJECTORY if not several else tuple(
+            SEVERAL_UAVS_POSITIONS if field.name == "uav_m" else field for field in TRAJECTORY)
+        if self.version < ENERGY_VERSION:
+            return fields
+        return (*fields, SEVERAL_UAVS_STEP_ENERGY if several else STEP_ENERGY)
 
     @property
     def algorithm(self) -> AlgorithmSpec:
@@ -327,7 +346,7 @@ class Validator:
                 self.attrs(self.child(plugins, name, GROUP),
                            {"package": "str", "version": "str", "target": "str"})
         self.version = version
-        return Sizes(self.config())
+        return Sizes(self.config(), version)
 
     def config(self) -> Scenario:
         config = self.json_text("config", dict)
@@ -429,7 +448,7 @@ class Validator:
         if not 0 <= done <= planned:
             self.fail(f"{group.name}/@episodes_done", f"is {done}", f"0 to {planned}")
         episodes = self.child(group, "episodes", GROUP)
-        for field in EPISODES:
+        for field in sizes.episodes:
             rows = self.child(episodes, field.name, DATASET,
                               f"a {field.dtype} table, one row per episode")
             length = rows.shape[0] if rows.shape else -1
@@ -465,7 +484,7 @@ class Validator:
         episode = self.attr(group, "episode", "int")
         if not 1 <= episode <= last:
             self.fail(f"{group.name}/@episode", f"is {episode}", f"1 to {last}")
-        self.exact_members(group, [field.name for field in TRAJECTORY])
+        self.exact_members(group, [field.name for field in sizes.trajectory])
         for field in sizes.trajectory:
             self.dataset(group, field, sizes.symbols)
 

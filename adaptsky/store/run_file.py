@@ -26,6 +26,8 @@ from adaptsky.arrays import Tree
 from adaptsky.scenario import Scenario
 from adaptsky.store.atomic import rewrite, string_dataset, utc_timestamp
 from adaptsky.store.layout import (
+    ENERGY_EPISODES,
+    ENERGY_VERSION,
     EPISODES,
     EVALUATIONS,
     FORMAT_VERSION,
@@ -47,7 +49,8 @@ __all__ = ["FORMAT_VERSION", "KIND", "RunFileError", "RunReader", "SeedCheckpoin
            "append_checkpoint", "append_checkpoints", "create_run", "environment",
            "record_session", "set_planned_episodes"]
 
-EPISODE_METRICS = tuple(field.name for field in EPISODES if len(field.shape) == 1)
+EPISODE_METRICS = tuple(field.name for field in (*EPISODES, *ENERGY_EPISODES)
+                        if len(field.shape) == 1)
 PER_USER_METRICS = tuple(field.name for field in EPISODES if len(field.shape) == 2)
 TRAJECTORY_FIELDS = tuple(field.name for field in TRAJECTORY)
 
@@ -151,10 +154,23 @@ def _append_rows(table: h5py.Group, start: int, rows: dict[str, np.ndarray]) -> 
         dataset[start:] = values
 
 
+def _in_format(file: h5py.File, tree: dict[str, Any]) -> dict[str, Any]:
+    """``tree`` without the energy (``energy_j``, ``energy_efficiency_bpj``) where the file
+    is of a format before it: a run continued by ``train --resume`` keeps its format."""
+    if int(file.attrs["format_version"]) >= ENERGY_VERSION:
+        return tree
+    energy = {field.name for field in ENERGY_EPISODES}
+    return {name: value for name, value in tree.items() if name not in energy}
+
+
 def _write_checkpoint(group: h5py.Group, rows: dict[str, np.ndarray],
                       trajectories: dict[int, Tree], last_trajectory: tuple[int, Tree],
                       checkpoint: Tree, evaluations: dict[str, np.ndarray]) -> None:
     done = int(group.attrs["episodes_done"])
+    rows = _in_format(group.file, rows)
+    trajectories = {episode: _in_format(group.file, trajectory)
+                    for episode, trajectory in trajectories.items()}
+    last_trajectory = (last_trajectory[0], _in_format(group.file, last_trajectory[1]))
     _append_rows(group["episodes"], done, rows)
     if evaluations:
         table = group["evaluations"]
@@ -320,7 +336,8 @@ class RunReader:
         def read() -> dict[str, np.ndarray]:
             done = int(self.file[f"seeds/{seed}"].attrs["episodes_done"])
             group = self.file[f"seeds/{seed}/episodes"]
-            return {field.name: group[field.name][:done] for field in EPISODES}
+            return {field.name: group[field.name][:done]
+                    for field in (*EPISODES, *ENERGY_EPISODES) if field.name in group}
         curves = self._guard(f"seed {seed}'s episodes", read)
         for name, values in curves.items():
             require_finite(self.path, f"/seeds/{seed}/episodes/{name}", values,

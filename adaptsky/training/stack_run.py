@@ -30,13 +30,14 @@ from adaptsky.arrays import Tree
 from adaptsky.errors import NonFiniteError
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.batch import reward_weights
+from adaptsky.sim.energy import episode_energy
 from adaptsky.sim.layout import episode_layouts
 from adaptsky.sim.multi_batch import network_batch
 from adaptsky.sim.noma import jain_fairness
 from adaptsky.sim.observation import observation_size_of
 from adaptsky.training.evaluation import EVALUATION_KEYS, EvaluationSet, GreedyEvaluator
 
-STATE_FIELDS = ("uav_m", "alpha", "gain", "los", "rate_bps")
+STATE_FIELDS = ("uav_m", "alpha", "gain", "los", "rate_bps", "energy_j")
 # what members of one stack may differ in; everything else must be equal
 PER_MEMBER = {"name", "description", "reward", "train"}
 # the scenario keys each checked quantity depends on (named when it is not finite)
@@ -220,6 +221,8 @@ class StackRun:
             "loss": float(loss),
             "mean_rate_bps": rates.mean(axis=0),
             "mean_alpha": trajectory["alpha"].mean(axis=0),
+            **episode_energy(rates.sum(axis=1), trajectory["energy_j"],
+                             self.scenario.uav.step_s),
         }
         return EpisodeResult(self.episodes_done, metrics, trajectory, evaluation)
 

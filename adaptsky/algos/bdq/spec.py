@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from typing import Any, ClassVar
 
+from adaptsky.algos.bdq.groups import value_groups
 from adaptsky.algos.dqn.parameters import network_shapes
 from adaptsky.algos.dqn.spec import ADAM_STATE, REPLAY, DqnSpec, replay_network_parts
 from adaptsky.algos.protocol import Algorithm, Policy
@@ -31,12 +32,6 @@ def _config(scenario: Scenario) -> BdqAgent:
 def action_set(scenario: Scenario) -> ActionSet:
     """The action components (branches) and their sub-actions of ``scenario``."""
     return ActionSet.of(scenario)
-
-
-def value_groups(config: BdqAgent, actions: ActionSet) -> int:
-    """G, the value outputs and reward parts: one per UAV with ``reward_split = "per-uav"``,
-    else one."""
-    return actions.num_uavs if config.reward_split == "per-uav" else 1
 
 
 def reward_groups(scenario: Scenario) -> int:

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from adaptsky.algos.bdq.spec import value_groups
+from adaptsky.algos.bdq.groups import value_groups
 from adaptsky.algos.dqn.stacked import StackedDqn
 from adaptsky.scenario.agents import BdqAgent, DqnAgent
 from adaptsky.sim.actions import ActionSet

@@ -59,7 +59,7 @@ def test_parts_per_environment_with_their_own_weights_and_groups():
                             w_unsatisfied=np.zeros(3), min_rate_bps=np.array([0, 0, 1e9]))
     parts = reward_per_uav(rates, gains, fairness, W_HZ, weights, serving, 2)
     for env in range(3):
-        one = RewardWeights(**{name: float(np.asarray(getattr(weights, name))[env])
+        one = RewardWeights(**{name: float(np.broadcast_to(getattr(weights, name), (3,))[env])
                                for name in RewardWeights.__dataclass_fields__})
         for uav in range(2):
             assert parts[env, uav] == pytest.approx(_plain_part(

@@ -148,7 +148,8 @@ def test_the_terms_are_named_after_their_weights():
     assert [t.name for t in REWARD_TERMS] == ["rate", "fairness", "gain", "satisfied",
                                               "unsatisfied"]
     assert [t.weight_key for t in REWARD_TERMS] == list(WEIGHTS)
-    assert set(RewardWeights.__dataclass_fields__) == {*WEIGHTS, "min_rate_bps"}
+    # w_energy weighs the step's energy, which the environment adds (adaptsky.sim.energy)
+    assert set(RewardWeights.__dataclass_fields__) == {*WEIGHTS, "min_rate_bps", "w_energy"}
 
 
 def test_only_the_terms_that_count_are_summed_without_a_minimum_rate():

@@ -1,6 +1,7 @@
 """Run files written by earlier versions (tests/data/legacy/README.md): format 1 (before the
 greedy evaluations) and format 2 (before ``[agent] algorithm``) open, resume to the numbers a
-new run of the same scenario gives, bit for bit, and evaluate as a new run's file does."""
+new run of the same scenario gives, bit for bit (without the energy that format 3 adds), and
+evaluate as a new run's file does."""
 
 from __future__ import annotations
 
@@ -62,6 +63,8 @@ def test_a_legacy_run_file_opens_and_resumes_to_a_new_runs_numbers(name, tmp_pat
     assert main(["train", "--resume", str(legacy), "--episodes", "4", *RUN]) == 0
     fresh = train(tmp_path, "fresh.h5", sets, 4)
     resumed, new = seed_arrays(legacy), seed_arrays(fresh)
+    # format 3 adds the energy of every episode and step; a resumed file keeps its format
+    new = {k: v for k, v in new.items() if "energy" not in k}
     if version == 1:  # format 1 had no evaluations to resume
         new = {k: v for k, v in new.items() if "evaluations" not in k and "best" not in k}
         resumed = {k: v for k, v in resumed.items() if "evaluations" not in k}

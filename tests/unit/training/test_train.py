@@ -4,6 +4,7 @@ resume, damaged run files."""
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
 import signal
@@ -61,7 +62,7 @@ def test_paper_scenario_run_file_layout(tmp_path, capsys):
     assert code == 0
     assert "R_e^tot" in capsys.readouterr().out
     with h5py.File(out, "r") as f:          # h5py alone reads every dataset
-        assert f.attrs["format_version"] == 2 and f.attrs["kind"] == "adaptsky-run"
+        assert f.attrs["format_version"] == 3 and f.attrs["kind"] == "adaptsky-run"
         assert {"adaptsky_version", "created_utc"} <= set(f.attrs)
         assert f["scenario"][()].decode() == (SCENARIOS / "nyc_mmwave.toml").read_text()
         config = json.loads(f["config"][()])
@@ -71,7 +72,7 @@ def test_paper_scenario_run_file_layout(tmp_path, capsys):
             s = f[f"seeds/{seed}"]
             assert s.attrs["episodes_done"] == 3
             for name in ("sum_rate_bps", "fairness", "reward", "mean_height_m", "epsilon",
-                         "loss"):
+                         "loss", "energy_j", "energy_efficiency_bpj"):
                 assert s[f"episodes/{name}"].shape == (3,)
             for name in ("mean_rate_bps", "mean_alpha"):
                 assert s[f"episodes/{name}"].shape == (3, 4)
@@ -79,6 +80,7 @@ def test_paper_scenario_run_file_layout(tmp_path, capsys):
             assert t["uav_m"].shape == (300, 3) and t["reward"].shape == (300,)
             for name in ("alpha", "gain", "los", "rate_bps"):
                 assert t[name].shape == (300, 4)
+            assert t["energy_j"].shape == (300,)
             assert t["action"].dtype == np.int64 and t["los"].dtype == bool
             c = s["checkpoint"]
             assert c.attrs["episode"] == 3
@@ -280,3 +282,39 @@ def test_interrupted_process_leaves_no_running_workers(tmp_path, reference):
     while any(os.path.exists(f"/proc/{pid}") for pid in children):
         assert time.monotonic() < deadline, "workers outlived their parent"
         time.sleep(0.1)
+
+
+def _zeng_power_w(speed: float) -> float:
+    """P(V) of docs/model.md §10 written out with Zeng et al.'s Table I (W = 20 N, rho =
+    1.225, R = 0.4, A = 0.503, Omega = 300, U_tip = 120, s = 0.05, d0 = 0.6, k = 0.1,
+    delta = 0.012)."""
+    rho, s, area = 1.225, 0.05, 0.503
+    p0 = 0.012 / 8 * rho * s * area * 300.0**3 * 0.4**3
+    pi = 1.1 * 20.0**1.5 / math.sqrt(2 * rho * area)
+    v0 = math.sqrt(20.0 / (2 * rho * area))
+    return (p0 * (1 + 3 * speed**2 / 120.0**2)
+            + pi * math.sqrt(math.sqrt(1 + speed**4 / (4 * v0**4)) - speed**2 / (2 * v0**2))
+            + 0.5 * 0.6 * rho * s * area * speed**3)
+
+
+def test_the_run_file_holds_each_steps_energy_and_the_episodes_efficiency(tmp_path):
+    """Paper actions move every axis by 1 m each step: E_t = (P(|dxy| / dt) + W max(dh, 0) /
+    dt + K P_T) dt from the stored positions, by a scalar formula; the episode's energy and
+    bit per joule from them (docs/model.md §10)."""
+    out = tmp_path / "run.h5"
+    assert main(["train", str(SCENARIOS / "nyc_mmwave.toml"), "--episodes", "2",
+                 "--steps", "40", "--seeds", "0", "--out", str(out), "--quiet",
+                 "--set", "uav.step_s=0.5"]) == 0
+    with h5py.File(out, "r") as f:
+        t, episodes = f["seeds/0/trajectory"], f["seeds/0/episodes"]
+        uav_m = np.vstack([[0.0, 0.0, 50.0], t["uav_m"][()]])
+        energy_j = t["energy_j"][()]
+        for step in range(40):
+            dx, dy, dh = uav_m[step + 1] - uav_m[step]
+            power_w = (_zeng_power_w(math.hypot(dx, dy) / 0.5) + 20.0 * max(dh, 0.0) / 0.5
+                       + 2 * 0.1)  # two clusters of P_T = 20 dBm
+            assert energy_j[step] == pytest.approx(power_w * 0.5, rel=1e-12)
+        assert episodes["energy_j"][-1] == pytest.approx(energy_j.sum(), rel=1e-12)
+        bits = t["rate_bps"][()].sum() * 0.5
+        assert episodes["energy_efficiency_bpj"][-1] == pytest.approx(bits / energy_j.sum(),
+                                                                     rel=1e-12)
