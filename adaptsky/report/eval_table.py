@@ -67,6 +67,22 @@ def search_lines(results: dict[str, Any]) -> list[str]:
     return lines
 
 
+def energy_lines(results: dict[str, Any]) -> list[str]:
+    """One line per method with its energy (docs/model.md §10): the energy efficiency and
+    mean power of all UAVs over the last 100 steps, and the share of moves that stay in
+    place and that change height (methods measured before the energy: none)."""
+    lines = []
+    for name, entry in results["methods"].items():
+        s = entry["summary"]
+        if "steady_energy_efficiency_bpj" not in s:
+            continue
+        lines.append(f"{name}: {s['steady_energy_efficiency_bpj'] / 1e6:.1f} Mbit/J, "
+                     f"{s['steady_power_w']:.1f} W; moves: {100 * s['steady_still_share']:.0f}% "
+                     f"stay, {100 * s['steady_vertical_share']:.0f}% change height "
+                     "(last 100 steps)")
+    return lines
+
+
 REFERENCES = {"oracle": "the oracle", "best-response": "best response"}
 """What the policy's steady state is a share of, as the results key it: the oracle (one UAV),
 else best response (several UAVs' reference)."""

@@ -1,6 +1,7 @@
 """Summary of a run file: per seed R_e^tot and J_e (sec. V-C: means over the last 100
-episodes, or over every episode of a shorter run), and their mean and population standard
-deviation (ddof = 0) over seeds."""
+episodes, or over every episode of a shorter run) and, from format 3, the episodes' energy
+and energy efficiency (docs/model.md §10), and their mean and population standard deviation
+(ddof = 0) over seeds."""
 
 from __future__ import annotations
 
@@ -21,6 +22,8 @@ from adaptsky.store.run_file import RunReader
 from adaptsky.units import format_rate, format_rate_spread, plural
 
 LAST_EPISODES = 100
+# per episode, J and bit/J (run files of format 3; None in older ones)
+ENERGY_KEYS = ("energy_j", "energy_efficiency_bpj")
 
 
 def summarize(path: Path) -> dict[str, Any]:
@@ -34,13 +37,15 @@ def summarize(path: Path) -> dict[str, Any]:
             sizes = run.seed_attrs(seed)
             rates = curves["sum_rate_bps"][-LAST_EPISODES:]
             fairness = curves["fairness"][-LAST_EPISODES:]
+            energy = {key: float(curves[key][-LAST_EPISODES:].mean())
+                      if key in curves and len(rates) else None for key in ENERGY_KEYS}
             best = run.best(seed) if run.has_checkpoint(seed) else None
             seeds.append({
                 "seed": seed, "episodes_done": sizes["episodes_done"],
                 "episodes_planned": sizes["episodes_planned"],
                 "sum_rate_bps": float(rates.mean()) if len(rates) else None,
                 "fairness": float(fairness.mean()) if len(fairness) else None,
-                "episodes_averaged": len(rates),
+                "episodes_averaged": len(rates), **energy,
                 "best": None if best is None else {"episode": int(best["episode"]),
                                                    "score": float(best["score"])},
                 "evaluations": curve_json(run.evaluations(seed))})
@@ -49,7 +54,7 @@ def summarize(path: Path) -> dict[str, Any]:
         "adaptsky_version": attrs["adaptsky_version"], "created_utc": attrs["created_utc"],
         "channel_model": config["channel"]["model"], "plugins": plugins, "overrides": overrides,
         "steps_per_episode": config["train"]["steps"], "score_kind": kind, "seeds": seeds}
-    for key in ("sum_rate_bps", "fairness"):
+    for key in ("sum_rate_bps", "fairness", *ENERGY_KEYS):
         values = [s[key] for s in seeds if s[key] is not None]
         summary[key] = ({"mean": float(np.mean(values)), "std": float(np.std(values)),
                          "std_ddof": 0, "seeds": len(values)} if values else None)
@@ -74,6 +79,11 @@ def summary_table(summary: dict[str, Any]) -> Table:
                    f"standard deviation over {plural(rate['seeds'], 'seed')}")
     greedy = any(s["best"] is not None for s in summary["seeds"])
     columns = ["seed", "episodes", f"R_e^tot ({window})", f"J_e ({window})"]
+    efficiency = summary.get("energy_efficiency_bpj")
+    if efficiency is not None:
+        columns.append("Mbit/J")
+        caption = (caption or "") + ("; Mbit/J: energy efficiency, bits over the UAVs' "
+                                     "propulsion and transmit energy")
     if greedy:
         columns.append("best greedy (episode)")
         caption = (caption or "") + ("; best greedy: the best greedy evaluation during "
@@ -85,6 +95,9 @@ def summary_table(summary: dict[str, Any]) -> Table:
         row = [str(s["seed"]), f"{s['episodes_done']}/{s['episodes_planned']}",
                format_rate(s["sum_rate_bps"]) if s["sum_rate_bps"] is not None else "-",
                f"{s['fairness']:.3f}" if s["fairness"] is not None else "-"]
+        if efficiency is not None:
+            ee = s["energy_efficiency_bpj"]
+            row.append("-" if ee is None else f"{ee / 1e6:.1f}")
         if greedy:
             best = s["best"]
             row.append("-" if best is None else
@@ -95,7 +108,9 @@ def summary_table(summary: dict[str, Any]) -> Table:
         table.add_section()
         table.add_row("all", plural(rate["seeds"], "seed"),
                       format_rate_spread(rate["mean"], rate["std"]),
-                      f"{fairness['mean']:.3f} ± {fairness['std']:.3f}")
+                      f"{fairness['mean']:.3f} ± {fairness['std']:.3f}",
+                      *([f"{efficiency['mean'] / 1e6:.1f} ± {efficiency['std'] / 1e6:.1f}"]
+                        if efficiency is not None else []))
     return table
 
 

@@ -110,14 +110,21 @@ def compare(policy: dict[str, NDArray], other: dict[str, NDArray]) -> dict[str, 
     return summary
 
 
+ENERGY_SUMMARY = ("energy_j", "steady_power_w", "energy_efficiency_bpj",
+                  "steady_energy_efficiency_bpj", "steady_still_share", "steady_vertical_share")
+"""The energy metrics a summary row averages over layouts (where the metrics have them)."""
+
+
 def summary_row(metrics: dict[str, NDArray]) -> dict[str, Any]:
-    """Mean and median over layouts of the rates, mean of the rest."""
+    """Mean and median over layouts of the rates, mean of the rest (and of the energy
+    metrics, where measured: eval files before the energy lack them)."""
     rate = metrics["mean_sum_rate_bps"]
-    return {"mean_sum_rate_bps": float(rate.mean()), "median_sum_rate_bps": float(np.median(rate)),
-            "steady_sum_rate_bps": float(metrics["steady_sum_rate_bps"].mean()),
-            "fairness": float(metrics["fairness"].mean()),
-            "min_user_se": float(metrics["min_user_se"].mean()),
-            "satisfied_share": float(metrics["satisfied_share"].mean())}
+    row = {"mean_sum_rate_bps": float(rate.mean()), "median_sum_rate_bps": float(np.median(rate)),
+           "steady_sum_rate_bps": float(metrics["steady_sum_rate_bps"].mean()),
+           "fairness": float(metrics["fairness"].mean()),
+           "min_user_se": float(metrics["min_user_se"].mean()),
+           "satisfied_share": float(metrics["satisfied_share"].mean())}
+    return row | {key: float(np.mean(metrics[key])) for key in ENERGY_SUMMARY if key in metrics}
 
 
 @dataclass

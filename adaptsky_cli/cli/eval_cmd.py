@@ -57,9 +57,14 @@ def _writable_new_file(path: Path) -> None:
 def show_results(results: dict[str, Any]) -> None:
     """The comparison table of an evaluation or a baseline, and the policy's share of the
     oracle (of best response for several UAVs)."""
-    from adaptsky.report.eval_table import methods_table, oracle_line, search_lines
+    from adaptsky.report.eval_table import (
+        energy_lines,
+        methods_table,
+        oracle_line,
+        search_lines,
+    )
     out.print(methods_table(results))
-    for line in search_lines(results):
+    for line in (*search_lines(results), *energy_lines(results)):
         out.print(line, markup=False)
     line = oracle_line(results)
     if line:
