@@ -13,7 +13,7 @@ from adaptsky_cli.cli.options import SEEDS_HELP, Device, Episodes, Steps, parse_
 def reproduce(
     experiment: Annotated[str, typer.Argument(
         metavar="EXPERIMENT", show_default=False,
-        help="a shipped experiment id (the paper's e1a, e1b, e2, e3; ours e4, bdq), 'all' "
+        help="a shipped experiment id (the paper's e1a, e1b, e2, e3; ours e4, e5, bdq), 'all' "
         "(the paper's), or an experiment file (TOML)")],
     out: Annotated[Path | None, typer.Option(
         metavar="DIR", show_default=False,
