@@ -82,7 +82,7 @@ def arrays(path: Path) -> dict[str, np.ndarray]:
     found: dict[str, np.ndarray] = {}
     skip = {"created_utc", "sessions", "command_line", "adaptsky_version", "platform",
             "python_version", "torch_version", "numpy_version", "h5py_version",
-            "wall_time_s"}
+            "wall_time_s", "format_version"}
 
     def visit(name: str, item: h5py.HLObject) -> None:
         if isinstance(item, h5py.Dataset) and name.rsplit("/", 1)[-1] not in skip:
@@ -128,7 +128,23 @@ ADDED_DEFAULTS = {"algorithm": "dqn"}
 # UAVs (issue 23, docs/model.md §9): at these values a scenario has one UAV, as before
 ADDED_SECTION_DEFAULTS = {("uav", "count"): 1, ("uav", "start_positions_m"): None,
                           ("uav", "min_separation_m"): 10.0, ("users", "association"): "kmeans",
-                          ("users", "uav"): None, ("radio", "reuse"): "full"}
+                          ("users", "uav"): None, ("radio", "reuse"): "full",
+                          # the energy (docs/model.md §10) and the BDQ's reward per UAV
+                          ("uav", "step_s"): 1.0, ("reward", "w_energy"): 0.0,
+                          ("agent", "reward_split"): "team"}
+# outputs a newer adaptsky adds beside the old ones (datasets, attributes and JSON keys by
+# name): the energy of docs/model.md §10. Where one side lacks them they are not compared;
+# every output both sides have still is. The format version rises with them (3: the energy).
+ADDED_OUTPUTS = {"energy_j", "energy_efficiency_bpj", "steady_power_w",
+                 "steady_energy_efficiency_bpj", "steady_still_share", "steady_vertical_share",
+                 "uav_energy_j", "format_version"}  # (the version is no number of a run)
+
+
+def _added(key: str) -> bool:
+    """Whether an HDF5 name (``path/name`` or ``path/name@attr``) is one of
+    :data:`ADDED_OUTPUTS`."""
+    name, _, attr = key.partition("@")
+    return name.rsplit("/", 1)[-1] in ADDED_OUTPUTS or attr in ADDED_OUTPUTS
 
 
 def without_times(value: object, table: str = "") -> object:
@@ -142,7 +158,7 @@ def without_times(value: object, table: str = "") -> object:
             return value
     if isinstance(value, dict):
         return {k: without_times(v, k) for k, v in value.items()
-                if "wall" not in k and "seconds" not in k
+                if "wall" not in k and "seconds" not in k and k not in ADDED_OUTPUTS
                 and k not in {"created_utc", "started_utc"}
                 and not (k in ADDED_DEFAULTS and v == ADDED_DEFAULTS[k])
                 and not ((table, k) in ADDED_SECTION_DEFAULTS
@@ -163,6 +179,8 @@ def compare(old: Path, new: Path, printed_old: dict[str, str],
         other = new / path.relative_to(old)
         a, b = arrays(path), arrays(other)
         for key in sorted(set(a) | set(b)):
+            if (key not in a or key not in b) and _added(key):
+                continue   # a newer output beside the old ones
             compared += 1
             if key not in a or key not in b or not same(a[key], b[key], old, new):
                 differences.append(f"{path.relative_to(old)}: {key} differs")

@@ -18,6 +18,7 @@ from adaptsky.store.run_file import RunReader
 from adaptsky.training import api
 from adaptsky.training.stack_run import Member, StackRun
 from adaptsky_cli.cli.main import main
+from tests.unit.training.test_gpu import assert_graphs_replay_eager, cuda
 from tests.unit.training.test_stack import assert_same_checkpoints, assert_same_results
 from tests.unit.training.test_train import assert_same_curves, curves
 
@@ -98,3 +99,8 @@ def test_resume_equals_the_uninterrupted_run_and_evaluations_use_best_response(t
             assert best_a is not None and best_a["episode"] == best_b["episode"]
             assert a.trajectory(seed)["uav_m"].shape == (10, 2, 3)
     assert main(["inspect", str(first)]) == 0
+
+
+@cuda
+def test_a_reward_per_uav_replays_as_cuda_graphs_as_it_runs_eagerly():
+    assert_graphs_replay_eager(parse_scenario(_with_split("per-uav"), "two"))
