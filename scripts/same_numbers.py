@@ -7,7 +7,8 @@ inspect and eval print, the CSV and figure data of reproduce).
 
 Both run in this environment on this machine; the revision's code is checked out into a
 temporary worktree and put first on PYTHONPATH (with its built-in channel models). Prints one
-line per compared output and a summary; exits 1 at the first difference it lists. Meant for
+line per compared output and a summary; exits 1 at the first difference it lists (a name a
+newer version adds, listed in ADDED_NAMES, is compared only where both have it). Meant for
 changes that restructure: they must not change a number (floats are only comparable bit for
 bit on one machine, so this compares two versions here rather than a stored fingerprint).
 """
@@ -102,7 +103,8 @@ def same(a: np.ndarray, b: np.ndarray, a_dir: Path, b_dir: Path) -> bool:
     if a.dtype.kind in "fc" and b.dtype.kind in "fc":
         return a.shape == b.shape and np.array_equal(a, b, equal_nan=True)
     if a.dtype.kind in "OSU" and a.shape == b.shape == ():
-        return _text(a.item(), a_dir) == _text(b.item(), b_dir)
+        old = _text(a.item(), a_dir)
+        return old == without_added(old, _text(b.item(), b_dir))
     return a.shape == b.shape and bool(np.all(a == b))
 
 
@@ -131,6 +133,29 @@ ADDED_SECTION_DEFAULTS = {("uav", "count"): 1, ("uav", "start_positions_m"): Non
                           ("users", "uav"): None, ("radio", "reuse"): "full"}
 
 
+# names a newer adaptsky adds beside the numbers it had (JSON keys, HDF5 datasets with their
+# attributes): compared where both sides have them, left out where only the newer one does.
+# Each user's steady-state rate of eval (steady_user_rate_bps) and last-episode rate of
+# inspect (last_episode_user_rate_bps)
+ADDED_NAMES = {"steady_user_rate_bps", "last_episode_user_rate_bps"}
+
+
+def without_added(old: object, new: object) -> object:
+    """``new`` without the :data:`ADDED_NAMES` keys that ``old`` lacks (in dicts at the same
+    place of both)."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        return {k: without_added(old[k], v) if k in old else v for k, v in new.items()
+                if k in old or k not in ADDED_NAMES}
+    if isinstance(old, list) and isinstance(new, list) and len(old) == len(new):
+        return [without_added(a, b) for a, b in zip(old, new, strict=True)]
+    return new
+
+
+def _added(key: str) -> bool:
+    """Whether an HDF5 name (``path/name`` or ``path/name@attribute``) is an added one."""
+    return key.split("@")[0].rsplit("/", 1)[-1] in ADDED_NAMES
+
+
 def without_times(value: object, table: str = "") -> object:
     """JSON without the keys that hold a wall time or a moment, and without the
     :data:`ADDED_DEFAULTS` and :data:`ADDED_SECTION_DEFAULTS` (in their ``table``, the key
@@ -157,12 +182,15 @@ def compare(old: Path, new: Path, printed_old: dict[str, str],
     differences, compared = [], 0
     for name in printed_old:
         compared += 1
-        if _text(printed_old[name], old) != _text(printed_new[name], new):
+        before = _text(printed_old[name], old)
+        if before != without_added(before, _text(printed_new[name], new)):
             differences.append(f"{name}: the printed JSON differs")
     for path in sorted(old.rglob("*.h5")):
         other = new / path.relative_to(old)
         a, b = arrays(path), arrays(other)
         for key in sorted(set(a) | set(b)):
+            if key not in a and _added(key):
+                continue
             compared += 1
             if key not in a or key not in b or not same(a[key], b[key], old, new):
                 differences.append(f"{path.relative_to(old)}: {key} differs")

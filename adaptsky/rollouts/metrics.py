@@ -22,12 +22,19 @@ def meets_min_rate(rate_bps: NDArray[np.float64], min_rate_bps: float) -> NDArra
     return rate_bps >= min_rate_bps * (1 - MIN_RATE_TOLERANCE)
 
 
+def steady_user_rates(rate_bps: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(T, L, N) rates of every step, layout and user -> (L, N): each user's mean rate over the
+    last 100 steps (the steady state; every step of a shorter rollout)."""
+    return np.asarray(rate_bps)[-STEADY_STEPS:].mean(axis=0)
+
+
 def layout_metrics(trace: Trace, bandwidth_hz: float, min_rate_bps: float
                    ) -> dict[str, NDArray[np.float64]]:
     """Per layout (L,): mean sum rate over the steps, over the last 100 steps (steady
     state), mean Jain index, the smallest user's mean spectral efficiency, the share of steps
-    with every user at or above R_min (over all steps, and over the last 100); and the final
-    UAV position (L, 3), or every UAV's (L, U, 3) for several UAVs."""
+    with every user at or above R_min (over all steps, and over the last 100); each user's
+    steady-state rate (L, N); and the final UAV position (L, 3), or every UAV's (L, U, 3) for
+    several UAVs."""
     sum_rate = trace.sum_rate_bps
     all_met = meets_min_rate(trace.rate_bps, min_rate_bps).all(axis=-1)
     return {
@@ -37,6 +44,7 @@ def layout_metrics(trace: Trace, bandwidth_hz: float, min_rate_bps: float
         "min_user_se": (trace.rate_bps.mean(axis=0) / bandwidth_hz).min(axis=-1),
         "satisfied_share": all_met.mean(axis=0),
         "steady_satisfied_share": all_met[-STEADY_STEPS:].mean(axis=0),
+        "steady_user_rate_bps": steady_user_rates(trace.rate_bps),
         "final_uav_m": trace.uav_m[-1],
     }
 
