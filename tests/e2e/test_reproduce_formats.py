@@ -7,20 +7,14 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-import pytest
 from PIL import Image
 
 from adaptsky_cli.cli.main import main
 from tests.e2e.test_reproduce import curves_experiment
+from tests.e2e.test_usage import one_line
 
 SHORT = ["--episodes", "2", "--steps", "10", "--workers", "1", "--quiet"]
 
-
-def one_line(capsys: pytest.CaptureFixture[str]) -> str:
-    captured = capsys.readouterr()
-    lines = captured.err.strip().splitlines()
-    assert len(lines) == 1 and "Traceback" not in captured.err, captured.err
-    return lines[0]
 
 
 def test_figure_formats(tmp_path, capsys):

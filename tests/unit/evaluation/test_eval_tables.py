@@ -17,6 +17,7 @@ import pytest
 
 from adaptsky.store.eval_file import group_name
 from adaptsky_cli.cli.main import main
+from tests.e2e.test_usage import one_line
 
 STEPS = 130  # more than the steady state's 100 steps: the first 30 are left out
 METRICS = ("mean_sum_rate_bps", "steady_sum_rate_bps", "fairness", "min_user_se",
@@ -52,12 +53,6 @@ def read_csv(path: Path) -> list[dict[str, str]]:
     with path.open(newline="") as handle:
         return list(csv.DictReader(handle))
 
-
-def one_line(capsys: pytest.CaptureFixture[str]) -> str:
-    captured = capsys.readouterr()
-    lines = captured.err.strip().splitlines()
-    assert len(lines) == 1 and "Traceback" not in captured.err, captured.err
-    return lines[0]
 
 
 def test_eval_json_and_file_hold_each_users_steady_rate(evaluated, capsys):

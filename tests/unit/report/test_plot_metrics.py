@@ -18,6 +18,7 @@ from adaptsky.store.layout import EVALUATIONS
 from adaptsky.store.run_file import EPISODE_METRICS, PER_USER_METRICS, append_checkpoint, create_run
 from adaptsky_cli.cli.main import main
 from tests.conftest import make_scenario
+from tests.e2e.test_usage import one_line
 
 
 def make_run(path: Path, seeds: dict[int, int], evaluated: dict[int, list[int]] | None = None,
@@ -131,12 +132,6 @@ def test_sum_rate_csv_keeps_its_columns(run, tmp_path):
     header = out.with_suffix(".csv").read_text().splitlines()[0]
     assert header == "episode,alpha_mean,alpha_low,alpha_high,alpha_runs"
 
-
-def one_line(capsys: pytest.CaptureFixture[str]) -> str:
-    captured = capsys.readouterr()
-    lines = captured.err.strip().splitlines()
-    assert len(lines) == 1 and "Traceback" not in captured.err, captured.err
-    return lines[0]
 
 
 def test_bad_metrics_are_one_line_and_write_nothing(tmp_path, capsys):
