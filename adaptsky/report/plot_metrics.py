@@ -1,7 +1,7 @@
 """What ``adaptsky plot --metric`` can draw: name -> how to read it from one seed of a run file,
 its axis label with the unit shown, and whether it is a per-episode learning curve (smoothed
 by the trailing mean of R_e^tot) or a series of points drawn as stored. A new metric is one
-entry of :data:`METRICS`.
+entry of :data:`METRICS` (and its name in ``plot --help``, which a test checks).
 """
 
 from __future__ import annotations
@@ -67,7 +67,6 @@ class PlotMetric:
     ``empty``: why no seed may have any point, for the one line that says so."""
 
     name: str
-    description: str
     read: Callable[[RunReader, int], SeedCurve]
     axis: Callable[[Scenario], Axis]
     smoothed: bool
@@ -100,15 +99,15 @@ def _greedy_axis(scenario: Scenario) -> Axis:
 
 
 METRICS: dict[str, PlotMetric] = {metric.name: metric for metric in (
-    PlotMetric("sum-rate", "R_e^tot, the mean sum rate of each episode (the paper's Fig. 2)",
-               _per_episode("sum_rate_bps"), lambda _: Axis(RATE_LABEL, "bit/s", rate_unit),
-               smoothed=True, column="", empty="no seed has finished an episode yet"),
-    PlotMetric("fairness", "J_e, the mean Jain's fairness index of each episode",
-               _per_episode("fairness"), lambda _: Axis(FAIRNESS_LABEL, ""),
+    # R_e^tot, the mean sum rate of each episode (the paper's Fig. 2)
+    PlotMetric("sum-rate", _per_episode("sum_rate_bps"),
+               lambda _: Axis(RATE_LABEL, "bit/s", rate_unit), smoothed=True, column="",
+               empty="no seed has finished an episode yet"),
+    # J_e, the mean Jain's fairness index of each episode
+    PlotMetric("fairness", _per_episode("fairness"), lambda _: Axis(FAIRNESS_LABEL, ""),
                smoothed=True, column="fairness", empty="no seed has finished an episode yet"),
-    PlotMetric("greedy", "the score of the greedy evaluations during training (% of the "
-               "oracle, or of best response; bit/s without one)", _greedy_score, _greedy_axis,
-               smoothed=False, column="greedy",
+    # the score of the greedy evaluations during training (docs/training.md)
+    PlotMetric("greedy", _greedy_score, _greedy_axis, smoothed=False, column="greedy",
                empty="no seed has a greedy evaluation during training (train.eval_every is "
                "0, the runs are shorter than it, or they were made before evaluations "
                "existed)"),

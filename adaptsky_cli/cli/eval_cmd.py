@@ -21,7 +21,6 @@ Layouts = Annotated[int | None, typer.Option(min=1, metavar="N", show_default=Fa
 LayoutSeed = Annotated[int, typer.Option(min=0, metavar="SEED",
                                          help="seed of the uniform layouts")]
 Steps = Annotated[int, typer.Option(min=1, metavar="N", help="steps per layout")]
-
 PROBE_BYTES = 64 * 1024
 """The trial write before the rollouts: a full disk refuses it as it would the eval file."""
 
