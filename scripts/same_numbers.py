@@ -7,7 +7,8 @@ inspect and eval print, the CSV and figure data of reproduce).
 
 Both run in this environment on this machine; the revision's code is checked out into a
 temporary worktree and put first on PYTHONPATH (with its built-in channel models). Prints one
-line per compared output and a summary; exits 1 at the first difference it lists. Meant for
+line per compared output and a summary; exits 1 at the first difference it lists (a name a
+newer version adds, listed in ADDED_NAMES, is compared only where both have it). Meant for
 changes that restructure: they must not change a number (floats are only comparable bit for
 bit on one machine, so this compares two versions here rather than a stored fingerprint).
 """
@@ -102,7 +103,8 @@ def same(a: np.ndarray, b: np.ndarray, a_dir: Path, b_dir: Path) -> bool:
     if a.dtype.kind in "fc" and b.dtype.kind in "fc":
         return a.shape == b.shape and np.array_equal(a, b, equal_nan=True)
     if a.dtype.kind in "OSU" and a.shape == b.shape == ():
-        return _text(a.item(), a_dir) == _text(b.item(), b_dir)
+        old = _text(a.item(), a_dir)
+        return old == without_added(old, _text(b.item(), b_dir))
     return a.shape == b.shape and bool(np.all(a == b))
 
 
@@ -132,19 +134,30 @@ ADDED_SECTION_DEFAULTS = {("uav", "count"): 1, ("uav", "start_positions_m"): Non
                           # the energy (docs/model.md §10) and the BDQ's reward per UAV
                           ("uav", "step_s"): 1.0, ("reward", "w_energy"): 0.0,
                           ("agent", "reward_split"): "team"}
-# outputs a newer adaptsky adds beside the old ones (datasets, attributes and JSON keys by
-# name): the energy of docs/model.md §10. Where one side lacks them they are not compared;
-# every output both sides have still is. The format version rises with them (3: the energy).
-ADDED_OUTPUTS = {"energy_j", "energy_efficiency_bpj", "steady_power_w",
-                 "steady_energy_efficiency_bpj", "steady_still_share", "steady_vertical_share",
-                 "uav_energy_j", "format_version"}  # (the version is no number of a run)
+# names a newer adaptsky adds beside the numbers it had (JSON keys, HDF5 datasets with their
+# attributes): compared where both sides have them, left out where only the newer one does.
+# Each user's steady-state rate of eval (steady_user_rate_bps) and last-episode rate of
+# inspect (last_episode_user_rate_bps); the energy of docs/model.md §10 (the run file's
+# format rose to 3 with it: the format version is left out, it is no number of a run)
+ADDED_NAMES = {"steady_user_rate_bps", "last_episode_user_rate_bps", "energy_j",
+               "energy_efficiency_bpj", "steady_power_w", "steady_energy_efficiency_bpj",
+               "steady_still_share", "steady_vertical_share", "uav_energy_j"}
+
+
+def without_added(old: object, new: object) -> object:
+    """``new`` without the :data:`ADDED_NAMES` keys that ``old`` lacks (in dicts at the same
+    place of both)."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        return {k: without_added(old[k], v) if k in old else v for k, v in new.items()
+                if k in old or k not in ADDED_NAMES}
+    if isinstance(old, list) and isinstance(new, list) and len(old) == len(new):
+        return [without_added(a, b) for a, b in zip(old, new, strict=True)]
+    return new
 
 
 def _added(key: str) -> bool:
-    """Whether an HDF5 name (``path/name`` or ``path/name@attr``) is one of
-    :data:`ADDED_OUTPUTS`."""
-    name, _, attr = key.partition("@")
-    return name.rsplit("/", 1)[-1] in ADDED_OUTPUTS or attr in ADDED_OUTPUTS
+    """Whether an HDF5 name (``path/name`` or ``path/name@attribute``) is an added one."""
+    return key.split("@")[0].rsplit("/", 1)[-1] in ADDED_NAMES
 
 
 def without_times(value: object, table: str = "") -> object:
@@ -158,7 +171,7 @@ def without_times(value: object, table: str = "") -> object:
             return value
     if isinstance(value, dict):
         return {k: without_times(v, k) for k, v in value.items()
-                if "wall" not in k and "seconds" not in k and k not in ADDED_OUTPUTS
+                if "wall" not in k and "seconds" not in k and k != "format_version"
                 and k not in {"created_utc", "started_utc"}
                 and not (k in ADDED_DEFAULTS and v == ADDED_DEFAULTS[k])
                 and not ((table, k) in ADDED_SECTION_DEFAULTS
@@ -173,14 +186,15 @@ def compare(old: Path, new: Path, printed_old: dict[str, str],
     differences, compared = [], 0
     for name in printed_old:
         compared += 1
-        if _text(printed_old[name], old) != _text(printed_new[name], new):
+        before = _text(printed_old[name], old)
+        if before != without_added(before, _text(printed_new[name], new)):
             differences.append(f"{name}: the printed JSON differs")
     for path in sorted(old.rglob("*.h5")):
         other = new / path.relative_to(old)
         a, b = arrays(path), arrays(other)
         for key in sorted(set(a) | set(b)):
-            if (key not in a or key not in b) and _added(key):
-                continue   # a newer output beside the old ones
+            if key not in a and _added(key):
+                continue
             compared += 1
             if key not in a or key not in b or not same(a[key], b[key], old, new):
                 differences.append(f"{path.relative_to(old)}: {key} differs")

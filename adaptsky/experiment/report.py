@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from matplotlib.figure import Figure
 
 from adaptsky import __version__
 from adaptsky.experiment.calls import read_calls
@@ -28,6 +29,7 @@ from adaptsky.experiment.plan import Plan, RunSpec, shipped_experiments
 from adaptsky.report import figures
 from adaptsky.report.curves import LAST_EPISODES, band, curve_window
 from adaptsky.report.energy_figure import FrontPoint, draw_energy_front
+from adaptsky.report.figure_files import save_figure
 from adaptsky.report.plot_runs import BAND_NOTES, curve_series, write_curves_csv
 from adaptsky.rollouts.metrics import compare
 from adaptsky.scenario import parse_scenario
@@ -58,6 +60,29 @@ class Analysis:
         self.quantities.setdefault(row, {}).setdefault(quantity, []).append(value)
         if bound is not None:
             self.bounds.setdefault(row, {}).setdefault(quantity, []).append(bound)
+
+
+@dataclass(frozen=True)
+class Outputs:
+    """Where an analysis writes: ``folder/<name>.<figure_format>`` (png, pdf or svg) and the
+    plotted numbers in ``folder/<name>.csv``."""
+
+    folder: Path
+    name: str
+    figure_format: str = "png"
+
+    @property
+    def figure(self) -> Path:
+        return self.folder / f"{self.name}.{self.figure_format}"
+
+    @property
+    def csv(self) -> Path:
+        return self.folder / f"{self.name}.csv"
+
+    def save(self, figure: Figure) -> list[Path]:
+        """Write ``figure``; the figure and CSV paths, for ``Analysis.files``."""
+        save_figure(figure, self.figure)
+        return [self.figure, self.csv]
 
 
 def row_label(title: str, policy: str, policies: list[str]) -> str:
@@ -100,7 +125,7 @@ def _baseline(evaluations: Evaluations, name: str, value: Any, metric: str) -> f
     return None if metrics is None else float(np.mean(metrics[metric]))
 
 
-def learning_curves(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
+def learning_curves(plan: Plan, evaluations: Evaluations, out: Outputs) -> Analysis:
     """Fig. 2: R_e^tot against the episode per group, SoA level, oracle ceiling, J_e."""
     experiment, analysis = plan.experiment, Analysis()
     group = experiment.evaluation.policy
@@ -132,21 +157,21 @@ def learning_curves(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis
               if value is not None]
     scale, unit = rate_unit([float(series.high.max()), *(lv.value for lv in levels)])
     j_last = [float(np.mean(c["fairness"][-window:])) for c in curves]
-    note = (f"J_e at the last episode: {np.mean(j_last):.3f} ± {np.std(j_last):.3f}"
+    note = (f"$J_e$ at the last episode: {np.mean(j_last):.3f} ± {np.std(j_last):.3f}"
             + (f"; SoA {soa_j:.3f}" if soa_j is not None else "")
-            + f"\ntrailing mean over {window} episodes; band: "
+            + f"\ntrailing mean over {plural(window, 'episode')}; band: "
             f"{BAND_NOTES[experiment.figure.band]}")
-    png = out / f"{experiment.id}.png"
-    figures.learning_curves(png, [series], levels, title=_title(plan),
-                            ylabel=f"R_e^tot ({unit})", scale=scale, note=note)
-    write_curves_csv(out / f"{experiment.id}.csv", [series])
+    figure = figures.learning_curves([series], levels, title=_title(plan),
+                                     ylabel=f"{figures.RATE_LABEL} ({unit})", scale=scale,
+                                     note=note)
+    write_curves_csv(out.csv, [series])
     if soa is not None:
         analysis.notes.append(f"SoA on the training layout: {format_rate(soa)}, J = "
                               f"{soa_j:.3f} (evaluated over {experiment.evaluation.steps} steps)")
     if oracle is not None:
         analysis.notes.append(f"oracle (best sum rate over every reachable position and "
                               f"power split): {format_rate(oracle)}")
-    analysis.files += [png, out / f"{experiment.id}.csv"]
+    analysis.files += out.save(figure)
     return analysis
 
 
@@ -160,7 +185,7 @@ def _serves(evaluations: Evaluations, name: str, share: float) -> bool | None:
     return None if metrics is None else float(metrics["steady_satisfied_share"][0]) >= share
 
 
-def min_se_sweep(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
+def min_se_sweep(plan: Plan, evaluations: Evaluations, out: Outputs) -> Analysis:
     """Fig. 3: R_e^tot against the required minimum SE for the policy and SoA, and the
     highest threshold each serves for every user (the policy's per evaluated policy: last,
     best), beside the oracle's."""
@@ -217,11 +242,11 @@ def min_se_sweep(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
         flat = np.array(oracle_rates, dtype=float)
         series.append(figures.Series("oracle", x, flat, flat, flat, 1))
     scale, unit = rate_unit([float(np.max(s.high)) for s in series])
-    png = out / f"{experiment.id}.png"
-    figures.min_se_sweep(png, series, {series[0].label: served[first],
-                                       **({"SoA": soa_max} if len(series) > 1 else {})},
-                         title=_title(plan), ylabel=f"R_e^tot ({unit})", scale=scale)
-    _write_csv(out / f"{experiment.id}.csv",
+    figure = figures.min_se_sweep(series, {series[0].label: served[first],
+                                           **({"SoA": soa_max} if len(series) > 1 else {})},
+                                  title=_title(plan), ylabel=f"{figures.RATE_LABEL} ({unit})",
+                                  scale=scale)
+    _write_csv(out.csv,
                ["min_se", "policy_mean_bps", "policy_low_bps", "policy_high_bps", "runs",
                 "runs_serving", "soa_bps", "soa_serves", "oracle_bps"], rows)
     for policy in spec.policies:
@@ -243,7 +268,7 @@ def min_se_sweep(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
         f"layout) keeps every user at or above R_min in at least "
         f"{100 * spec.served_share:.0f}% of its last 100 steps; the policy serves it when at "
         "least half of its runs do; the oracle's highest threshold is the reachable bound")
-    analysis.files += [png, out / f"{experiment.id}.csv"]
+    analysis.files += out.save(figure)
     return analysis
 
 
@@ -258,7 +283,7 @@ def _gain_pct(mine: Metrics, theirs: Metrics) -> np.ndarray:
     return 100 * (mine["mean_sum_rate_bps"][positive] - rate[positive]) / rate[positive]
 
 
-def layout_gains(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
+def layout_gains(plan: Plan, evaluations: Evaluations, out: Outputs) -> Analysis:
     """Fig. 4: per-layout sum rate of the policy as a gain over each baseline and compared
     group (paired by seed), for every evaluated policy (last, best) and every group measured
     as the policy is (``evaluation.also``); the oracle's gain over the same methods is the
@@ -317,17 +342,16 @@ def layout_gains(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
         pooled["oracle vs SoA (the reachable bound)"] = [_gain_pct(oracle, soa)]
     gains = {label: np.concatenate(g) for label, g in pooled.items()}
     paper = {labels[m]: text for m in labels if (text := _paper_summary(plan, m))}
-    png = out / f"{experiment.id}.png"
-    figures.layout_gains(png, gains, title=_title(plan), paper=paper or None)
+    figure = figures.layout_gains(gains, title=_title(plan), paper=paper or None)
     header = list(dict.fromkeys(key for row in rows for key in row))
-    _write_csv(out / f"{experiment.id}.csv", header,
+    _write_csv(out.csv, header,
                [[row.get(key, "") for key in header] for row in rows])
     runs = len(plan.group_runs(spec.policy))
     analysis.notes.append(f"gains over {spec.layouts or 1} layout(s) for each of up to {runs} "
                           "run(s) per group; each run is compared with the compared group's run "
                           "of the same seed (and the same policy, last or best) and with the "
                           "baselines; the figure pools the runs' layouts of the last policies")
-    analysis.files += [png, out / f"{experiment.id}.csv"]
+    analysis.files += out.save(figure)
     return analysis
 
 
@@ -348,7 +372,7 @@ def _search_summary(metrics: Metrics) -> str:
                    else "")
 
 
-def uav_count(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
+def uav_count(plan: Plan, evaluations: Evaluations, out: Outputs) -> Analysis:
     """E4: the greedy steady state of each group's policies (last, best; one group per number
     of UAVs U, on its own training layout) against SoA per UAV, best response and OMA, sum
     rate and fairness against U; the policy's share of best response, its gain over SoA,
@@ -429,10 +453,9 @@ def uav_count(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
                        for label, values in lines.items()]
               for metric in ("sum_rate_bps", "fairness")}
     scale, unit = rate_unit([float(np.max(line.high)) for line in series["sum_rate_bps"]])
-    png = out / f"{experiment.id}.png"
-    figures.uav_count(png, series["sum_rate_bps"], series["fairness"], title=_title(plan),
-                      ylabel=f"sum rate ({unit})", scale=scale)
-    _write_csv(out / f"{experiment.id}.csv",
+    figure = figures.uav_count(series["sum_rate_bps"], series["fairness"], title=_title(plan),
+                               ylabel=f"sum rate ({unit})", scale=scale)
+    _write_csv(out.csv,
                ["uavs", "method", "metric", "mean", "low", "high", "runs"], csv_rows)
     analysis.notes.append(
         f"each group is one number of UAVs on its own training layout; a policy's value is the "
@@ -442,7 +465,7 @@ def uav_count(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
         "our reference (each UAV in turn takes its best lattice point and power split with the "
         "others fixed, docs/model.md §9), not an optimum; its column 'reachable' is best "
         "response's own value")
-    analysis.files += [png, out / f"{experiment.id}.csv"]
+    analysis.files += out.save(figure)
     return analysis
 
 
@@ -457,7 +480,7 @@ def _steady(evaluations: Evaluations, run: RunSpec, metric: str) -> float | None
     return None if metrics is None or metric not in metrics else float(metrics[metric][0])
 
 
-def energy_front(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
+def energy_front(plan: Plan, evaluations: Evaluations, out: Outputs) -> Analysis:
     """E5 (ours): per reward weight w_e and evaluated policy (last, best), each run's greedy
     steady state on the training layout: sum rate, energy efficiency, both against the same
     seed's run at w_e = 0, and how it flies (the share of moves that stay in place and that
@@ -525,9 +548,8 @@ def energy_front(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
     if not points:
         analysis.notes.append("no run has finished: nothing to draw")
         return analysis
-    png = out / f"{experiment.id}.png"
-    draw_energy_front(png, points, references, bound, title=_title(plan))
-    _write_csv(out / f"{experiment.id}.csv",
+    figure = draw_energy_front(points, references, bound, title=_title(plan))
+    _write_csv(out.csv,
                ["w_energy", "policy", "runs", "sum_rate_mean_bps", "sum_rate_low_bps",
                 "sum_rate_high_bps", "ee_mean_bpj", "ee_low_bpj", "ee_high_bpj"], rows)
     if bound is not None:
@@ -542,7 +564,7 @@ def energy_front(plan: Plan, evaluations: Evaluations, out: Path) -> Analysis:
         f"{spec.steps} steps on the training layout; ratios and percentages pair each run "
         "with the run of the same seed at w_e = 0; 'still': moves that keep the UAV's "
         "horizontal position, 'vertical': moves that change its height")
-    analysis.files += [png, out / f"{experiment.id}.csv"]
+    analysis.files += out.save(figure)
     return analysis
 
 
@@ -554,7 +576,7 @@ def _paper_summary(plan: Plan, method: str) -> str:
     return f"paper: {', '.join(texts)}" if texts else ""
 
 
-ANALYSES: dict[str, Callable[[Plan, Evaluations, Path], Analysis]] = {
+ANALYSES: dict[str, Callable[[Plan, Evaluations, Outputs], Analysis]] = {
     "learning-curves": learning_curves, "min-se-sweep": min_se_sweep,
     "layout-gains": layout_gains, "uav-count": uav_count, "energy-front": energy_front}
 
@@ -675,12 +697,13 @@ class WrittenReport:
 
 
 def write_report(plan: Plan, evaluations: Evaluations, wall_s: float | None = None,
-                 trained_in_calls: int = 0) -> WrittenReport:
-    """Draw the figure, write its CSV and ``report.md`` into the plan's folder; ``wall_s``:
-    the experiment's wall time so far (every call of ``reproduce`` on the folder), which
-    trained ``trained_in_calls`` runs."""
+                 trained_in_calls: int = 0, figure_format: str = "png") -> WrittenReport:
+    """Draw the figure (as ``figure_format``: png, pdf or svg), write its CSV and
+    ``report.md`` into the plan's folder; ``wall_s``: the experiment's wall time so far (every
+    call of ``reproduce`` on the folder), which trained ``trained_in_calls`` runs."""
     out, experiment = plan.out, plan.experiment
-    analysis = ANALYSES[experiment.figure.kind](plan, evaluations, out)
+    analysis = ANALYSES[experiment.figure.kind](
+        plan, evaluations, Outputs(out, experiment.id, figure_format))
     runs = plan.runs
     done = _done_runs(runs)
     first = runs[0].config["train"]

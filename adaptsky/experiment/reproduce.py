@@ -19,6 +19,7 @@ from adaptsky.experiment.plan import Plan, load_experiment, paper_experiments, p
 from adaptsky.experiment.runs import run_state
 from adaptsky.experiment.sweep import SweepOutcome, run_sweep
 from adaptsky.progress import LogLines, Reporter
+from adaptsky.report.figure_files import check_format
 from adaptsky.store.atomic import utc_timestamp, write_text_atomic
 from adaptsky.training.api import training_device
 
@@ -49,7 +50,7 @@ def reproduce(*, experiment: str, out: Path | None = None, runs: int | None = No
               workers: int | None = None, scheduler: str | None = None,
               set_values: list[str] | None = None, runs_only: bool = False,
               report_only: bool = False, device: str = "cpu", quiet: bool = False,
-              progress: Reporter | None = None) -> ReproduceResult:
+              progress: Reporter | None = None, figure_format: str = "png") -> ReproduceResult:
     """Run, evaluate and report an experiment into ``out`` (default reproduce/<id>).
 
     ``runs`` keeps at most so many runs per group and sweep point (seeds 0 .. runs - 1),
@@ -57,9 +58,11 @@ def reproduce(*, experiment: str, out: Path | None = None, runs: int | None = No
     ``report_only`` trains nothing and reports the runs that are finished (for a look while
     the runs go on elsewhere). ``progress`` hears of the work
     (default: timestamped lines on standard error, none but interrupts with ``quiet``).
+    ``figure_format`` (png, pdf or svg) is the figure's, checked before any work.
     Every call is recorded in ``DIR/calls.json``; the report gives their summed wall time.
     """
     start, started_utc = time.monotonic(), utc_timestamp()
+    figure_format = check_format(figure_format)
     progress = progress or LogLines(quiet=quiet)
     torch_device = training_device(device)
     spec, path = load_experiment(experiment)
@@ -98,7 +101,8 @@ def reproduce(*, experiment: str, out: Path | None = None, runs: int | None = No
     calls = read_calls(plan.out)
     trained = sum(int(row.get("runs_trained", 0)) for row in calls.rows)
     written = write_report(plan, evaluations, wall_s=calls.wall_s + time.monotonic() - start,
-                           trained_in_calls=trained + (len(todo) if sweep is not None else 0))
+                           trained_in_calls=trained + (len(todo) if sweep is not None else 0),
+                           figure_format=figure_format)
     progress.say(f"{plan.experiment.id}: evaluated and reported in "
                  f"{time.monotonic() - evaluated:.1f} s")
     return finish(ReproduceResult(plan, sweep, written.path, written.files, written.table))
@@ -114,6 +118,7 @@ def reproduce_all(*, out: Path | None = None, **options: Any) -> tuple[list[Repr
     from adaptsky.experiment.report import write_index
 
     start = time.monotonic()
+    check_format(options.get("figure_format", "png"))  # before the first experiment's work
     folder = out if out is not None else Path("reproduce")
     results = []
     for name in paper_experiments():

@@ -5,11 +5,11 @@ baselines as reference points, and the most energy efficiency any policy can rea
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
+from matplotlib.figure import Figure
 
-from adaptsky.report.figures import DPI, _new_axes, _save
+from adaptsky.report.figures import FONT_SMALL, _new_figure, legend_below
 
 
 @dataclass(frozen=True)
@@ -23,15 +23,17 @@ class FrontPoint:
     runs: int
 
 
-def draw_energy_front(path: Path, points: list[FrontPoint], references: dict[str, tuple[float,
-                 float]], bound_bpj: float | None, *, title: str, ee_scale: float = 1e6,
-                 rate_scale: float = 1e9, dpi: int = DPI) -> None:
+def draw_energy_front(points: list[FrontPoint], references: dict[str, tuple[float, float]],
+                      bound_bpj: float | None, *, title: str, ee_scale: float = 1e6,
+                      rate_scale: float = 1e9) -> Figure:
     """Sum rate / ``rate_scale`` (Gbit/s) against energy efficiency / ``ee_scale`` (Mbit/J):
     the ``points`` joined in order, each labelled; ``references`` (name -> (EE, rate)) as
     single markers; a dashed vertical line at ``bound_bpj``."""
-    figure, axes = _new_axes()
-    ee = np.array([p.ee_bpj for p in points]) / ee_scale
-    rate = np.array([p.rate_bps for p in points]) / rate_scale
+    figure = _new_figure()
+    axes = figure.add_subplot()
+    axes.grid(True, alpha=0.3)
+    ee = np.array([p.ee_bpj for p in points]).reshape(-1, 3) / ee_scale
+    rate = np.array([p.rate_bps for p in points]).reshape(-1, 3) / rate_scale
     runs = min((p.runs for p in points), default=0)
     if len(points):
         axes.errorbar(ee[:, 0], rate[:, 0],
@@ -40,15 +42,15 @@ def draw_energy_front(path: Path, points: list[FrontPoint], references: dict[str
                       marker="o", color="C0", capsize=3, label=f"policy (n = {runs})")
         for point, x, y in zip(points, ee[:, 0], rate[:, 0], strict=True):
             axes.annotate(point.label, (x, y), textcoords="offset points", xytext=(5, 5),
-                          fontsize=8)
+                          fontsize=FONT_SMALL)
     for i, (name, (x, y)) in enumerate(references.items()):
         axes.plot([x / ee_scale], [y / rate_scale], marker="s^Dv"[i % 4], linestyle="none",
                   color=f"C{i + 1}", label=name)
     if bound_bpj is not None:
         axes.axvline(bound_bpj / ee_scale, color="black", linestyle="--", linewidth=1.0,
                      label="most any policy can reach")
-    axes.set(title=title, xlabel="energy efficiency (Mbit/J)",
-             ylabel=r"$R^{tot}$, greedy steady state (Gbit/s)")
-    handles, labels = axes.get_legend_handles_labels()
-    figure.legend(handles, labels, loc="outside lower center", ncol=4, fontsize=8)
-    _save(figure, path, dpi)
+    axes.set(xlabel="energy efficiency (Mbit/J)",
+             ylabel=r"$R^{\mathrm{tot}}$, greedy steady state (Gbit/s)")
+    figure.suptitle(title)
+    legend_below(figure, [axes], columns=4)
+    return figure

@@ -7,7 +7,11 @@ import json
 from pathlib import Path
 from typing import Any
 
+import h5py
+
 from adaptsky.errors import AdaptskyError
+from adaptsky.report.user_rates import USER_RATES
+from adaptsky.rollouts.metrics import STEADY_STEPS, steady_user_rates
 from adaptsky.store.eval_file import KIND, check_searches
 from adaptsky.store.run_file import open_run_file
 
@@ -40,12 +44,27 @@ def read_eval_file(path: Path) -> tuple[dict[str, Any], dict[str, Any]]:
             header = {key: _plain(file.attrs[key]) for key in HEADER if key in file.attrs}
             results = json.loads(file["results_json"][()].decode())
             check_searches(file)
+            if isinstance(results, dict) and isinstance(results.get("methods"), dict):
+                _add_user_rates(file, results["methods"])
     except (OSError, KeyError, ValueError, UnicodeDecodeError) as error:
         raise AdaptskyError(f"{path}: damaged eval file "
                             f"({(str(error).splitlines() or ['unreadable'])[0]})") from None
     if not isinstance(results, dict) or "methods" not in results:
         raise AdaptskyError(f"{path}: damaged eval file (results_json holds no methods)")
     return header, results
+
+
+def _add_user_rates(file: h5py.File, methods: dict[str, Any]) -> None:
+    """Each user's steady-state rate per layout, for eval files written before eval stored it
+    (``steady_user_rate_bps``): from the rates of the last 100 steps of each method's
+    trajectory, as eval computes it."""
+    for group in file["methods"].values():
+        label = _plain(group.attrs.get("label", ""))
+        layouts = methods.get(label, {}).get("layouts")
+        if isinstance(layouts, dict) and USER_RATES not in layouts:
+            rates = group["trajectory/rate_bps"]
+            tail = rates[max(0, rates.shape[0] - STEADY_STEPS):]
+            layouts[USER_RATES] = steady_user_rates(tail).tolist()
 
 
 def _plain(value: Any) -> Any:

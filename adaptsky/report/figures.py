@@ -1,28 +1,35 @@
-"""The paper's figures as PNG files: learning curves (Fig. 2), the minimum-spectral-efficiency
-sweep (Fig. 3), per-layout gains (Fig. 4), and ours: sum rate and fairness against the
-number of UAVs (E4).
+"""The paper's figures: learning curves (Fig. 2, one panel or several sharing the episode
+axis), the minimum-spectral-efficiency sweep (Fig. 3), per-layout gains (Fig. 4), and ours:
+sum rate and fairness against the number of UAVs (E4).
 
-Drawn on a bare :class:`~matplotlib.figure.Figure` with the Agg canvas: no pyplot, no global
-state, no display needed. Each file is written whole or not at all.
+Each function draws a bare :class:`~matplotlib.figure.Figure` on the Agg canvas (no pyplot,
+no global state, no display needed) and returns it; ``figure_files.save_figure`` writes it as
+PNG, PDF or SVG. Figures fit for a paper: quantities in mathtext with their units, integer
+ticks on episode and UAV axes, and the legend below the axes, where it covers no curve.
 """
 
 from __future__ import annotations
 
-import io
-from dataclasses import dataclass
-from pathlib import Path
+from dataclasses import dataclass, field
 
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from adaptsky.report.curves import gain_stats
-from adaptsky.store.atomic import write_bytes_atomic
 
 SIZE_IN = (7.0, 4.5)
-DPI = 150
+PANEL_HEIGHT_IN = 3.0
+"""Height of each panel of a figure of several stacked panels (plus 1.5 in for the title
+and the legend)."""
 BAND_ALPHA = 0.2
+FONT_SMALL = 8
+RATE_LABEL = r"$R_e^{\mathrm{tot}}$"
+"""The paper's R_e^tot, the mean sum rate of an episode (sec. V-C), in mathtext."""
+FAIRNESS_LABEL = r"Jain's fairness $J_e$"
+EPISODE_LABEL = "episode"
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,18 +64,23 @@ class Level:
     style: str = "--"
 
 
-def _new_axes() -> tuple[Figure, Axes]:
-    figure = Figure(figsize=SIZE_IN, layout="constrained")
+@dataclass(frozen=True)
+class Panel:
+    """One axes of a learning-curve figure: series and levels in their base unit, shown
+    divided by ``scale``; ``ylabel`` names the quantity and the unit shown; ``marker`` marks
+    each point (sparse points, such as evaluations every 10 episodes)."""
+
+    ylabel: str
+    series: list[Series]
+    levels: list[Level] = field(default_factory=list)
+    scale: float = 1.0
+    marker: str | None = None
+
+
+def _new_figure(size_in: tuple[float, float] = SIZE_IN) -> Figure:
+    figure = Figure(figsize=size_in, layout="constrained")
     FigureCanvasAgg(figure)
-    axes = figure.add_subplot()
-    axes.grid(True, alpha=0.3)
-    return figure, axes
-
-
-def _save(figure: Figure, path: Path, dpi: int) -> None:
-    png = io.BytesIO()
-    figure.savefig(png, format="png", dpi=dpi)
-    write_bytes_atomic(path, png.getvalue())
+    return figure
 
 
 def _unit(label: str) -> str:
@@ -77,105 +89,142 @@ def _unit(label: str) -> str:
     return tail.rstrip(")").strip() if head else ""
 
 
-def _draw_series(axes: Axes, series: list[Series], scale: float, marker: str | None) -> None:
+def _draw_series(axes: Axes, series: list[Series], scale: float, marker: str | None,
+                 colors: dict[str, str] | None = None) -> None:
+    """A line and band per series, value / ``scale``; colour by label (default: C0, C1, ...
+    in order)."""
+    axes.grid(True, alpha=0.3)
     for i, line in enumerate(series):
-        color = f"C{i}"
+        color = colors[line.label] if colors else f"C{i}"
         axes.plot(line.x, line.mean / scale, color=color, marker=marker, markersize=4,
                   label=line.legend)
         axes.fill_between(line.x, line.low / scale, line.high / scale, color=color,
                           alpha=BAND_ALPHA, linewidth=0)
 
 
-def _lower_right(axes: Axes, text: str) -> None:
-    axes.text(0.98, 0.03, text, transform=axes.transAxes, ha="right", va="bottom", fontsize=8,
-              bbox={"boxstyle": "round", "facecolor": "white", "alpha": 0.85,
-                    "edgecolor": "0.7"})
+def _integer_ticks(axes: Axes) -> None:
+    """Ticks on whole numbers only (episodes, UAVs): never 'episode 2.5'."""
+    axes.xaxis.set_major_locator(MaxNLocator(integer=True))
 
 
-def learning_curves(path: Path, series: list[Series], levels: list[Level], *, title: str,
-                    ylabel: str = "R_e^tot (Gbit/s)", scale: float = 1e9,
-                    note: str | None = None, dpi: int = DPI) -> None:
-    """Fig. 2: value / ``scale`` against episode, a line and band per series, a horizontal line
-    per level (its value in the legend, in ``ylabel``'s unit), ``note`` in the lower right."""
-    figure, axes = _new_axes()
-    _draw_series(axes, series, scale, marker=None)
-    unit = _unit(ylabel)
-    for j, level in enumerate(levels):
-        value = level.value / scale
-        axes.axhline(value, color=f"C{len(series) + j}", linestyle=level.style,
-                     label=f"{level.label}: {value:.2f} {unit}".rstrip())
+def legend_below(figure: Figure, axes: list[Axes], columns: int = 3) -> None:
+    """One legend for every axes of ``figure`` (each label once, in order), below them: the
+    constrained layout gives it room of its own, so it never covers a curve."""
+    entries: dict[str, object] = {}
+    for each in axes:
+        for handle, label in zip(*each.get_legend_handles_labels(), strict=True):
+            entries.setdefault(label, handle)
+    if entries:
+        figure.legend(list(entries.values()), list(entries), loc="outside lower center",
+                      ncol=min(columns, len(entries)), fontsize=FONT_SMALL)
+
+
+def _titles(figure: Figure, axes: Axes, title: str, note: str | None) -> None:
+    """The title above everything and the note (how the curves were made) under it, above the
+    first axes: never inside the plotted area."""
+    figure.suptitle(title)
     if note:
-        _lower_right(axes, note)
-    axes.set(title=title, xlabel="episode", ylabel=ylabel)
-    axes.legend(fontsize=8)
-    _save(figure, path, dpi)
+        axes.set_title(note, fontsize=FONT_SMALL)
 
 
-def min_se_sweep(path: Path, series: list[Series], served: dict[str, float | None], *,
-                 title: str, ylabel: str = "R_e^tot (Gbit/s)", scale: float = 1e9,
-                 dpi: int = DPI) -> None:
+def curve_panels(panels: list[Panel], *, title: str, note: str | None = None,
+                 xlabel: str = EPISODE_LABEL) -> Figure:
+    """Learning curves in stacked panels sharing the episode axis: per panel a line and band
+    per series (value / the panel's ``scale``; one colour per series label in every panel), a
+    horizontal line per level (its value in the legend, in the panel's unit)."""
+    if not panels:
+        raise ValueError("no panel to draw")
+    height = SIZE_IN[1] if len(panels) == 1 else 1.5 + PANEL_HEIGHT_IN * len(panels)
+    figure = _new_figure((SIZE_IN[0], height))
+    grid = figure.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
+    labels = dict.fromkeys(line.label for panel in panels for line in panel.series)
+    colors = {label: f"C{i}" for i, label in enumerate(labels)}
+    for axes, panel in zip(grid, panels, strict=True):
+        _draw_series(axes, panel.series, panel.scale, marker=panel.marker, colors=colors)
+        unit = _unit(panel.ylabel)
+        for j, level in enumerate(panel.levels):
+            value = level.value / panel.scale
+            axes.axhline(value, color=f"C{len(colors) + j}", linestyle=level.style,
+                         label=f"{level.label}: {value:.2f} {unit}".rstrip())
+        axes.set_ylabel(panel.ylabel)
+        _integer_ticks(axes)
+    grid[-1].set_xlabel(xlabel)
+    _titles(figure, grid[0], title, note)
+    legend_below(figure, list(grid))
+    return figure
+
+
+def learning_curves(series: list[Series], levels: list[Level], *, title: str,
+                    ylabel: str = f"{RATE_LABEL} (Gbit/s)", scale: float = 1e9,
+                    note: str | None = None) -> Figure:
+    """Fig. 2: value / ``scale`` against episode, a line and band per series, a horizontal line
+    per level (its value in the legend, in ``ylabel``'s unit), ``note`` under the title."""
+    return curve_panels([Panel(ylabel, series, levels, scale)], title=title, note=note)
+
+
+def min_se_sweep(series: list[Series], served: dict[str, float | None], *, title: str,
+                 ylabel: str = f"{RATE_LABEL} (Gbit/s)", scale: float = 1e9) -> Figure:
     """Fig. 3: value / ``scale`` against the required minimum spectral efficiency (bit/s/Hz);
     ``served[label]`` is the highest threshold that series' method serves for every user
     (None: none), drawn as a dotted vertical line in the series' colour."""
     unknown = sorted(set(served) - {line.label for line in series})
     if unknown:
         raise ValueError(f"served names no series: {', '.join(unknown)}")
-    figure, axes = _new_axes()
+    figure = _new_figure()
+    axes = figure.add_subplot()
     _draw_series(axes, series, scale, marker="o")
     for i, line in enumerate(series):
         threshold = served.get(line.label)
         if threshold is None:
             continue
         axes.axvline(threshold, color=f"C{i}", linestyle=":", linewidth=1.2)
-        axes.text(threshold, 0.03 + 0.06 * i, f" serves <= {float(threshold)}",
+        axes.text(threshold, 0.03 + 0.06 * i, rf" serves $\leq$ {float(threshold)}",
                   color=f"C{i}", transform=axes.get_xaxis_transform(), ha="left",
-                  va="bottom", fontsize=8)
-    axes.set(title=title, xlabel="required minimum spectral efficiency (bit/s/Hz)",
-             ylabel=ylabel)
-    axes.legend(fontsize=8)
-    _save(figure, path, dpi)
+                  va="bottom", fontsize=FONT_SMALL)
+    axes.set(xlabel="required minimum spectral efficiency (bit/s/Hz)", ylabel=ylabel)
+    figure.suptitle(title)
+    legend_below(figure, [axes])
+    return figure
 
 
-def layout_gains(path: Path, gains_pct: dict[str, np.ndarray], *, title: str,
-                 paper: dict[str, str] | None = None, dpi: int = DPI) -> None:
+def layout_gains(gains_pct: dict[str, np.ndarray], *, title: str,
+                 paper: dict[str, str] | None = None) -> Figure:
     """Fig. 4: per label (``"vs SoA"``, ...), the empirical CDF over layouts of the policy's
-    sum-rate gain in % ((policy - other) / other * 100), a line at 0%, and a box with the share
-    of layouts gained on, the median and max gain (and ``paper[label]`` beside them)."""
-    figure, axes = _new_axes()
-    lines = []
+    sum-rate gain in % ((policy - other) / other * 100), a line at 0%, and in the legend the
+    share of layouts gained on, the median and max gain (and ``paper[label]`` below them)."""
+    figure = _new_figure()
+    axes = figure.add_subplot()
+    axes.grid(True, alpha=0.3)
     for i, (label, gains) in enumerate(gains_pct.items()):
         gains = np.sort(np.asarray(gains, dtype=np.float64))
         stats = gain_stats(gains)
         shares = np.arange(1, len(gains) + 1) / len(gains)
-        axes.step(gains, shares, where="post", color=f"C{i}", label=label)
-        lines.append(f"{label}: beats on {stats['share_positive']:.0%} of {len(gains)}, "
-                     f"median {stats['median_pct']:+.2f}%, max {stats['max_pct']:+.2f}%")
+        text = (f"{label}: beats on {stats['share_positive']:.0%} of {len(gains)}, "
+                f"median {stats['median_pct']:+.2f}%, max {stats['max_pct']:+.2f}%")
         if paper and label in paper:
-            lines.append(f"    {paper[label]}")
+            text += f"\n    {paper[label]}"
+        axes.step(gains, shares, where="post", color=f"C{i}", label=text)
     axes.axvline(0.0, color="black", linewidth=0.8)
-    _lower_right(axes, "\n".join(lines))
-    axes.set(title=title, xlabel="sum-rate gain of the policy over the method (%)",
-             ylabel="share of layouts", ylim=(0.0, 1.02))
-    axes.legend(fontsize=8, loc="upper left")
-    _save(figure, path, dpi)
+    axes.set(xlabel="sum-rate gain of the policy over the method (%)",
+             ylabel="share of layouts (empirical CDF)", ylim=(0.0, 1.02))
+    figure.suptitle(title)
+    legend_below(figure, [axes], columns=1)
+    return figure
 
 
-def uav_count(path: Path, rates: list[Series], fairness: list[Series], *, title: str,
-              ylabel: str = "sum rate (Gbit/s)", scale: float = 1e9, dpi: int = DPI) -> None:
+def uav_count(rates: list[Series], fairness: list[Series], *, title: str,
+              ylabel: str = "sum rate (Gbit/s)", scale: float = 1e9) -> Figure:
     """E4: sum rate / ``scale`` (left) and Jain's fairness (right) against the number of
     UAVs, a line with a band per method; integer ticks; the legend below the panels."""
-    figure = Figure(figsize=(9.0, 4.5), layout="constrained")
-    FigureCanvasAgg(figure)
+    figure = _new_figure((9.0, 4.5))
     left, right = figure.subplots(1, 2)
     for axes, lines, label, divisor in ((left, rates, ylabel, scale),
                                         (right, fairness, "Jain's fairness", 1.0)):
-        axes.grid(True, alpha=0.3)
         _draw_series(axes, lines, divisor, marker="o")
         axes.set(xlabel="UAVs", ylabel=label)
         counts = sorted({float(x) for line in lines for x in line.x})
         axes.set_xticks(counts, [f"{c:g}" for c in counts])
     right.set_ylim(0.0, 1.02)
     figure.suptitle(title)
-    handles, labels = left.get_legend_handles_labels()
-    figure.legend(handles, labels, loc="outside lower center", ncol=3, fontsize=8)
-    _save(figure, path, dpi)
+    legend_below(figure, [left])
+    return figure

@@ -1,7 +1,7 @@
 """Summary of a run file: per seed R_e^tot and J_e (sec. V-C: means over the last 100
 episodes, or over every episode of a shorter run) and, from format 3, the episodes' energy
 and energy efficiency (docs/model.md §10), and their mean and population standard deviation
-(ddof = 0) over seeds."""
+(ddof = 0) over seeds; per seed, each user's mean rate in its last stored episode."""
 
 from __future__ import annotations
 
@@ -36,6 +36,7 @@ def summarize(path: Path) -> dict[str, Any]:
             curves = run.episodes(seed)
             sizes = run.seed_attrs(seed)
             rates = curves["sum_rate_bps"][-LAST_EPISODES:]
+            users = curves["mean_rate_bps"]
             fairness = curves["fairness"][-LAST_EPISODES:]
             energy = {key: float(curves[key][-LAST_EPISODES:].mean())
                       if key in curves and len(rates) else None for key in ENERGY_KEYS}
@@ -46,6 +47,7 @@ def summarize(path: Path) -> dict[str, Any]:
                 "sum_rate_bps": float(rates.mean()) if len(rates) else None,
                 "fairness": float(fairness.mean()) if len(fairness) else None,
                 "episodes_averaged": len(rates), **energy,
+                "last_episode_user_rate_bps": users[-1].tolist() if len(users) else None,
                 "best": None if best is None else {"episode": int(best["episode"]),
                                                    "score": float(best["score"])},
                 "evaluations": curve_json(run.evaluations(seed))})

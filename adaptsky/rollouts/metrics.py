@@ -22,6 +22,12 @@ def meets_min_rate(rate_bps: NDArray[np.float64], min_rate_bps: float) -> NDArra
     return rate_bps >= min_rate_bps * (1 - MIN_RATE_TOLERANCE)
 
 
+def steady_user_rates(rate_bps: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(T, L, N) rates of every step, layout and user -> (L, N): each user's mean rate over the
+    last 100 steps (the steady state; every step of a shorter rollout)."""
+    return np.asarray(rate_bps)[-STEADY_STEPS:].mean(axis=0)
+
+
 def energy_efficiency_bpj(sum_rate_bps: NDArray[np.float64], energy_j: NDArray[np.float64],
                           step_s: float) -> NDArray[np.float64]:
     """EE = sum_t R_tot,t step_s / sum_t E_t, bit/J, over the first (step) axis; E_t summed
@@ -69,9 +75,9 @@ def layout_metrics(trace: Trace, bandwidth_hz: float, min_rate_bps: float,
                    step_s: float = 1.0) -> dict[str, NDArray[np.float64]]:
     """Per layout (L,): mean sum rate over the steps, over the last 100 steps (steady
     state), mean Jain index, the smallest user's mean spectral efficiency, the share of steps
-    with every user at or above R_min (over all steps, and over the last 100); the final
-    UAV position (L, 3), or every UAV's (L, U, 3) for several UAVs; and the energy of
-    :func:`energy_metrics` with steps of ``step_s`` seconds."""
+    with every user at or above R_min (over all steps, and over the last 100); each user's
+    steady-state rate (L, N); the final UAV position (L, 3), or every UAV's (L, U, 3) for
+    several UAVs; and the energy of :func:`energy_metrics` with steps of ``step_s`` seconds."""
     sum_rate = trace.sum_rate_bps
     all_met = meets_min_rate(trace.rate_bps, min_rate_bps).all(axis=-1)
     return {
@@ -81,6 +87,7 @@ def layout_metrics(trace: Trace, bandwidth_hz: float, min_rate_bps: float,
         "min_user_se": (trace.rate_bps.mean(axis=0) / bandwidth_hz).min(axis=-1),
         "satisfied_share": all_met.mean(axis=0),
         "steady_satisfied_share": all_met[-STEADY_STEPS:].mean(axis=0),
+        "steady_user_rate_bps": steady_user_rates(trace.rate_bps),
         "final_uav_m": trace.uav_m[-1],
     } | energy_metrics(trace, step_s)
 

@@ -26,6 +26,7 @@ TEXT = "text"
 UNITS = {"mean_sum_rate_bps": "bit/s", "steady_sum_rate_bps": "bit/s", "sum_rate_bps": "bit/s",
          "rate_bps": "bit/s", "min_user_se": "bit/s/Hz", "fairness": "1",
          "satisfied_share": "1", "steady_satisfied_share": "1", "alpha": "1",
+         "steady_user_rate_bps": "bit/s",
          "final_uav_m": "m", "uav_m": "m", "layouts_m": "m", "objective_bps": "bit/s",
          "rounds": "1", "converged": "1"}
 """The ``units`` attribute of every numeric dataset, by name ("1": dimensionless)."""

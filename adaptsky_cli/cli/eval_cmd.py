@@ -12,7 +12,7 @@ import typer
 
 from adaptsky.errors import AdaptskyError
 from adaptsky_cli.cli.console import err, out
-from adaptsky_cli.cli.options import Json, ScenarioFile, command_line
+from adaptsky_cli.cli.options import CsvFile, Json, Layout, ScenarioFile, command_line
 from adaptsky_cli.cli.usage import click_errors
 
 Layouts = Annotated[int | None, typer.Option(min=1, metavar="N", show_default=False,
@@ -54,21 +54,41 @@ def _writable_new_file(path: Path) -> None:
     _trial_write(path)
 
 
-def show_results(results: dict[str, Any]) -> None:
+def show_results(results: dict[str, Any], layout: int | None = None) -> None:
     """The comparison table of an evaluation or a baseline, and the policy's share of the
-    oracle (of best response for several UAVs)."""
+    oracle (of best response for several UAVs); with ``layout``, each user's rate on it."""
     from adaptsky.report.eval_table import (
         energy_lines,
         methods_table,
         oracle_line,
         search_lines,
     )
+    from adaptsky.report.user_rates import eval_user_table
     out.print(methods_table(results))
     for line in (*search_lines(results), *energy_lines(results)):
         out.print(line, markup=False)
     line = oracle_line(results)
     if line:
         out.print(line, markup=False)
+    if layout is not None:
+        out.print(eval_user_table(results, layout))
+
+
+def check_tables(layout: int | None, layouts: int, csv_file: Path | None,
+                 as_json: bool) -> None:
+    """Refuse, before any work, a ``--layout`` the evaluation lacks or that ``--json`` would
+    not show, and a ``--csv`` path that cannot be written."""
+    from adaptsky.report.eval_csv import check_csv_path
+    from adaptsky.report.user_rates import check_layout
+
+    if layout is not None:
+        if as_json:
+            raise AdaptskyError(f"--layout {layout}: picks the layout of the per-user table, "
+                                "which --json does not print (its steady_user_rate_bps holds "
+                                "every layout); leave out one of them")
+        check_layout(layout, layouts)
+    if csv_file is not None:
+        check_csv_path(csv_file)
 
 
 def _run_file(run: Path | None, checkpoint: Path | None, ctx: typer.Context) -> Path:
@@ -107,12 +127,14 @@ def evaluate(
     policy: Annotated[str, typer.Option(
         metavar="best|last", help="best: the policy of the best greedy evaluation during "
         "training (the last where a run has none); last: the last checkpoint")] = "best",
+    layout: Layout = None,
+    csv_file: CsvFile = None,
     as_json: Json = False,
 ) -> None:
     """Evaluate a trained policy against baselines and other runs.
 
     Greedy rollouts of one seed's policy and of the methods compared, on the same layouts;
-    prints a table and writes an eval file."""
+    prints a table and each user's rate, and writes an eval file (and a CSV with --csv)."""
     from adaptsky.evaluation import api
     from adaptsky.store.atomic import fresh_path
     from adaptsky.store.eval_file import write_eval
@@ -123,6 +145,7 @@ def evaluate(
                                                             f"{checkpoint.stem}-eval")
     if out_file is not None or path.parent.is_dir():  # else the run file is missing: said next
         _writable_new_file(path)
+    check_tables(layout, layouts or 1, csv_file, as_json)
     methods = [item.strip() for item in compare.split(",") if item.strip()]
     results, traces = api.evaluate(checkpoint=checkpoint, seed=seed, scenario_path=scenario,
                                    layouts=layouts, layout_seed=layout_seed, steps=steps,
@@ -130,12 +153,18 @@ def evaluate(
                                    policy=policy)
     write_eval(path, results, traces, provenance={
         "command_line": json.dumps(command_line(ctx)), "wall_time_s": time.monotonic() - start})
+    written = {"eval_file": str(path)}
+    if csv_file is not None:
+        from adaptsky.report.eval_csv import write_eval_csv
+        written["csv_file"] = str(write_eval_csv(csv_file, results))
     if as_json:
-        print(json.dumps(results | {"eval_file": str(path)}))
+        print(json.dumps(results | written))
         return
     show_training(results)
-    show_results(results)
+    show_results(results, layout or 0)
     err.print(f"eval file: {path}")
+    if csv_file is not None:
+        err.print(f"CSV: {csv_file}")
 
 
 def show_training(results: dict[str, Any]) -> None:

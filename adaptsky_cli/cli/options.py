@@ -16,6 +16,14 @@ ScenarioFiles = Annotated[list[Path], typer.Argument(help="scenario files (TOML)
 PluginName = Annotated[str, typer.Argument(help="channel-model name, as in 'plugins list'",
                                            show_default=False, metavar="NAME")]
 Json = Annotated[bool, typer.Option("--json", help="print JSON on stdout, nothing else")]
+Layout = Annotated[int | None, typer.Option(
+    metavar="L", show_default=False,
+    help="an evaluation's layout (0, 1, ...) whose per-user rates are shown (default: the "
+    "first)")]
+CsvFile = Annotated[Path | None, typer.Option(
+    "--csv", metavar="FILE.csv", show_default=False,
+    help="an evaluation's per-layout numbers and per-user rates, every method and layout, to "
+    "this CSV")]
 Device = Annotated[str, typer.Option(
     "--device", metavar="cpu|cuda|auto", help="where to train: cpu, cuda (or cuda:N) or auto "
     "(cuda when available); on cuda all seeds train as one stack, recorded as CUDA graphs")]

@@ -24,9 +24,14 @@ def plot(
                                                "are skipped", metavar="RUN.h5...",
                                                show_default=False)],
     out_file: Annotated[Path | None, typer.Option(
-        "--out", metavar="FIG.png",
-        help="PNG to write (its name ends in .png), with the plotted numbers in a .csv beside "
-        "it (default: <first run file>-curves.png beside it)", show_default=False)] = None,
+        "--out", metavar="FIG.png|.pdf|.svg",
+        help="figure to write, in the format its suffix names (.png, .pdf or .svg), with the "
+        "plotted numbers in a .csv beside it (default: <first run file>-curves.png beside it)",
+        show_default=False)] = None,
+    metric: Annotated[str, typer.Option(
+        metavar="METRICS", help="what to draw: sum-rate (R_e^tot), fairness (J_e) or greedy "
+        "(the greedy evaluations' score); several comma-separated draw a panel each, e.g. "
+        "sum-rate,fairness")] = "sum-rate",
     band: Annotated[Band, typer.Option(
         metavar="std|bootstrap", help="shaded band: mean ± 1 std over seeds, or a 95% "
         "bootstrap interval of the mean")] = Band.std,
@@ -35,7 +40,8 @@ def plot(
 ) -> None:
     """Draw the learning curves of run files.
 
-    R_e^tot (a trailing mean) of every seed, with a band over seeds, as a PNG and a CSV."""
+    R_e^tot (a trailing mean), J_e or the greedy evaluations of every seed, with a band over
+    seeds, as a PNG, PDF or SVG and a CSV."""
     from adaptsky.report.eval_summary import split_eval_files
     from adaptsky.report.plot_runs import default_figure_path, plot_runs  # matplotlib
 
@@ -48,5 +54,5 @@ def plot(
         err.print(f"{path}: an eval file, not a run file: skipped (adaptsky inspect {path} "
                   "shows it)")
     path = plot_runs(run_paths=runs, out=out_file or default_figure_path(runs[0]),
-                     band=band.value, title=title)
+                     band=band.value, title=title, metric=metric)
     err.print(f"figure: {path}")

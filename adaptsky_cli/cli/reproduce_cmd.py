@@ -44,6 +44,10 @@ def reproduce(
         "--report-only", help="train nothing: evaluate and report the runs that are "
         "finished")] = False,
     device: Device = "cpu",
+    figure_format: Annotated[str | None, typer.Option(
+        "--format", metavar="png|pdf|svg", show_default=False,
+        help="the format of the experiments' figures, which report.md links (default: "
+        "png)")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", help="no progress, only the final "
                                         "lines")] = False,
 ) -> None:
@@ -53,6 +57,9 @@ def reproduce(
     writes figures, CSVs and report.md."""
     if runs_only and report_only:
         raise AdaptskyError("--runs-only and --report-only exclude each other")
+    if runs_only and figure_format is not None:
+        raise AdaptskyError(f"--format {figure_format}: --runs-only draws no figure; leave out "
+                            "one of them")
     # training and evaluation import torch: only when the command runs, not for --help
     from adaptsky.experiment.reproduce import reproduce as run_experiment
     from adaptsky.experiment.reproduce import reproduce_all
@@ -61,7 +68,7 @@ def reproduce(
     options = dict(runs=runs, seeds=parse_seeds(seeds), episodes=episodes, steps=steps,
                    workers=workers, scheduler=scheduler, set_values=set_values, runs_only=runs_only,
                    report_only=report_only, device=device, quiet=quiet,
-                   progress=RichReporter(err, quiet=quiet))
+                   progress=RichReporter(err, quiet=quiet), figure_format=figure_format or "png")
     if experiment == "all":
         results, index = reproduce_all(out=out, **options)
     else:

@@ -13,6 +13,7 @@ import pytest
 
 from adaptsky.errors import AdaptskyError
 from adaptsky.report.curves import band, curve_window, gain_stats, trailing_mean
+from adaptsky.report.figure_files import save_figure
 from adaptsky.report.figures import (
     Level,
     Series,
@@ -111,8 +112,9 @@ def two_series() -> list[Series]:
 
 def test_learning_curves_png(tmp_path):
     path = tmp_path / "fig2.png"
-    learning_curves(path, two_series(), [Level("SoA", 31.8e9), Level("oracle", 49.1e9, ":")],
-                    title="E3", note="J_e at the last episode: 0.61 ± 0.02; SoA 0.42")
+    levels = [Level("SoA", 31.8e9), Level("oracle", 49.1e9, ":")]
+    save_figure(learning_curves(two_series(), levels, title="E3",
+                                note="$J_e$ at the last episode: 0.61 ± 0.02; SoA 0.42"), path)
     assert_png(path, tmp_path)
 
 
@@ -121,18 +123,19 @@ def test_min_se_sweep_png(tmp_path):
     se = np.array([0.5, 1.0, 2.0, 3.0, 4.0])
     lines = [Series(s.label, se, s.mean[:5], s.low[:5], s.high[:5], s.runs)
              for s in two_series()]
-    min_se_sweep(path, lines, {"dueling DQN": 3.0, "DQN": None}, title="E4")
+    save_figure(min_se_sweep(lines, {"dueling DQN": 3.0, "DQN": None}, title="E4"), path)
     assert_png(path, tmp_path)
     with pytest.raises(ValueError, match="SoA"):
-        min_se_sweep(path, lines, {"SoA": 1.0}, title="E4")
+        min_se_sweep(lines, {"SoA": 1.0}, title="E4")
 
 
 def test_layout_gains_png(tmp_path):
     path = tmp_path / "fig4.png"
     rng = np.random.default_rng(0)
-    layout_gains(path, {"vs SoA": rng.normal(20, 15, 100), "vs DQN": rng.normal(5, 5, 100)},
-                 title="E5", paper={"vs SoA": "paper: beats on 91%, median +30.25%, "
-                                              "max +90.25%"})
+    save_figure(layout_gains({"vs SoA": rng.normal(20, 15, 100),
+                              "vs DQN": rng.normal(5, 5, 100)},
+                             title="E5", paper={"vs SoA": "paper: beats on 91%, median +30.25%, "
+                                                          "max +90.25%"}), path)
     assert_png(path, tmp_path)
 
 
@@ -247,7 +250,9 @@ def test_plot_never_writes_a_figure_over_a_file_that_is_not_one(tmp_path, capsys
     for out in (scenario, run, tmp_path / "figure"):
         assert main(["plot", str(run), "--out", str(out)]) == 1
         lines = capsys.readouterr().err.strip().splitlines()
-        assert lines == [f"--out {out}: a figure file must end in .png"]
+        given = f"'{out.suffix}'" if out.suffix else "no suffix"
+        assert lines == [f"--out {out}: a figure file must end in .png, .pdf or .svg (it has "
+                         f"{given})"]
     assert scenario.read_text() == 'name = "x"\n' and not (tmp_path / "nyc_mmwave.csv").exists()
     assert main(["plot", str(run), "--out", str(tmp_path / "curves.png")]) == 0
     assert (tmp_path / "curves.png").read_bytes()[:8] == PNG_MAGIC

@@ -1,0 +1,66 @@
+"""Figure files: the formats a figure is written in (PNG, PDF, SVG), chosen by a path's suffix
+or by name, and the one function that writes a drawn figure, whole or not at all.
+
+PDF and SVG carry no creation date and SVG's element ids are salted with a fixed text, so the
+same figure gives the same bytes every time; PDF embeds TrueType (Type 42) fonts rather than
+Type 3, which journals' PDF checkers (IEEE's PDF eXpress) refuse.
+"""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from adaptsky.errors import AdaptskyError
+from adaptsky.store.atomic import write_bytes_atomic
+
+if TYPE_CHECKING:  # matplotlib is imported by what draws, not by what checks a format
+    from matplotlib.figure import Figure
+
+FIGURE_FORMATS = ("png", "pdf", "svg")
+"""What a figure can be written as; the file's suffix names it (``.png``, ``.pdf``, ``.svg``)."""
+DPI = 150
+"""Pixels per inch of PNG figures (PDF and SVG are vector: their size is in inches)."""
+
+_METADATA: dict[str, dict[str, Any]] = {"png": {}, "pdf": {"CreationDate": None},
+                                        "svg": {"Date": None}}
+_RC = {"svg.hashsalt": "adaptsky", "pdf.fonttype": 42}
+
+
+def allowed_formats(prefix: str = "") -> str:
+    """'png, pdf or svg' (with ``prefix`` '.': '.png, .pdf or .svg')."""
+    names = [f"{prefix}{name}" for name in FIGURE_FORMATS]
+    return f"{', '.join(names[:-1])} or {names[-1]}"
+
+
+def check_format(name: str, option: str = "--format") -> str:
+    """``name`` as a figure format (case aside), or one line naming the option, what was given
+    and what is allowed."""
+    if name.lower() not in FIGURE_FORMATS:
+        raise AdaptskyError(f"{option} {name}: not a figure format; choose {allowed_formats()}")
+    return name.lower()
+
+
+def format_of(path: Path, option: str = "--out") -> str:
+    """The format a figure path's suffix names, or one line: a figure is never written over a
+    file of another kind (a scenario, a run file)."""
+    suffix = path.suffix.lower().lstrip(".")
+    if suffix not in FIGURE_FORMATS:
+        given = f"'{path.suffix}'" if path.suffix else "no suffix"
+        raise AdaptskyError(f"{option} {path}: a figure file must end in "
+                            f"{allowed_formats('.')} (it has {given})")
+    return suffix
+
+
+def save_figure(figure: Figure, path: Path, dpi: int = DPI) -> Path:
+    """Write ``figure`` to ``path`` in the format its suffix names, atomically (a copy renamed
+    over the file: never half written). Returns ``path``."""
+    import matplotlib
+
+    kind = format_of(path)
+    data = io.BytesIO()
+    with matplotlib.rc_context(_RC):
+        figure.savefig(data, format=kind, dpi=dpi, metadata=_METADATA[kind])
+    write_bytes_atomic(path, data.getvalue())
+    return path

@@ -1,0 +1,183 @@
+"""``adaptsky plot --metric``: each metric draws the numbers the run file stores (read here with
+h5py, not through the code under test), several metrics draw a panel each, and a metric that
+is unknown, repeated or absent from the files is one line and exit code 1 with no file
+written."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from adaptsky.report.plot_metrics import METRICS
+from adaptsky.report.plot_runs import runs_figure
+from adaptsky.store.layout import EVALUATIONS
+from adaptsky.store.run_file import EPISODE_METRICS, PER_USER_METRICS, append_checkpoint, create_run
+from adaptsky_cli.cli.main import main
+from tests.conftest import make_scenario
+from tests.e2e.test_usage import one_line
+
+
+def make_run(path: Path, seeds: dict[int, int], evaluated: dict[int, list[int]] | None = None,
+             **sections: object) -> Path:
+    """A run file of ``seeds[S]`` episodes per seed (in one checkpoint) with distinct curves,
+    and greedy evaluations at the episodes ``evaluated[S]`` (scores 50 + episode + seed).
+    Only its curves and evaluations are real (checkpoints are stubs: read ``needs="curves"``)."""
+    config = make_scenario(name="alpha", train={"seeds": list(seeds), "episodes": 100},
+                           **sections)
+    create_run(path, 'name = "alpha"\n', config.model_dump(mode="json"), {}, seeds=list(seeds),
+               episodes=100, num_users=config.num_users)
+    rng = np.random.default_rng(0)
+    for seed, episodes in seeds.items():
+        rows = {name: rng.uniform(0.2, 0.9, episodes) for name in EPISODE_METRICS}
+        rows["sum_rate_bps"] = rng.uniform(20e9, 40e9, episodes)
+        rows |= {name: rng.uniform(1e8, 1e10, (episodes, config.num_users))
+                 for name in PER_USER_METRICS}
+        at = np.array((evaluated or {}).get(seed, []), dtype=np.int64)
+        table = {field.name: np.full(len(at), np.nan) for field in EVALUATIONS}
+        table |= {"episode": at, "score": 50.0 + at + seed, "pct_oracle": 50.0 + at + seed}
+        append_checkpoint(path, seed, rows, {}, (episodes, {}), {"episode": episodes}, table)
+    return path
+
+
+def stored(path: Path, seed: int, name: str) -> np.ndarray:
+    """``/seeds/<seed>/episodes/<name>`` (or ``evaluations/score``) as the file holds it."""
+    with h5py.File(path, "r") as file:
+        group = file[f"seeds/{seed}"]
+        if name == "score":
+            return group["evaluations/episode"][()], group["evaluations/score"][()]
+        return group[f"episodes/{name}"][: group.attrs["episodes_done"]]
+
+
+def line_of(axes) -> tuple[np.ndarray, np.ndarray]:
+    (line,) = axes.get_lines()
+    return np.asarray(line.get_xdata()), np.asarray(line.get_ydata())
+
+
+@pytest.fixture
+def run(tmp_path: Path) -> Path:
+    # 12 and 15 episodes: cut to 12, window curve_window(12) = 1 (each episode as stored)
+    return make_run(tmp_path / "run.h5", {0: 12, 1: 15}, {0: [10], 1: [10]})
+
+
+@pytest.mark.parametrize(("metric", "name", "scale"), [("sum-rate", "sum_rate_bps", 1e9),
+                                                       ("fairness", "fairness", 1.0)])
+def test_learning_curve_metrics_draw_the_stored_episodes(run, metric, name, scale):
+    figure = runs_figure(run_paths=[run], metric=metric).figure
+    (axes,) = figure.axes
+    x, y = line_of(axes)
+    expected = np.mean([stored(run, 0, name), stored(run, 1, name)[:12]], axis=0)
+    np.testing.assert_array_equal(x, np.arange(1, 13))
+    np.testing.assert_allclose(y, expected / scale, rtol=1e-12)
+    assert axes.get_ylabel() == {"sum-rate": r"$R_e^{\mathrm{tot}}$ (Gbit/s)",
+                                 "fairness": "Jain's fairness $J_e$"}[metric]
+
+
+def test_curves_are_smoothed_like_r_e_tot(tmp_path):
+    run = make_run(tmp_path / "long.h5", {0: 40})  # window curve_window(40) = 4
+    x, y = line_of(runs_figure(run_paths=[run], metric="fairness").figure.axes[0])
+    fairness = stored(run, 0, "fairness")
+    np.testing.assert_array_equal(x, np.arange(4, 41))
+    np.testing.assert_allclose(y, np.convolve(fairness, np.ones(4) / 4, mode="valid"),
+                               rtol=1e-12)
+
+
+def test_greedy_draws_the_stored_evaluations_with_their_episodes(tmp_path):
+    run = make_run(tmp_path / "greedy.h5", {0: 30, 1: 40}, {0: [10, 20, 30], 1: [10, 20, 30, 40]})
+    drawn = runs_figure(run_paths=[run], metric="greedy")
+    (axes,) = drawn.figure.axes
+    x, y = line_of(axes)
+    (e0, s0), (e1, s1) = stored(run, 0, "score"), stored(run, 1, "score")
+    np.testing.assert_array_equal(x, e0)  # the episodes both seeds were evaluated at
+    np.testing.assert_array_equal(e1[:3], e0)
+    np.testing.assert_allclose(y, (s0 + s1[:3]) / 2, rtol=1e-12)
+    assert axes.get_ylabel() == "greedy score (% of oracle)"
+    assert axes.get_lines()[0].get_marker() == "o"  # points, not a smoothed curve
+    assert drawn.names == ["alpha_greedy"] and drawn.series[0].runs == 2
+
+
+def test_greedy_without_an_oracle_is_a_rate(tmp_path):
+    run = make_run(tmp_path / "sampled.h5", {0: 20}, {0: [10, 20]}, channel={"los": "sampled"})
+    axes = runs_figure(run_paths=[run], metric="greedy").figure.axes[0]
+    assert axes.get_ylabel() == r"greedy steady $R^{\mathrm{tot}}$ (bit/s)"
+
+
+def test_several_metrics_draw_a_panel_each_and_one_csv(run, tmp_path):
+    out = tmp_path / "figs" / "panels.svg"
+    assert main(["plot", str(run), "--metric", "sum-rate,fairness,greedy", "--out",
+                 str(out)]) == 0
+    with out.with_suffix(".csv").open(newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert list(rows[0]) == ["episode", *(f"alpha{m}_{c}" for m in ("", "_fairness", "_greedy")
+                                          for c in ("mean", "low", "high", "runs"))]
+    assert [int(r["episode"]) for r in rows] == list(range(1, 13))
+    tenth = rows[9]
+    assert float(tenth["alpha_greedy_mean"]) == (60.0 + 61.0) / 2  # 50 + 10 + seed
+    assert all(r["alpha_greedy_mean"] == "" for r in rows if r["episode"] != "10")
+    fairness = np.mean([stored(run, 0, "fairness"), stored(run, 1, "fairness")[:12]], axis=0)
+    np.testing.assert_allclose([float(r["alpha_fairness_mean"]) for r in rows], fairness,
+                               rtol=1e-12)
+    figure = runs_figure(run_paths=[run], metric="sum-rate,fairness,greedy").figure
+    assert [a.get_ylabel() for a in figure.axes] == [
+        r"$R_e^{\mathrm{tot}}$ (Gbit/s)", "Jain's fairness $J_e$", "greedy score (% of oracle)"]
+    assert all(a.get_shared_x_axes().joined(a, figure.axes[0]) for a in figure.axes)
+
+
+def test_sum_rate_csv_keeps_its_columns(run, tmp_path):
+    out = tmp_path / "curves.png"
+    assert main(["plot", str(run), "--out", str(out)]) == 0
+    header = out.with_suffix(".csv").read_text().splitlines()[0]
+    assert header == "episode,alpha_mean,alpha_low,alpha_high,alpha_runs"
+
+
+
+def test_bad_metrics_are_one_line_and_write_nothing(tmp_path, capsys):
+    bare = make_run(tmp_path / "bare.h5", {0: 12})  # no greedy evaluation
+    out = tmp_path / "out" / "fig.png"
+    cases = {"sum-rate,energy": "--metric: unknown metric 'energy'; choose from sum-rate, "
+                                "fairness, greedy, or several comma-separated (e.g. "
+                                "sum-rate,fairness)",
+             "fairness,fairness": "--metric: fairness given more than once; name each metric "
+                                  "once (from sum-rate, fairness, greedy)",
+             "greedy": f"{bare}: no seed has a greedy evaluation during training "
+                       "(train.eval_every is 0, the runs are shorter than it, or they were made "
+                       "before evaluations existed); nothing to plot for --metric greedy"}
+    for metric, line in cases.items():
+        assert main(["plot", str(bare), "--metric", metric, "--out", str(out)]) == 1
+        assert one_line(capsys) == line
+    assert main(["plot", str(bare), "--out", str(tmp_path / "fig.jpg")]) == 1
+    assert one_line(capsys).endswith("a figure file must end in .png, .pdf or .svg (it has "
+                                     "'.jpg')")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bare.h5"]
+
+
+def test_runs_measured_differently_share_no_panel(tmp_path, capsys):
+    pct = make_run(tmp_path / "pct.h5", {0: 20}, {0: [10]})
+    rate = make_run(tmp_path / "rate.h5", {0: 20}, {0: [10]}, channel={"los": "sampled"})
+    assert main(["plot", str(pct), str(rate), "--metric", "greedy",
+                 "--out", str(tmp_path / "g.png")]) == 1
+    assert one_line(capsys) == ("--metric greedy: pct.h5 and rate.h5 measure it differently "
+                                "(greedy score, % of oracle; greedy steady "
+                                r"$R^{\mathrm{tot}}$, bit/s); plot them apart").replace(
+        "pct.h5", str(pct)).replace("rate.h5", str(rate))
+    assert not (tmp_path / "g.png").exists()
+
+
+def test_help_lists_every_metric(capsys):
+    assert main(["plot", "--help"]) == 0
+    shown = " ".join(capsys.readouterr().out.split())
+    for name in METRICS:
+        assert name in shown
+
+
+def test_real_run_curves(tiny_run):
+    # the session's tiny run: 2 seeds of 2 episodes (window 1)
+    figure = runs_figure(run_paths=[tiny_run], metric="sum-rate,fairness").figure
+    for axes, name, scale in zip(figure.axes, ("sum_rate_bps", "fairness"), (1e9, 1.0),
+                                 strict=True):
+        _, y = line_of(axes)
+        expected = np.mean([stored(tiny_run, s, name) for s in (0, 1)], axis=0) / scale
+        np.testing.assert_allclose(y, expected, rtol=1e-12)
