@@ -82,6 +82,19 @@ def _per_episode(name: str) -> Callable[[RunReader, int], SeedCurve]:
     return read
 
 
+def _energy_efficiency(run: RunReader, seed: int) -> SeedCurve:
+    """Each episode's energy efficiency, bit/J (run files of format 3; none before)."""
+    curves = run.episodes(seed)
+    values = curves.get("energy_efficiency_bpj", np.zeros(0))
+    return SeedCurve(np.arange(1, len(values) + 1), values)
+
+
+def _per_joule(values: list[float]) -> tuple[float, str]:
+    """Bit per joule shown in Mbit/J (the UAVs of the shipped scenarios carry tens to
+    hundreds of Mbit per joule)."""
+    return 1e6, "Mbit/J"
+
+
 def _greedy_score(run: RunReader, seed: int) -> SeedCurve:
     table = run.evaluations(seed)
     return SeedCurve(table["episode"].astype(np.int64), table["score"])
@@ -111,6 +124,12 @@ METRICS: dict[str, PlotMetric] = {metric.name: metric for metric in (
                empty="no seed has a greedy evaluation during training (train.eval_every is "
                "0, the runs are shorter than it, or they were made before evaluations "
                "existed)"),
+    # each episode's bits over its propulsion and transmit energy (docs/model.md §10)
+    PlotMetric("energy-efficiency", _energy_efficiency,
+               lambda _: Axis("energy efficiency", "bit/J", _per_joule), smoothed=True,
+               column="energy_efficiency",
+               empty="no seed has an episode with its energy (run files made before the "
+               "energy, format 2 or older, hold none)"),
 )}
 
 

@@ -29,9 +29,9 @@ def plot(
         "plotted numbers in a .csv beside it (default: <first run file>-curves.png beside it)",
         show_default=False)] = None,
     metric: Annotated[str, typer.Option(
-        metavar="METRICS", help="what to draw: sum-rate (R_e^tot), fairness (J_e) or greedy "
-        "(the greedy evaluations' score); several comma-separated draw a panel each, e.g. "
-        "sum-rate,fairness")] = "sum-rate",
+        metavar="METRICS", help="what to draw: sum-rate (R_e^tot), fairness (J_e), greedy "
+        "(the greedy evaluations' score) or energy-efficiency (bit/J per episode); several "
+        "comma-separated draw a panel each, e.g. sum-rate,fairness")] = "sum-rate",
     band: Annotated[Band, typer.Option(
         metavar="std|bootstrap", help="shaded band: mean ± 1 std over seeds, or a 95% "
         "bootstrap interval of the mean")] = Band.std,

@@ -63,8 +63,9 @@ def run(tmp_path: Path) -> Path:
     return make_run(tmp_path / "run.h5", {0: 12, 1: 15}, {0: [10], 1: [10]})
 
 
-@pytest.mark.parametrize(("metric", "name", "scale"), [("sum-rate", "sum_rate_bps", 1e9),
-                                                       ("fairness", "fairness", 1.0)])
+@pytest.mark.parametrize(("metric", "name", "scale"), [
+    ("sum-rate", "sum_rate_bps", 1e9), ("fairness", "fairness", 1.0),
+    ("energy-efficiency", "energy_efficiency_bpj", 1e6)])
 def test_learning_curve_metrics_draw_the_stored_episodes(run, metric, name, scale):
     figure = runs_figure(run_paths=[run], metric=metric).figure
     (axes,) = figure.axes
@@ -73,7 +74,8 @@ def test_learning_curve_metrics_draw_the_stored_episodes(run, metric, name, scal
     np.testing.assert_array_equal(x, np.arange(1, 13))
     np.testing.assert_allclose(y, expected / scale, rtol=1e-12)
     assert axes.get_ylabel() == {"sum-rate": r"$R_e^{\mathrm{tot}}$ (Gbit/s)",
-                                 "fairness": "Jain's fairness $J_e$"}[metric]
+                                 "fairness": "Jain's fairness $J_e$",
+                                 "energy-efficiency": "energy efficiency (Mbit/J)"}[metric]
 
 
 def test_curves_are_smoothed_like_r_e_tot(tmp_path):
@@ -138,10 +140,10 @@ def test_bad_metrics_are_one_line_and_write_nothing(tmp_path, capsys):
     bare = make_run(tmp_path / "bare.h5", {0: 12})  # no greedy evaluation
     out = tmp_path / "out" / "fig.png"
     cases = {"sum-rate,energy": "--metric: unknown metric 'energy'; choose from sum-rate, "
-                                "fairness, greedy, or several comma-separated (e.g. "
-                                "sum-rate,fairness)",
+                                "fairness, greedy, energy-efficiency, or several "
+                                "comma-separated (e.g. sum-rate,fairness)",
              "fairness,fairness": "--metric: fairness given more than once; name each metric "
-                                  "once (from sum-rate, fairness, greedy)",
+                                  "once (from sum-rate, fairness, greedy, energy-efficiency)",
              "greedy": f"{bare}: no seed has a greedy evaluation during training "
                        "(train.eval_every is 0, the runs are shorter than it, or they were made "
                        "before evaluations existed); nothing to plot for --metric greedy"}
