@@ -121,9 +121,10 @@ class BdqAgent(Section):
     target_tau: float = _as_dqn("target_tau")
     lr_end: float | None = _as_dqn("lr_end")
     lr_decay_steps: float = _as_dqn("lr_decay_steps")
-    reward_split: Literal["team", "per-uav"] = Field(
+    reward_split: Literal["team", "per-uav", "difference"] = Field(
         "team", description="what the branches learn from: 'team', eq. 13's one reward for "
-        "every branch; 'per-uav', each UAV's branches the part of eq. 13 from its own users "
+        "every branch; 'per-uav', each UAV's branches the part of eq. 13 from its own users; "
+        "'difference', that part minus what its interference costs the other UAVs' users "
         "(a value per UAV; docs/agent.md)")
 
     @model_validator(mode="before")

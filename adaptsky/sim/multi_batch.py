@@ -375,27 +375,15 @@ class MultiUavBatch:
         serving_link = self._serving_link
         gain = gains.take(serving_link)
         link_los, link_p_los = los.take(serving_link), p_los.take(serving_link)
-        # I_i (interference_w), the SIC order by c_i = g_i / (I_i + sigma^2) (strong_users)
+        # I_i (interference_w): the gains of every interfering link (B, U, N), kept for the
+        # rates without one UAV's interference (difference_rewards)
         if self._full_reuse:
-            interference = tx_power_w * antenna_gain * np.where(self._interferer, gains,
-                                                                 0.0).sum(axis=1)
+            self._interfering_gains = np.where(self._interferer, gains, 0.0)
+            interference = tx_power_w * antenna_gain * self._interfering_gains.sum(axis=1)
         else:
+            self._interfering_gains = None
             interference = np.zeros(gain.shape)
-        noise_plus = interference + radio["noise_w"]
-        effective = gain / noise_plus
-        partner = self._partner_flat
-        effective_partner, gain_partner = effective.take(partner), gain.take(partner)
-        is_first = self._is_first
-        strong = (effective > effective_partner) | ((effective == effective_partner) & (
-            (gain > gain_partner) | ((gain == gain_partner) & is_first)))
-        # alpha_i and the partner's share (user_shares), SINR and rates (noma_rates)
-        alpha_k = config.take(self._alpha_source)
-        second_share = 1.0 - alpha_k
-        alpha = np.where(is_first, alpha_k, second_share)
-        alpha_partner = np.where(is_first, second_share, alpha_k)
-        snr_scale = tx_power_w * antenna_gain / noise_plus
-        sinr = noma.user_sinr(alpha, alpha_partner, gain, strong, snr_scale)
-        rate_bps = noma.rate_bps(sinr, radio["bandwidth_hz"])
+        rate_bps, strong, alpha = self._noma_rates(gain, interference, config)
         fairness = noma.jain_fairness(rate_bps)
         rewards = noma.reward(rate_bps, gain, fairness, self.bandwidth_hz, self.weights)
         if energy_j is None:
@@ -412,6 +400,42 @@ class MultiUavBatch:
                                  link_p_los, strong, rate_bps, rate_bps.sum(axis=-1), fairness,
                                  rewards, energy_j)
 
+    def _noma_rates(self, gain: FloatArray, interference: FloatArray, config: FloatArray
+                    ) -> tuple[FloatArray, NDArray[np.bool_], FloatArray]:
+        """Every user's rate (B, N), whether it is its cluster's strong user, and its share,
+        from its serving gain, the interference it hears (W) and the UAVs' configuration:
+        SIC by the effective gain c_i = g_i / (I_i + sigma^2) (strong_users), shares
+        (user_shares), SINR and rates (noma_rates)."""
+        radio = self._radio
+        tx_power_w, antenna_gain = radio["tx_power_w"], radio["antenna_gain"]
+        noise_plus = interference + radio["noise_w"]
+        effective = gain / noise_plus
+        partner = self._partner_flat
+        effective_partner, gain_partner = effective.take(partner), gain.take(partner)
+        is_first = self._is_first
+        strong = (effective > effective_partner) | ((effective == effective_partner) & (
+            (gain > gain_partner) | ((gain == gain_partner) & is_first)))
+        alpha_k = config.take(self._alpha_source)
+        second_share = 1.0 - alpha_k
+        alpha = np.where(is_first, alpha_k, second_share)
+        alpha_partner = np.where(is_first, second_share, alpha_k)
+        snr_scale = tx_power_w * antenna_gain / noise_plus
+        sinr = noma.user_sinr(alpha, alpha_partner, gain, strong, snr_scale)
+        return noma.rate_bps(sinr, radio["bandwidth_hz"]), strong, alpha
+
+    def rates_without(self, uav: int) -> FloatArray:
+        """Every user's rate (B, N) in the last evaluated state had UAV ``uav`` sent nothing
+        to the other UAVs' users: their interference without its term, SIC re-ordered (its
+        own users' rates as they are)."""
+        assert self.state is not None, "call reset() first"
+        if self._interfering_gains is None:   # orthogonal reuse: no interference
+            return self.state.rate_bps
+        others = self._interfering_gains.copy()
+        others[:, uav] = 0.0
+        radio = self._radio
+        interference = radio["tx_power_w"] * radio["antenna_gain"] * others.sum(axis=1)
+        return self._noma_rates(self.state.gain, interference, self.sim_state.config)[0]
+
     def observation(self) -> NDArray[np.float32]:
         assert self.state is not None, "call reset() first"
         return self._obs
@@ -421,14 +445,30 @@ class MultiUavBatch:
         """Each UAV's energy of a hovering step (B,) or (B, U), J (docs/model.md §10)."""
         return self._energy.hover_j
 
-    def reward_parts(self, state: MultiNetworkState) -> FloatArray:
-        """Eq. 13 of ``state`` in parts (B, U), one per UAV
-        (:func:`adaptsky.sim.reward.reward_per_uav`)."""
+    def reward_parts(self, state: MultiNetworkState, split: str = "per-uav") -> FloatArray:
+        """Eq. 13 of ``state``, the last evaluated one, for each UAV (B, U) (docs/agent.md,
+        "A reward per UAV"): ``per-uav``, the part from its own users
+        (:func:`adaptsky.sim.reward.reward_per_uav`) and its own energy; ``difference``, that
+        part plus what its interference costs the other UAVs' users in eq. 13's rate term,
+        w_r sum_{i not of u} (R_i - R_i^{-u}) / W 1[all R_i >= R_min], with R_i^{-u} the rate
+        had UAV u sent them nothing (:meth:`rates_without`)."""
         parts = reward_per_uav(state.rate_bps, state.gain, state.fairness, self.bandwidth_hz,
                                self.weights, self.association.serving_uav, self.num_uavs)
         if self._energy.weighted:
             parts = parts + self._energy.reward_parts(state.energy_j)
+        if split == "difference":
+            parts = parts + self._interference_costs(state)
         return parts
+
+    def _interference_costs(self, state: MultiNetworkState) -> FloatArray:
+        """w_r sum_{i not of u} (R_i - R_i^{-u}) / W 1[all R_i >= R_min] per UAV (B, U)."""
+        weights, serving = self.weights, self.association.serving_uav
+        every = (state.rate_bps >= np.asarray(weights.min_rate_bps)[..., None]).all(axis=-1)
+        costs = np.empty((self.num_envs, self.num_uavs))
+        for uav in range(self.num_uavs):
+            lost = np.where(serving == uav, 0.0, state.rate_bps - self.rates_without(uav))
+            costs[:, uav] = lost.sum(axis=-1) / self.bandwidth_hz
+        return np.asarray(weights.w_rate)[..., None] * costs * every[:, None]
 
 
 NetworkBatch = NomaUavBatch | MultiUavBatch

@@ -17,6 +17,7 @@ of the greedy evaluations (``train.evaluation``) included.
 
 from __future__ import annotations
 
+import functools
 import json
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -129,7 +130,11 @@ class StackRun:
         start = self.episodes_done * steps
         states, rewards, chosen = [], [], []
         # the reward per UAV where the algorithm learns from its parts
-        split = getattr(self.env, "reward_parts", None) if algorithm.reward_parts > 1 else None
+        split = None
+        if algorithm.reward_parts > 1:
+            mode = getattr(self.scenario.agent, "reward_split", "per-uav")
+            parts = getattr(self.env, "reward_parts")  # noqa: B009 (several UAVs' env only)
+            split = functools.partial(parts, split=mode)
         algorithm.begin_episode(start)
         if self.scenario.users.placement == "fresh":
             self.env.set_layouts(episode_layouts(self.scenario, self._seeds, self.episodes_done))

@@ -8,6 +8,6 @@ from adaptsky.sim.actions import ActionSet
 
 
 def value_groups(config: BdqAgent, actions: ActionSet) -> int:
-    """G, the value outputs and reward parts: one per UAV with ``reward_split = "per-uav"``
-    (UAV u's 3 + K branches, one after another, are group u), else one."""
-    return actions.num_uavs if config.reward_split == "per-uav" else 1
+    """G, the value outputs and reward parts: one per UAV with ``reward_split`` "per-uav" or
+    "difference" (UAV u's 3 + K branches, one after another, are group u), else one."""
+    return actions.num_uavs if config.reward_split != "team" else 1

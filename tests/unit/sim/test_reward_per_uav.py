@@ -4,6 +4,8 @@ reward."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -67,3 +69,72 @@ def test_parts_per_environment_with_their_own_weights_and_groups():
                 rel=1e-12, abs=1e-12)
     np.testing.assert_allclose(parts.sum(-1), reward(rates, gains, fairness, W_HZ, weights),
                                rtol=1e-12)
+
+
+def _difference_scenario(count: int):
+    from tests.conftest import make_scenario
+
+    users = [[-30.0, 10.0], [-12.0, -25.0], [-40.0, -5.0], [-8.0, 30.0], [22.0, 8.0],
+             [35.0, -20.0], [10.0, -6.0], [28.0, 33.0], [0.0, 40.0], [-5.0, -40.0],
+             [40.0, 40.0], [-40.0, 40.0]][:4 * count]
+    return make_scenario(area={"side_m": 100.0}, users={"positions_m": users,
+                                                        "pairing": "near-far"},
+                         uav={"count": count, "start_m": [0.0, 0.0, 12.0]},
+                         radio={"noise_figure_db": 5.0},
+                         reward={"w_rate": 10.0, "w_fairness": 2.0},
+                         agent={"algorithm": "bdq", "reward_split": "difference"})
+
+
+@pytest.mark.parametrize("count", [2, 3])
+def test_the_difference_part_charges_each_uav_its_interference_by_the_plain_formula(count):
+    """R_i^{-u}: user i's rate had UAV u sent nothing, by loops over the links (the gains of
+    eq. 4-5 with LoS, SIC by the effective gain, eq. 2-3), and each UAV's difference part
+    = its per-UAV part + w_r sum_{i not of u} (R_i - R_i^{-u}) / W."""
+    from adaptsky.sim.multi_batch import MultiUavBatch
+    from tests.unit.sim.test_interference import (
+        ANTENNA_GAIN,
+        NOISE_W,
+        TX_POWER_W,
+        scalar_gain,
+    )
+
+    scenario = _difference_scenario(count)
+    env = MultiUavBatch(scenario, num_envs=1, seed=0)
+    env.reset()
+    rng = np.random.default_rng(1)
+    for _ in range(5):
+        _, _, _, state = env.step(rng.integers(env.actions.count, size=1))
+    uavs, users = state.uav_m[0], env.users_m[0]
+    a = env.association
+    serving, cluster = a.serving_uav[0], a.cluster[0]
+    first, second = a.first_user[0], a.second_user[0]
+    pg = TX_POWER_W * ANTENNA_GAIN
+    gains = [[scalar_gain(uav, user, "always") for user in users] for uav in uavs]
+    n = len(users)
+    for silent in range(count):
+        interference = [sum(pg * gains[v][i] for v in range(count)
+                            if v not in (serving[i], silent)) for i in range(n)]
+        expected = []
+        for i in range(n):
+            u, k = serving[i], cluster[i]
+            is_first = first[u, k] == i
+            partner = second[u, k] if is_first else first[u, k]
+            share = state.alpha[0, i]
+            c_i = gains[u][i] / (interference[i] + NOISE_W)
+            c_p = gains[u][partner] / (interference[partner] + NOISE_W)
+            strong = c_i > c_p or (c_i == c_p and is_first)
+            signal = share * pg * gains[u][i]
+            sinr = signal / (interference[i] + NOISE_W) if strong else signal / (
+                (1 - share) * pg * gains[u][i] + interference[i] + NOISE_W)
+            expected.append(2e9 * math.log2(1 + sinr))
+        without = env.rates_without(silent)[0]
+        mine = serving == silent
+        np.testing.assert_allclose(without, expected, rtol=1e-9)
+        np.testing.assert_array_equal(without[mine], state.rate_bps[0, mine])
+    parts = env.reward_parts(state, "difference")[0]
+    split = env.reward_parts(state, "per-uav")[0]
+    for u in range(count):
+        lost = sum(state.rate_bps[0, i] - env.rates_without(u)[0, i] for i in range(n)
+                   if serving[i] != u)
+        assert parts[u] == pytest.approx(split[u] + 10.0 * lost / 2e9, rel=1e-12)
+        assert lost <= 0  # interference only takes away

@@ -37,7 +37,7 @@ TWO_UAVS = {
 }
 
 
-SPLITS = ["team", "per-uav"]
+SPLITS = ["team", "per-uav", "difference"]
 
 
 def _with_split(split: str) -> dict:
@@ -73,7 +73,7 @@ def test_resume_equals_the_uninterrupted_run_and_evaluations_use_best_response(t
                  "--quiet"]) == 0
     assert_same_curves(curves(resumed), curves(first))
     scenario = parse_scenario(_with_split(split), "two")
-    values = 2 if split == "per-uav" else 1
+    values = 1 if split == "team" else 2
     reference = best_response(scenario, user_layouts(scenario, 1)).objective_bps[0]
     with RunReader(first) as a, RunReader(resumed) as b:
         for seed in (0, 1):
@@ -85,7 +85,7 @@ def test_resume_equals_the_uninterrupted_run_and_evaluations_use_best_response(t
             stored = checkpoint["replay"]["rewards"]
             assert stored.shape == ((40, 2) if values == 2 else (40,))
             assert np.array_equal(stored, b.checkpoint(seed)["replay"]["rewards"])
-            if values == 2:  # the last episode's rows: its parts add up to its rewards
+            if split == "per-uav":  # the last episode's rows: its parts add up to its rewards
                 np.testing.assert_allclose(stored[-10:].sum(axis=-1),
                                            a.trajectory(seed)["reward"], rtol=1e-6)
             evaluations = a.evaluations(seed)
