@@ -8,10 +8,10 @@ DQN's ``value`` and ``advantage`` with A = D b columns, branch d's in rows d b .
 of ``advantage.weight``. An action index of the dense action set (docs/model.md §3) is the
 branches' sub-actions as digits in base b: a = sum_d a_d b^d.
 
-With ``agent.reward_split = "per-uav"`` and U > 1 UAVs the head is [V_1 .. V_U | A_1 ..
-A_D]: UAV u's branches (its 3 + K components, one after another) take V_u, and learn from the
-part r_u of the reward that comes from its own users
-(:func:`adaptsky.sim.reward.reward_per_uav`); the replay stores the U parts of every reward.
+With ``agent.reward_split`` "per-uav" or "difference" and U > 1 UAVs the head is [V_1 ..
+V_U | A_1 .. A_D]: UAV u's branches (its 3 + K components, one after another) take V_u, and
+learn from UAV u's part of the reward (``MultiUavBatch.reward_parts``); the replay stores the
+U parts of every reward.
 """
 
 from __future__ import annotations
