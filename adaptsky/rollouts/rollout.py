@@ -26,11 +26,13 @@ FloatArray = NDArray[np.float64]
 @dataclass(frozen=True)
 class Trace:
     """Per step and layout: rates (T, L, N), UAV positions (T, L, 3) for one UAV and
-    (T, L, U, 3) for U > 1, every user's power share (T, L, N)."""
+    (T, L, U, 3) for U > 1, every user's power share (T, L, N) and the LoS state of its
+    serving link (T, L, N) (None where a search computed the rates: OMA)."""
 
     rate_bps: FloatArray
     uav_m: FloatArray
     alpha: FloatArray
+    los: NDArray[np.bool_] | None = None
 
     @property
     def sum_rate_bps(self) -> FloatArray:
@@ -39,7 +41,7 @@ class Trace:
     @classmethod
     def of(cls, states: list[NetworkState] | list[MultiNetworkState]) -> Trace:
         return cls(np.array([s.rate_bps for s in states]), np.array([s.uav_m for s in states]),
-                   np.array([s.alpha for s in states]))
+                   np.array([s.alpha for s in states]), np.array([s.los for s in states]))
 
 
 def _env(scenario: Scenario, users_m: FloatArray, seed: int) -> NetworkBatch:
