@@ -8,7 +8,8 @@ The figure is built once. :meth:`EpisodeFigure.show` says which step to show;
 of the paths and lines onto a kept image of those drawn so far (the trail), then the UAVs'
 markers, the cursors and the step over it (blitting on the Agg canvas). A frame of an
 animation or of the Gymnasium env's ``render()`` costs the same at step 10 as at step 1000,
-a few milliseconds, never a whole figure. :meth:`EpisodeFigure.save` draws the whole picture
+and for four UAVs as for one: about 15 ms at 100 dpi (benchmarks/frame_time.py), where a
+figure drawn whole costs about 500 ms. :meth:`EpisodeFigure.save` draws the whole picture
 as PNG, PDF or SVG. A bare :class:`~matplotlib.figure.Figure` on its own canvas: no pyplot, no
 global state, no display.
 """

@@ -56,8 +56,10 @@ def run_episode(path: Path, *, seed: int | None = None, policy: str = "best",
     if record["policy_asked"] == "best" and record["policy"] == "last":
         notes.append(f"{path}: seed {chosen} has no best policy (no greedy evaluation during "
                      f"training); showing its last policy (episode {record['episode']})")
+    # a run on a new layout every episode has no training layout: eval's layout 0 then
+    where = "layout 0" if scenario.users.placement == "fresh" else "training layout"
     label = (f"{path.name}, seed {chosen}: {record['policy']} policy (episode "
-             f"{record['episode']}), training layout")
+             f"{record['episode']}), {where}")
     return scenario, trace_episode(scenario, trace, users_m, 0, label), notes
 
 

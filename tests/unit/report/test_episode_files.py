@@ -1,7 +1,7 @@
 """``adaptsky show`` on a small run file and a small eval file made here: PNG, PDF, SVG, GIF
 and MP4 files opened and measured (pixel sizes, pages, the SVG root, frame counts), the
 episode drawn being eval's rollout of the policy, and every mistake one line, exit code 1 and
-no file written."""
+no file written; an eval file of two UAVs."""
 
 from __future__ import annotations
 
@@ -17,9 +17,15 @@ import pytest
 from PIL import Image
 
 from adaptsky.drawing.episode_figure import BLOCK_IN
+from adaptsky.evaluation.api import baseline
 from adaptsky.evaluation.show import run_episode
 from adaptsky.report.episodes import eval_episodes
+from adaptsky.scenario import load_scenario
+from adaptsky.scenario.toml_writer import dumps
+from adaptsky.scenario.variants import eval_scenario
+from adaptsky.store.eval_file import write_eval
 from adaptsky_cli.cli.main import main
+from tests.unit.evaluation.test_several_uavs_eval import small
 
 DPI = 40
 WIDTH, HEIGHT = int(BLOCK_IN[0] * DPI), int(BLOCK_IN[1] * DPI)
@@ -177,3 +183,24 @@ def test_bad_choices_name_what_exists(tiny_run, eval_file, tmp_path, capsys):
     assert main(["show", str(tiny_run)]) == 1
     assert one_line(capsys) == ("nothing to write: give --out FIG.png (.pdf, .svg), --animate "
                                 "FILE.gif (.mp4), or both")
+
+
+def test_an_eval_file_of_two_uavs_draws_both_and_their_users(tmp_path, capsys):
+    """An eval file of SoA per UAV alone (written here, no policy): every UAV's position as
+    stored (T, L, U, 3), each user's serving UAV from the association on the layout."""
+    scenario = small(tmp_path)
+    results, methods = baseline(scenario_path=scenario, method="soa", layouts=2, steps=6)
+    evaluated = eval_scenario(load_scenario(scenario), 2, 0)  # as eval stores it
+    results["scenario_toml"] = dumps(evaluated.model_dump(mode="json"))
+    path = tmp_path / "soa.h5"
+    write_eval(path, results, methods)
+    _, (episode,) = eval_episodes(path, layout=1)
+    assert episode.label == "soa, layout 1" and episode.held
+    assert np.array_equal(episode.uav_m, methods[0].trace.uav_m[:, 1])
+    assert sorted(np.bincount(episode.serving_uav).tolist()) == [2, 2]  # two users per UAV
+    figure = tmp_path / "soa.png"
+    assert main(["show", str(path), "--layout", "1", "--out", str(figure), "--dpi",
+                 str(DPI)]) == 0
+    assert _lines(capsys) == [f"figure: {figure}"]
+    with Image.open(figure) as png:
+        assert png.size == (WIDTH, HEIGHT)
