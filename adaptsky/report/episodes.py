@@ -30,13 +30,16 @@ def layout_roles(scenario: Scenario, users_m: FloatArray
 
 
 def episode_of(scenario: Scenario, users_m: FloatArray, uav_m: FloatArray, alpha: FloatArray,
-               rate_bps: FloatArray, los: NDArray[np.bool_] | None = None, label: str = ""
-               ) -> EpisodeData:
+               rate_bps: FloatArray, los: NDArray[np.bool_] | None = None, label: str = "",
+               power_w: FloatArray | None = None) -> EpisodeData:
     """One layout's episode: ``users_m`` (N, 2), ``uav_m`` (T, 3) or (T, U, 3), ``alpha`` and
-    ``rate_bps`` (T, N); ``los`` (T, N) is kept where the scenario draws LoS states."""
+    ``rate_bps`` (T, N); ``los`` (T, N) is kept where the scenario draws LoS states;
+    ``power_w`` (T, U), every UAV's propulsion power (W) where a model gives one, adds its
+    panel."""
     serving, cluster = layout_roles(scenario, users_m)
     return EpisodeData(users_m, uav_m, alpha, rate_bps, serving, cluster,
-                       los=los if scenario.channel.los == "sampled" else None, label=label)
+                       los=los if scenario.channel.los == "sampled" else None,
+                       power_w=power_w, label=label)
 
 
 def trace_episode(scenario: Scenario, trace: Trace, users_m: FloatArray, layout: int = 0,

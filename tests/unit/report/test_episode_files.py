@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from adaptsky.drawing.episode_figure import BLOCK_IN
+from adaptsky.drawing.episode_figure import BLOCK_IN, EpisodeFigure
 from adaptsky.evaluation.api import baseline
 from adaptsky.evaluation.show import run_episode
-from adaptsky.report.episodes import eval_episodes
+from adaptsky.report.episodes import episode_of, eval_episodes
 from adaptsky.scenario import load_scenario
 from adaptsky.scenario.toml_writer import dumps
 from adaptsky.scenario.variants import eval_scenario
@@ -204,3 +204,19 @@ def test_an_eval_file_of_two_uavs_draws_both_and_their_users(tmp_path, capsys):
     assert _lines(capsys) == [f"figure: {figure}"]
     with Image.open(figure) as png:
         assert png.size == (WIDTH, HEIGHT)
+
+
+def test_a_propulsion_power_goes_into_the_episode_and_its_panel(tiny_run, tmp_path):
+    """The hook for a propulsion-energy model: a (T, U) power in W, a synthetic one here."""
+    scenario, episode, _ = run_episode(tiny_run, steps=6)
+    power_w = np.linspace(100.0, 160.0, 6)[:, None]
+    powered = episode_of(scenario, episode.users_m, episode.uav_m, episode.alpha,
+                         episode.rate_bps, power_w=power_w)
+    figure = EpisodeFigure([powered], side_m=scenario.area.side_m, dpi=DPI)
+    png = tmp_path / "powered.png"
+    png.write_bytes(figure.save("png"))
+    panel = figure.blocks[0].panels[-1]
+    assert panel.axes.get_ylabel() == "propulsion\npower $P$ (W)"
+    assert np.array_equal(panel.line(0)[1], power_w[:, 0])
+    with Image.open(png) as image:
+        assert image.size == (WIDTH, HEIGHT)
