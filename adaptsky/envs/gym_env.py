@@ -27,7 +27,9 @@ Episode End
 Arguments
     ``scenario``: a path to a scenario file or a :class:`Scenario` (default: the shipped
     ``nyc_mmwave.toml``); ``users_m``: optional layout override (N, 2) (vector env:
-    (B, N, 2)); ``render_mode``: ``None`` or ``"ansi"`` (a text summary of the state);
+    (B, N, 2)); ``render_mode``: ``None``, ``"ansi"`` (a text summary of the state) or,
+    single env only, ``"rgb_array"`` (the picture of the episode so far,
+    :mod:`adaptsky.drawing`);
     ``action_space``: ``None`` (the default above), ``"discrete"`` or ``"multi-discrete"``;
     single env: ``layout_index``, which of the scenario's layouts (for ``placement =
     "uniform"``: the i-th drawn, sub-environment i of the vector env); vector env:
@@ -46,19 +48,28 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from adaptsky.drawing.episode import EpisodeBuffer
 from adaptsky.envs.action_spaces import action_space_kind, gym_action_space, to_dense
 from adaptsky.envs.registration import register_envs
 from adaptsky.scenario import Scenario, load_scenario
 from adaptsky.shipped_files import default_scenario_path
 from adaptsky.sim.batch import NetworkState
 from adaptsky.sim.layout import uniform_layouts, user_layouts
-from adaptsky.sim.multi_batch import MultiNetworkState, MultiUavBatch, NetworkBatch, network_batch
+from adaptsky.sim.multi_batch import (
+    MultiNetworkState,
+    MultiUavBatch,
+    NetworkBatch,
+    network_batch,
+    user_roles,
+)
 from adaptsky.sim.multi_observation import multi_observation_bounds
 from adaptsky.sim.observation import observation_bounds
 
-RENDER_MODES = ["ansi"]
-# nominal frames per second of a rendered episode (the model has no time per step)
-RENDER_FPS = 4
+RENDER_MODES = ["ansi", "rgb_array"]
+VECTOR_RENDER_MODES = ["ansi"]
+# nominal frames per second of a rendered episode (the model has no time per step): a video
+# of a 300-step episode (RecordVideo) lasts 15 s
+RENDER_FPS = 20
 INFO_KEYS = ("uav_m", "alpha", "gain", "los", "p_los", "rate_bps", "sum_rate_bps", "fairness",
              "energy_j")
 # several UAVs: also the interference every user hears (W)
@@ -78,9 +89,9 @@ def observation_space(scenario: Scenario, batch: NetworkBatch) -> spaces.Box:
     return spaces.Box(low, high, dtype=np.float32)
 
 
-def _check_render_mode(render_mode: str | None) -> str | None:
-    if render_mode is not None and render_mode not in RENDER_MODES:
-        allowed = ", ".join(["None", *(repr(mode) for mode in RENDER_MODES)])
+def _check_render_mode(render_mode: str | None, modes: list[str]) -> str | None:
+    if render_mode is not None and render_mode not in modes:
+        allowed = ", ".join(["None", *(repr(mode) for mode in modes)])
         raise ValueError(f"render_mode {render_mode!r} is not supported; allowed: {allowed}")
     return render_mode
 
@@ -110,7 +121,7 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64 | np.ndarray]):
     def __init__(self, scenario: Scenario | str | Path | None = None,
                  users_m: np.ndarray | None = None, render_mode: str | None = None,
                  layout_index: int = 0, action_space: str | None = None) -> None:
-        self.render_mode = _check_render_mode(render_mode)
+        self.render_mode = _check_render_mode(render_mode, RENDER_MODES)
         self.scenario = _resolve(scenario)
         if layout_index < 0:
             raise ValueError(f"layout_index must be >= 0, got {layout_index}")
@@ -125,6 +136,8 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64 | np.ndarray]):
         self._fresh = users_m is None and self.scenario.users.placement == "fresh"
         self.observation_space = observation_space(self.scenario, self.batch)
         self.action_space = gym_action_space(self.batch.actions, self.action_kind)
+        self._episode: EpisodeBuffer | None = None  # rgb_array: the episode so far
+        self._picture: Any = None                    # rgb_array: its EpisodeFigure
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
               ) -> tuple[np.ndarray, dict[str, Any]]:
@@ -132,6 +145,7 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64 | np.ndarray]):
         if self._fresh:
             self.batch.set_layouts(uniform_layouts(self.scenario, self.np_random, 1))
         obs, state = self.batch.reset(seed=seed)
+        self._record(state)
         return obs[0], state.for_env(0)
 
     def step(self, action: np.int64 | np.ndarray
@@ -145,14 +159,50 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64 | np.ndarray]):
         else:
             dense = to_dense(self.batch.actions, np.asarray(action)[None])
         obs, reward, truncated, state = self.batch.step(dense)
+        self._record(state)
         return obs[0], float(reward[0]), False, truncated, state.for_env(0)
 
-    def render(self) -> str | None:
-        """The state as text for ``render_mode="ansi"``; nothing without a render mode."""
+    def _record(self, state: NetworkState | MultiNetworkState) -> None:
+        """Keep the step's positions, shares, rates and LoS states for ``rgb_array``."""
+        if self.render_mode != "rgb_array":
+            return
+        if self._episode is None:
+            batch = self.batch
+            self._episode = EpisodeBuffer(batch.max_steps + 1, batch.num_uavs, batch.num_users,
+                                          with_los=self.scenario.channel.los == "sampled")
+        if self.batch.t == 0:
+            self._episode.clear()
+        self._episode.record(state.uav_m[0], state.alpha[0], state.rate_bps[0], state.los[0],
+                             state.energy_j[0] / self.scenario.uav.step_s)
+
+    def render(self) -> str | np.ndarray | None:
+        """``render_mode="ansi"``: the state as text; ``"rgb_array"``: the picture of the
+        episode so far, (H, W, 3) uint8 (the figure of ``adaptsky show``, one figure kept
+        and its artists moved from call to call); nothing without a render mode."""
         if self.render_mode is None:
-            gym.logger.warn("render() called without a render_mode; give render_mode='ansi'")
+            gym.logger.warn("render() called without a render_mode; give render_mode='ansi' "
+                            "or 'rgb_array'")
             return None
+        if self.render_mode == "rgb_array":
+            return self._frame()
         return render_text(self.batch, 0)
+
+    def _frame(self) -> np.ndarray:
+        from adaptsky.drawing.episode_figure import EpisodeFigure  # matplotlib: when asked
+
+        if self._episode is None or self._episode.rows == 0:
+            raise RuntimeError("call reset() before render()")
+        serving, cluster = user_roles(self.batch)
+        episode = self._episode.episode(self.batch.users_m[0].copy(), serving[0], cluster[0],
+                                        first_step=0, label=self.scenario.name)
+        if self._picture is not None and EpisodeFigure.fits(self._picture.blocks[0].episode,
+                                                            episode):
+            self._picture.update([episode])
+        else:  # the first frame, or a new layout (users.placement = "fresh")
+            self._picture = EpisodeFigure([episode], side_m=self.scenario.area.side_m,
+                                          steps=self.batch.max_steps + 1)
+        self._picture.show(episode.steps - 1)
+        return self._picture.rgb()
 
 
 class NomaUavVectorEnv(VectorEnv):
@@ -167,13 +217,13 @@ class NomaUavVectorEnv(VectorEnv):
     """
 
     metadata: ClassVar[dict[str, Any]] = {
-        "autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": RENDER_MODES,
+        "autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": VECTOR_RENDER_MODES,
         "render_fps": RENDER_FPS}
 
     def __init__(self, scenario: Scenario | str | Path | None = None, num_envs: int = 1,
                  users_m: np.ndarray | None = None, render_mode: str | None = None,
                  action_space: str | None = None) -> None:
-        self.render_mode = _check_render_mode(render_mode)
+        self.render_mode = _check_render_mode(render_mode, VECTOR_RENDER_MODES)
         self.scenario = _resolve(scenario)
         self.num_envs = num_envs
         self.action_kind = action_space_kind(self.scenario, action_space)

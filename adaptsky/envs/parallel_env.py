@@ -18,8 +18,9 @@ Episode End
     :meth:`reset`; never terminated.
 Arguments
     Those of :class:`adaptsky.envs.gym_env.NomaUavEnv` but ``action_space``: ``scenario``,
-    ``users_m``, ``render_mode`` (``None`` or ``"ansi"``), ``layout_index``. Seeds, layouts and
-    ``info`` (the same dict for every agent, copied) are the Gymnasium env's.
+    ``users_m``, ``render_mode`` (``None``, ``"ansi"`` or ``"rgb_array"``), ``layout_index``.
+    Seeds, layouts and ``info`` (the same dict for every agent, copied) are the Gymnasium
+    env's.
 """
 
 from __future__ import annotations
@@ -120,8 +121,9 @@ class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
             raise RuntimeError("call reset() before state()")
         return self._observation.copy()
 
-    def render(self) -> str | None:
-        """The state as text for ``render_mode="ansi"``; nothing without a render mode."""
+    def render(self) -> str | np.ndarray | None:
+        """The Gymnasium env's ``render()``: text for ``"ansi"``, the picture of the episode
+        so far (H, W, 3) for ``"rgb_array"``, nothing without a render mode."""
         return self.env.render()
 
     def close(self) -> None:

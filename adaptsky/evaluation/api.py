@@ -121,7 +121,7 @@ class TrainedPolicy(NamedTuple):
     evaluations: dict[str, np.ndarray]
 
 
-def _read_run(run_path: Path, seed: int | None, policy: str = "best") -> TrainedPolicy:
+def read_trained(run_path: Path, seed: int | None, policy: str = "best") -> TrainedPolicy:
     """:class:`TrainedPolicy` of ``seed`` (default: the run's first) in one reading."""
     if policy not in POLICIES:
         raise EvaluationError(f"--policy: unknown policy '{policy}'; choose best or last")
@@ -166,7 +166,7 @@ def load_policy(run_path: Path, seed: int | None, scenario: Scenario, policy: st
                 ) -> tuple[Policy, dict[str, Any]]:
     """The greedy policy (``best`` or ``last``) of a run's seed, checked to fit the
     evaluation ``scenario``, and which policy it is."""
-    trained, arrays, _, record, _ = _read_run(run_path, seed, policy)
+    trained, arrays, _, record, _ = read_trained(run_path, seed, policy)
     _check_compatible(run_path, trained, scenario)
     return greedy_policy(trained, arrays), record
 
@@ -227,7 +227,7 @@ def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path |
     traces. Every input is checked before the first rollout; ``progress`` shows the rollouts
     and the oracle's search (default: nothing)."""
     compared = compared_methods(compare_with or [])
-    trained, arrays, chosen, used, curve = _read_run(checkpoint, seed, policy)
+    trained, arrays, chosen, used, curve = read_trained(checkpoint, seed, policy)
     base = load_scenario(scenario_path) if scenario_path else trained
     scenario = eval_scenario(base, layouts, layout_seed)
     _check_compatible(checkpoint, trained, scenario)

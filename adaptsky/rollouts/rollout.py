@@ -26,13 +26,15 @@ FloatArray = NDArray[np.float64]
 @dataclass(frozen=True)
 class Trace:
     """Per step and layout: rates (T, L, N), UAV positions (T, L, 3) for one UAV and
-    (T, L, U, 3) for U > 1, every user's power share (T, L, N), and each UAV's energy of the
-    step (T, L) or (T, L, U), J (docs/model.md §10)."""
+    (T, L, U, 3) for U > 1, every user's power share (T, L, N), each UAV's energy of the
+    step (T, L) or (T, L, U), J (docs/model.md §10), and the LoS state of each user's serving
+    link (T, L, N) (None where a search computed the rates: OMA)."""
 
     rate_bps: FloatArray
     uav_m: FloatArray
     alpha: FloatArray
     energy_j: FloatArray
+    los: NDArray[np.bool_] | None = None
 
     @property
     def sum_rate_bps(self) -> FloatArray:
@@ -41,7 +43,8 @@ class Trace:
     @classmethod
     def of(cls, states: list[NetworkState] | list[MultiNetworkState]) -> Trace:
         return cls(np.array([s.rate_bps for s in states]), np.array([s.uav_m for s in states]),
-                   np.array([s.alpha for s in states]), np.array([s.energy_j for s in states]))
+                   np.array([s.alpha for s in states]), np.array([s.energy_j for s in states]),
+                   np.array([s.los for s in states]))
 
 
 def _env(scenario: Scenario, users_m: FloatArray, seed: int) -> NetworkBatch:

@@ -276,6 +276,7 @@ class NomaUavBatch:
         i.e. alpha_k and 1 - alpha_k for a first user, the other way round for a second user.
         ``_cluster_users`` (2, B, N) holds the flat positions (b N + j) in a (B, N) array of
         the first and the second user of i's cluster; ``_is_second`` marks second users.
+        ``cluster`` (B, N), public, is every user's cluster k.
         """
         num_envs, n, k = self.num_envs, self.num_users, self.num_clusters
         shape = (num_envs, n)
@@ -283,6 +284,7 @@ class NomaUavBatch:
         cluster = np.empty(shape, dtype=np.intp)      # cluster of every user
         np.put_along_axis(cluster, self.first_user, np.arange(k), axis=1)
         np.put_along_axis(cluster, self.second_user, np.arange(k), axis=1)
+        self.cluster = cluster
         is_second = np.zeros(shape, dtype=bool)
         np.put_along_axis(is_second, self.second_user, True, axis=1)
         serving_uav = np.zeros(shape, dtype=np.intp)

@@ -481,3 +481,11 @@ def network_batch(scenario: Scenario, num_envs: int = 1, seed: Seed = None,
     paper's numbers, bit for bit), :class:`MultiUavBatch` for several."""
     kind = NomaUavBatch if scenario.uav.count == 1 else MultiUavBatch
     return kind(scenario, num_envs=num_envs, seed=seed, users_m=users_m, weights=weights)
+
+
+def user_roles(batch: NetworkBatch) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """Every user's serving UAV and its cluster k among that UAV's clusters, (B, N) each: the
+    association of several UAVs; UAV 0 and the pairing's clusters for one."""
+    if isinstance(batch, MultiUavBatch):
+        return batch.association.serving_uav, batch.association.cluster
+    return np.zeros_like(batch.cluster), batch.cluster

@@ -247,3 +247,21 @@ def write_bytes_atomic(path: Path, data: bytes | memoryview,
 
 def write_text_atomic(path: Path, text: str) -> None:
     write_bytes_atomic(path, text.encode("utf-8"))
+
+
+@contextmanager
+def written_in_place_of(path: Path) -> Iterator[Path]:
+    """A hidden path beside ``path``, with its suffix (for a writer that needs a file name and
+    tells the format by it: ffmpeg), that replaces ``path`` in one rename when the block ends
+    without error, and is removed when it fails: never a half-written ``path``."""
+    tmp = path.with_name(f".{path.stem}.tmp-{os.getpid()}{path.suffix}")
+    try:
+        yield tmp
+        with open(tmp, "rb") as handle:
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except OSError as error:
+        raise storage_error(path, "cannot write it", error) from None
+    finally:
+        with suppress(OSError):
+            tmp.unlink(missing_ok=True)

@@ -4,6 +4,7 @@ with what software (docs/evaluation.md#eval-files)."""
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -13,7 +14,7 @@ import numpy as np
 from adaptsky import __version__
 from adaptsky.errors import AdaptskyError
 from adaptsky.store.atomic import rewrite, string_dataset, utc_timestamp
-from adaptsky.store.run_file import environment
+from adaptsky.store.run_file import environment, open_run_file
 from adaptsky.store.tree import read_tree, write_tree
 
 if TYPE_CHECKING:
@@ -139,3 +140,69 @@ def check_searches(file: h5py.File) -> None:
         seconds = search.attrs.get("seconds_per_layout")
         if not isinstance(seconds, float | np.floating) or not seconds >= 0:
             raise ValueError(f"methods/{name}/{SEARCH}: no seconds_per_layout")
+
+
+@dataclass(frozen=True)
+class EvalContents:
+    """What an eval file holds to draw an episode: the evaluation scenario as TOML, the
+    layouts (L, N, 2), m, the methods' labels in the order they were evaluated (the policy
+    first), and the results (``results_json``, with the policy's record)."""
+
+    scenario_toml: str
+    layouts_m: np.ndarray
+    labels: list[str]
+    results: dict[str, Any]
+
+
+def _damaged(path: Path, error: BaseException) -> AdaptskyError:
+    return AdaptskyError(f"{path}: damaged eval file "
+                         f"({(str(error).splitlines() or [type(error).__name__])[0]})")
+
+
+def read_eval_contents(path: Path) -> EvalContents:
+    """:class:`EvalContents` of the eval file at ``path`` (no trajectory is read)."""
+    try:
+        with open_run_file(path) as file:
+            if file.attrs.get("kind") not in (KIND, KIND.encode()):
+                raise AdaptskyError(f"{path}: not an adaptsky eval file")
+            results = json.loads(file["results_json"][()].decode())
+            toml = file["scenario"][()].decode()
+            layouts_m = np.asarray(file["layouts_m"][()], dtype=np.float64)
+            stored = {str(group.attrs.get("label", name)) for name, group in
+                      file["methods"].items()}
+    except (OSError, KeyError, ValueError, TypeError, UnicodeDecodeError) as error:
+        raise _damaged(path, error) from None
+    labels = [label for label in results.get("methods", {}) if label in stored]
+    if layouts_m.ndim != 3 or layouts_m.shape[2] != 2 or not labels:
+        raise AdaptskyError(f"{path}: damaged eval file (layouts_m of shape "
+                            f"{layouts_m.shape} or no method)")
+    return EvalContents(toml, layouts_m, labels, results)
+
+
+def read_eval_trajectory(path: Path, label: str, layout: int, steps: int | None = None
+                         ) -> dict[str, np.ndarray]:
+    """Method ``label``'s trajectory on layout ``layout``, its first ``steps`` rows (None:
+    all): ``uav_m`` (T, 3), or (T, U, 3) for several UAVs, ``alpha`` and ``rate_bps``
+    (T, N), and each step's energy ``energy_j`` (T,) or (T, U) where the file holds it (eval
+    files made before the energy do not). Only those rows of that layout are read."""
+    names = ("uav_m", "alpha", "rate_bps")
+    try:
+        with open_run_file(path) as file:
+            group = file[f"methods/{group_name(label)}/trajectory"]
+            datasets = [group[name] for name in names]
+            rows = datasets[0].shape[0] if steps is None else min(steps, datasets[0].shape[0])
+            if not rows or any(data.shape[:2] != datasets[0].shape[:2] or data.ndim < 3
+                               for data in datasets):
+                raise ValueError(f"methods/{group_name(label)}/trajectory: shapes "
+                                 f"{[data.shape for data in datasets]}")
+            found = {name: np.asarray(data[:rows, layout], dtype=np.float64)
+                     for name, data in zip(names, datasets, strict=True)}
+            energy = group.get("energy_j")
+            if energy is not None:
+                if energy.shape[:2] != datasets[0].shape[:2]:
+                    raise ValueError(f"methods/{group_name(label)}/trajectory/energy_j: "
+                                     f"shape {energy.shape}")
+                found["energy_j"] = np.asarray(energy[:rows, layout], dtype=np.float64)
+            return found
+    except (OSError, KeyError, ValueError, TypeError, IndexError) as error:
+        raise _damaged(path, error) from None

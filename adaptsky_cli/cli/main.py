@@ -21,6 +21,7 @@ from adaptsky_cli.cli import (
     plugins_cmd,
     reproduce_cmd,
     scenario_cmd,
+    show_cmd,
     train_cmd,
 )
 from adaptsky_cli.cli.console import err
@@ -37,6 +38,7 @@ app.command("eval")(eval_cmd.evaluate)
 app.command()(eval_cmd.baseline)
 app.command()(reproduce_cmd.reproduce)
 app.command()(plot_cmd.plot)
+app.command()(show_cmd.show)
 
 
 def _version(value: bool) -> None:

@@ -62,7 +62,8 @@ def test_every_experiment_key_is_documented(key):
 # How commands are invoked: one convention (the activated .venv), stated before the first
 # command of every page; the Python examples run as written; ADAPTSKY_DEBUG is documented.
 COMMAND_PAGES = ["README.md", "docs/install.md", "docs/environment.md", "docs/training.md",
-                 "docs/reproduce.md", "docs/evaluation.md", "docs/plugins.md"]
+                 "docs/reproduce.md", "docs/evaluation.md", "docs/plugins.md",
+                 "docs/pictures.md"]
 COMMAND = re.compile(r"^(adaptsky|python|pip|pytest) ", re.MULTILINE)
 
 

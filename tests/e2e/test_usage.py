@@ -69,7 +69,8 @@ def test_an_unreadable_run_file_is_one_line(tiny_run_copy, capsys, monkeypatch):
 
     monkeypatch.setattr(os, "open", refuse)
     for argv in (["eval", str(tiny_run_copy)], ["inspect", str(tiny_run_copy)],
-                 ["plot", str(tiny_run_copy)]):
+                 ["plot", str(tiny_run_copy)],
+                 ["show", str(tiny_run_copy), "--out", str(tiny_run_copy.with_suffix(".png"))]):
         assert main(argv) == 1
         assert one_line(capsys) == (f"{tiny_run_copy}: cannot read run file (Permission "
                                     "denied); check its permissions")
@@ -124,8 +125,8 @@ def _bad_calls(path: tuple[str, ...]) -> dict[str, list[str]]:
 
 
 def test_the_documented_commands_are_found():
-    assert {("train",), ("eval",), ("inspect",), ("plot",), ("reproduce",), ("baseline",),
-            ("scenario", "validate"), ("plugins", "list")} <= set(DOCUMENTED)
+    assert {("train",), ("eval",), ("inspect",), ("plot",), ("show",), ("reproduce",),
+            ("baseline",), ("scenario", "validate"), ("plugins", "list")} <= set(DOCUMENTED)
 
 
 @pytest.mark.parametrize("path", DOCUMENTED, ids=" ".join)
