@@ -16,7 +16,6 @@ global state, no display.
 
 from __future__ import annotations
 
-import io
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -36,6 +35,7 @@ from matplotlib.text import Annotation, Text
 from matplotlib.ticker import MaxNLocator
 
 from adaptsky.drawing.episode import EpisodeData, FloatArray
+from adaptsky.drawing.formats import FIGURE_FORMATS, figure_bytes
 from adaptsky.units import rate_unit
 
 BLOCK_IN = (11.0, 5.0)
@@ -49,8 +49,6 @@ PANELS_IN = (6.1, 0.5, 2.8, 4.05)
 PANEL_GAP_IN = 0.12
 TITLE_IN = (5.5, 4.95)
 DPI = 100
-FORMATS = ("png", "pdf", "svg")
-"""The formats :meth:`EpisodeFigure.save` writes (matplotlib's Agg, PDF and SVG backends)."""
 CLUSTER_MARKERS = ("o", "s", "D", "v", "P", "X", "h", "<", ">", "p", "d", "H")
 """The marker of cluster k (its subchannel under full reuse) of every UAV; a UAV is a "^",
 its start a "*"."""
@@ -504,12 +502,12 @@ class EpisodeFigure:
         return np.asarray(self.rgba())[:, :, :3].copy()
 
     def save(self, fmt: str) -> bytes:
-        """The picture as shown, whole, as a PNG, PDF or SVG file's bytes."""
-        if fmt not in FORMATS:
-            raise ValueError(f"format {fmt!r}: choose from {', '.join(FORMATS)}")
+        """The picture as shown, whole, as a PNG, PDF or SVG file's bytes
+        (:func:`adaptsky.drawing.formats.figure_bytes`)."""
+        if fmt not in FIGURE_FORMATS:
+            raise ValueError(f"format {fmt!r}: choose from {', '.join(FIGURE_FORMATS)}")
         for block, last in zip(self.blocks, self._rows, strict=True):
             block.grow(0, last)
-        buffer = io.BytesIO()
-        self.figure.savefig(buffer, format=fmt, dpi=self.figure.dpi)
+        data = figure_bytes(self.figure, fmt, self.figure.dpi)
         self._background = None  # saving drew on the canvas: the next frame starts again
-        return buffer.getvalue()
+        return data

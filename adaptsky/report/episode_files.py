@@ -13,9 +13,10 @@ from pathlib import Path
 import numpy as np
 
 from adaptsky.drawing.episode import EpisodeData, default_every, frame_steps
-from adaptsky.drawing.episode_figure import DPI, FORMATS, EpisodeFigure
+from adaptsky.drawing.episode_figure import DPI, EpisodeFigure
 from adaptsky.errors import AdaptskyError
 from adaptsky.progress import Reporter, Silent, Tick, WorkProgress
+from adaptsky.report.figure_files import format_of
 from adaptsky.store.atomic import write_bytes_atomic, written_in_place_of
 
 ANIMATION_FORMATS = ("gif", "mp4")
@@ -41,8 +42,9 @@ def _format(path: Path, option: str, what: str, formats: Sequence[str]) -> str:
 
 
 def figure_format(path: Path) -> str:
-    """png, pdf or svg, from ``path``'s suffix (any case); anything else in one line."""
-    return _format(path, "--out", "a figure", FORMATS)
+    """png, pdf or svg, from ``path``'s suffix (any case); anything else in one line
+    (:func:`adaptsky.report.figure_files.format_of`, as every figure of adaptsky)."""
+    return format_of(path, "--out")
 
 
 def animation_format(path: Path) -> str:

@@ -8,24 +8,18 @@ Type 3, which journals' PDF checkers (IEEE's PDF eXpress) refuse.
 
 from __future__ import annotations
 
-import io
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from adaptsky.drawing.formats import FIGURE_FORMATS, figure_bytes
 from adaptsky.errors import AdaptskyError
 from adaptsky.store.atomic import write_bytes_atomic
 
 if TYPE_CHECKING:  # matplotlib is imported by what draws, not by what checks a format
     from matplotlib.figure import Figure
 
-FIGURE_FORMATS = ("png", "pdf", "svg")
-"""What a figure can be written as; the file's suffix names it (``.png``, ``.pdf``, ``.svg``)."""
 DPI = 150
 """Pixels per inch of PNG figures (PDF and SVG are vector: their size is in inches)."""
-
-_METADATA: dict[str, dict[str, Any]] = {"png": {}, "pdf": {"CreationDate": None},
-                                        "svg": {"Date": None}}
-_RC = {"svg.hashsalt": "adaptsky", "pdf.fonttype": 42}
 
 
 def allowed_formats(prefix: str = "") -> str:
@@ -56,11 +50,5 @@ def format_of(path: Path, option: str = "--out") -> str:
 def save_figure(figure: Figure, path: Path, dpi: int = DPI) -> Path:
     """Write ``figure`` to ``path`` in the format its suffix names, atomically (a copy renamed
     over the file: never half written). Returns ``path``."""
-    import matplotlib
-
-    kind = format_of(path)
-    data = io.BytesIO()
-    with matplotlib.rc_context(_RC):
-        figure.savefig(data, format=kind, dpi=dpi, metadata=_METADATA[kind])
-    write_bytes_atomic(path, data.getvalue())
+    write_bytes_atomic(path, figure_bytes(figure, format_of(path), dpi))
     return path
