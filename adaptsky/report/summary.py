@@ -81,11 +81,6 @@ def summary_table(summary: dict[str, Any]) -> Table:
                    f"standard deviation over {plural(rate['seeds'], 'seed')}")
     greedy = any(s["best"] is not None for s in summary["seeds"])
     columns = ["seed", "episodes", f"R_e^tot ({window})", f"J_e ({window})"]
-    efficiency = summary.get("energy_efficiency_bpj")
-    if efficiency is not None:
-        columns.append("Mbit/J")
-        caption = (caption or "") + ("; Mbit/J: energy efficiency, bits over the UAVs' "
-                                     "propulsion and transmit energy")
     if greedy:
         columns.append("best greedy (episode)")
         caption = (caption or "") + ("; best greedy: the best greedy evaluation during "
@@ -97,9 +92,6 @@ def summary_table(summary: dict[str, Any]) -> Table:
         row = [str(s["seed"]), f"{s['episodes_done']}/{s['episodes_planned']}",
                format_rate(s["sum_rate_bps"]) if s["sum_rate_bps"] is not None else "-",
                f"{s['fairness']:.3f}" if s["fairness"] is not None else "-"]
-        if efficiency is not None:
-            ee = s["energy_efficiency_bpj"]
-            row.append("-" if ee is None else f"{ee / 1e6:.1f}")
         if greedy:
             best = s["best"]
             row.append("-" if best is None else
@@ -110,10 +102,21 @@ def summary_table(summary: dict[str, Any]) -> Table:
         table.add_section()
         table.add_row("all", plural(rate["seeds"], "seed"),
                       format_rate_spread(rate["mean"], rate["std"]),
-                      f"{fairness['mean']:.3f} ± {fairness['std']:.3f}",
-                      *([f"{efficiency['mean'] / 1e6:.1f} ± {efficiency['std'] / 1e6:.1f}"]
-                        if efficiency is not None else []))
+                      f"{fairness['mean']:.3f} ± {fairness['std']:.3f}")
     return table
+
+
+def energy_line(summary: dict[str, Any]) -> str | None:
+    """The seeds' energy efficiency over their last episodes, bits over the UAVs' propulsion
+    and transmit energy (docs/model.md §10), and its mean ± std over seeds; None for run
+    files made before the energy."""
+    efficiency = summary.get("energy_efficiency_bpj")
+    if efficiency is None:
+        return None
+    seeds = ", ".join(f"seed {s['seed']} {s['energy_efficiency_bpj'] / 1e6:.1f}"
+                      for s in summary["seeds"] if s.get("energy_efficiency_bpj") is not None)
+    return (f"energy efficiency ({_window(summary['seeds'])} episodes), Mbit/J: {seeds}; "
+            f"all {efficiency['mean'] / 1e6:.1f} ± {efficiency['std'] / 1e6:.1f}")
 
 
 def curve_tables(summary: dict[str, Any], limit: int = 8) -> list[Table]:
