@@ -27,20 +27,6 @@ VIDEO_EXTRA = "pip install 'adaptsky[video]'"
 GIF_COLOURS = 255
 
 
-def _suffixes(formats: Sequence[str]) -> str:
-    *head, last = (f".{fmt}" for fmt in formats)
-    return f"{', '.join(head)} or {last}" if head else last
-
-
-def _format(path: Path, option: str, what: str, formats: Sequence[str]) -> str:
-    fmt = path.suffix.lower().lstrip(".")
-    if fmt not in formats:
-        given = f"'{path.suffix}'" if path.suffix else "no suffix"
-        raise AdaptskyError(f"{option} {path}: {what} is {_suffixes(formats)} (its format "
-                            f"comes from the suffix), not {given}")
-    return fmt
-
-
 def figure_format(path: Path) -> str:
     """png, pdf or svg, from ``path``'s suffix (any case); anything else in one line
     (:func:`adaptsky.report.figure_files.format_of`, as every figure of adaptsky)."""
@@ -50,7 +36,7 @@ def figure_format(path: Path) -> str:
 def animation_format(path: Path) -> str:
     """gif or mp4, from ``path``'s suffix; anything else, or MP4 without imageio-ffmpeg, in
     one line."""
-    fmt = _format(path, "--animate", "an animation", ANIMATION_FORMATS)
+    fmt = format_of(path, "--animate", "an animation file", ANIMATION_FORMATS)
     if fmt == "mp4":
         require_video(path)
     return fmt

@@ -22,10 +22,10 @@ DPI = 150
 """Pixels per inch of PNG figures (PDF and SVG are vector: their size is in inches)."""
 
 
-def allowed_formats(prefix: str = "") -> str:
-    """'png, pdf or svg' (with ``prefix`` '.': '.png, .pdf or .svg')."""
-    names = [f"{prefix}{name}" for name in FIGURE_FORMATS]
-    return f"{', '.join(names[:-1])} or {names[-1]}"
+def allowed_formats(prefix: str = "", formats: tuple[str, ...] = FIGURE_FORMATS) -> str:
+    """'png, pdf or svg' (with ``prefix`` '.': '.png, .pdf or .svg'), or of ``formats``."""
+    names = [f"{prefix}{name}" for name in formats]
+    return f"{', '.join(names[:-1])} or {names[-1]}" if len(names) > 1 else names[0]
 
 
 def check_format(name: str, option: str = "--format") -> str:
@@ -36,14 +36,16 @@ def check_format(name: str, option: str = "--format") -> str:
     return name.lower()
 
 
-def format_of(path: Path, option: str = "--out") -> str:
-    """The format a figure path's suffix names, or one line: a figure is never written over a
-    file of another kind (a scenario, a run file)."""
+def format_of(path: Path, option: str = "--out", what: str = "a figure file",
+              formats: tuple[str, ...] = FIGURE_FORMATS) -> str:
+    """The format a path's suffix names (any case) among ``formats``, or one line: a figure
+    (or an animation) is never written over a file of another kind (a scenario, a run
+    file)."""
     suffix = path.suffix.lower().lstrip(".")
-    if suffix not in FIGURE_FORMATS:
+    if suffix not in formats:
         given = f"'{path.suffix}'" if path.suffix else "no suffix"
-        raise AdaptskyError(f"{option} {path}: a figure file must end in "
-                            f"{allowed_formats('.')} (it has {given})")
+        raise AdaptskyError(f"{option} {path}: {what} must end in "
+                            f"{allowed_formats('.', formats)} (it has {given})")
     return suffix
 
 
