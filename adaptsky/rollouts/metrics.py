@@ -10,6 +10,7 @@ from numpy.typing import NDArray
 
 from adaptsky.rollouts.rollout import Trace
 from adaptsky.scenario.models import Scenario
+from adaptsky.sim.energy import energy_efficiency_bpj
 from adaptsky.sim.noma import jain_fairness
 
 STEADY_STEPS = 100
@@ -26,13 +27,6 @@ def steady_user_rates(rate_bps: NDArray[np.float64]) -> NDArray[np.float64]:
     """(T, L, N) rates of every step, layout and user -> (L, N): each user's mean rate over the
     last 100 steps (the steady state; every step of a shorter rollout)."""
     return np.asarray(rate_bps)[-STEADY_STEPS:].mean(axis=0)
-
-
-def energy_efficiency_bpj(sum_rate_bps: NDArray[np.float64], energy_j: NDArray[np.float64],
-                          step_s: float) -> NDArray[np.float64]:
-    """EE = sum_t R_tot,t step_s / sum_t E_t, bit/J, over the first (step) axis; E_t summed
-    over the UAVs already (docs/model.md §10)."""
-    return sum_rate_bps.sum(axis=0) * step_s / energy_j.sum(axis=0)
 
 
 def motion_shares(uav_m: NDArray[np.float64]) -> dict[str, NDArray[np.float64]]:

@@ -98,6 +98,13 @@ class StepEnergy:
     clusters: int | NDArray[np.integer]
     airframe: RotaryWing = ZENG_2019
 
+    @classmethod
+    def of(cls, scenario: Scenario, clusters: NDArray[np.integer] | None = None) -> StepEnergy:
+        """A scenario's steps (``uav.step_s``, P_T per cluster), with K_u per UAV
+        ``clusters`` (U,) where they differ (default: the scenario's equal groups)."""
+        return cls(scenario.uav.step_s, scenario.radio.tx_power_w,
+                   scenario.clusters_per_uav if clusters is None else clusters)
+
     @property
     def hover_step_j(self) -> float:
         """P(0) step_s, J: the unit of the reward's energy term."""
@@ -131,8 +138,7 @@ class EnergyAccount:
 
     def __init__(self, scenario: Scenario, weights: RewardWeights, shape: tuple[int, ...],
                  clusters: NDArray[np.integer] | None = None) -> None:
-        self.step = StepEnergy(scenario.uav.step_s, scenario.radio.tx_power_w,
-                               scenario.clusters_per_uav if clusters is None else clusters)
+        self.step = StepEnergy.of(scenario, clusters)
         self.hover_j = hover_energy_j(self.step, shape)
         self.hover_j.flags.writeable = False
         w_energy = np.asarray(weights.w_energy, dtype=np.float64)
@@ -157,14 +163,20 @@ class EnergyAccount:
         return -(np.asarray(self.per_joule)[..., None] * energy_j)
 
 
+def energy_efficiency_bpj(sum_rate_bps: FloatArray, energy_j: FloatArray, step_s: float
+                          ) -> FloatArray:
+    """EE = sum_t R_tot,t step_s / sum_t E_t, bit/J, over the first (step) axis, with E_t
+    summed over the UAVs already (docs/model.md §10)."""
+    return sum_rate_bps.sum(axis=0) * step_s / energy_j.sum(axis=0)
+
+
 def episode_energy(sum_rate_bps: FloatArray, energy_j: FloatArray, step_s: float
                    ) -> dict[str, float]:
     """An episode's energy over its T steps and every UAV (``energy_j`` (T,) or (T, U)), J,
-    and its energy efficiency sum_t R_tot,t step_s / sum_t E_t, bit/J (``sum_rate_bps``
-    (T,); docs/model.md §10)."""
-    total_j = float(np.sum(energy_j))
-    return {"energy_j": total_j,
-            "energy_efficiency_bpj": float(np.sum(sum_rate_bps)) * step_s / total_j}
+    and its :func:`energy_efficiency_bpj` (``sum_rate_bps`` (T,))."""
+    total_j = np.sum(energy_j)
+    return {"energy_j": float(total_j), "energy_efficiency_bpj": float(
+        energy_efficiency_bpj(np.asarray(sum_rate_bps), total_j[None], step_s))}
 
 
 def least_power_w(scenario: Scenario) -> float:
@@ -173,12 +185,10 @@ def least_power_w(scenario: Scenario) -> float:
     axes) plus its transmitters; climbing only adds (docs/model.md §10)."""
     uav = scenario.uav
     x_m, y_m = uav.step_m[0], uav.step_m[1]
-    displacements = [math.hypot(x_m, y_m)]
+    moves_m = [[x_m, y_m, 0.0]]
     if uav.actions == "with-hover":
-        displacements += [0.0, x_m, y_m]
-    speeds = np.array(displacements) / uav.step_s
-    return float(propulsion_power_w(speeds).min()
-                 + scenario.clusters_per_uav * scenario.radio.tx_power_w)
+        moves_m += [[0.0, 0.0, 0.0], [x_m, 0.0, 0.0], [0.0, y_m, 0.0]]
+    return float(StepEnergy.of(scenario).power_w(np.array(moves_m)).min())
 
 
 def efficiency_bound_bpj(scenario: Scenario, best_sum_rate_bps: float) -> float:
