@@ -370,8 +370,6 @@ class MultiUavBatch:
                                        self._links_geometry(uav_m, users_m),
                                        self.rngs if self.rngs is not None else self.rng,
                                        num_uavs=self.num_uavs)
-        radio = self._radio
-        tx_power_w, antenna_gain = radio["tx_power_w"], radio["antenna_gain"]
         serving_link = self._serving_link
         gain = gains.take(serving_link)
         link_los, link_p_los = los.take(serving_link), p_los.take(serving_link)
@@ -379,7 +377,7 @@ class MultiUavBatch:
         # rates without one UAV's interference (difference_rewards)
         if self._full_reuse:
             self._interfering_gains = np.where(self._interferer, gains, 0.0)
-            interference = tx_power_w * antenna_gain * self._interfering_gains.sum(axis=1)
+            interference = self._interference_w(self._interfering_gains)
         else:
             self._interfering_gains = None
             interference = np.zeros(gain.shape)
@@ -432,9 +430,13 @@ class MultiUavBatch:
             return self.state.rate_bps
         others = self._interfering_gains.copy()
         others[:, uav] = 0.0
+        return self._noma_rates(self.state.gain, self._interference_w(others),
+                                self.sim_state.config)[0]
+
+    def _interference_w(self, interfering_gains: FloatArray) -> FloatArray:
+        """I_i (B, N), W: P_T G times the gains (B, U, N) of the links that interfere."""
         radio = self._radio
-        interference = radio["tx_power_w"] * radio["antenna_gain"] * others.sum(axis=1)
-        return self._noma_rates(self.state.gain, interference, self.sim_state.config)[0]
+        return radio["tx_power_w"] * radio["antenna_gain"] * interfering_gains.sum(axis=1)
 
     def observation(self) -> NDArray[np.float32]:
         assert self.state is not None, "call reset() first"
