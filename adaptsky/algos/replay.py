@@ -11,11 +11,14 @@ on the device.
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import NamedTuple, TypeVar
 
 import numpy as np
 import torch
 from numpy.typing import NDArray
+
+Rows = TypeVar("Rows", torch.Tensor, np.ndarray)
+"""Replay rows on the device (a batch) or on the host (a checkpoint's copy)."""
 
 
 class Batch(NamedTuple):
@@ -87,22 +90,25 @@ class StackedReplay:
         stack, batch = index.shape
         flat = index.view(-1) if stack == 1 else (index + self._offsets).view(-1)
         rows = self._flat.index_select(0, flat)
-        rows = rows.view(stack, batch, self.width)
+        observations, actions, rewards, next_observations, alive = self._fields(
+            rows.view(stack, batch, self.width))
+        return Batch(observations, actions.long(), rewards, next_observations, alive)
+
+    def _fields(self, rows: Rows) -> tuple[Rows, Rows, Rows, Rows, Rows]:
+        """Views of rows (..., width): observations, actions, rewards (a column, or
+        ``action_width`` and ``reward_width`` columns), next observations, 1 - terminated."""
         n, alive = self.obs_size, self._alive
         actions = rows[..., -1] if self.action_width == 1 else rows[..., alive + 1:]
         rewards = rows[..., 2 * n] if self.reward_width == 1 else rows[..., 2 * n:alive]
-        return Batch(rows[..., :n], actions.long(), rewards, rows[..., n:2 * n],
-                     rows[..., alive])
+        return rows[..., :n], actions, rewards, rows[..., n:2 * n], rows[..., alive]
 
     def arrays(self, member: int) -> dict[str, np.ndarray]:
         """A member's stored rows of every field in storage order (for checkpoints)."""
-        rows = self.rows[member, :self.size].cpu().numpy()
-        n, alive = self.obs_size, self._alive
-        actions = rows[:, -1] if self.action_width == 1 else rows[:, alive + 1:]
-        rewards = rows[:, 2 * n] if self.reward_width == 1 else rows[:, 2 * n:alive]
-        return {"observations": rows[:, :n].copy(), "actions": actions.astype(np.int64),
-                "rewards": rewards.copy(), "next_observations": rows[:, n:2 * n].copy(),
-                "terminated": rows[:, alive] == 0}
+        observations, actions, rewards, next_observations, alive = self._fields(
+            self.rows[member, :self.size].cpu().numpy())
+        return {"observations": observations.copy(), "actions": actions.astype(np.int64),
+                "rewards": rewards.copy(), "next_observations": next_observations.copy(),
+                "terminated": alive == 0}
 
     def load(self, member: int, arrays: dict[str, np.ndarray], position: int) -> None:
         """Refill a member from :meth:`arrays` output and the write ``position`` saved with it
