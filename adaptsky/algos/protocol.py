@@ -31,7 +31,8 @@ class Algorithm(Protocol):
     """The exploration rate of the last :meth:`act` (a learning-curve column)."""
     reward_parts: int
     """1: :meth:`observe` takes eq. 13's reward (S,); G > 1: its parts per UAV (S, G), from
-    the environment's ``reward_parts`` (the BDQ with ``agent.reward_split = "per-uav"``)."""
+    the environment's ``reward_parts`` (the BDQ with ``agent.reward_split`` "per-uav" or
+    "difference")."""
 
     def begin_episode(self, global_step: int) -> None:
         """A new episode starts at ``global_step`` (its schedules move on)."""

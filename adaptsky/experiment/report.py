@@ -494,9 +494,9 @@ def energy_front(plan: Plan, evaluations: Evaluations, out: Outputs) -> Analysis
                                    if r.sweep_value == value]) for value in values}
     first = spec.policies[0]
     points, rows = [], []
+    unweighted = {run.seed: run for run in by_value.get(0, [])}  # w_e = 0 (0.0 alike)
     for policy in spec.policies:
         measured = evaluations.of(policy)
-        unweighted = {run.seed: run for run in by_value.get(0, by_value.get(0.0, []))}
         for value in values:
             row = f"{row_label(group.title, policy, spec.policies)}, w_e = {value:g}"
             rates, effs = [], []

@@ -29,11 +29,12 @@ import torch
 from adaptsky.algos.registry import algorithm_of
 from adaptsky.arrays import Tree
 from adaptsky.errors import NonFiniteError
+from adaptsky.scenario.agents import BdqAgent
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.batch import reward_weights
 from adaptsky.sim.energy import episode_energy
 from adaptsky.sim.layout import episode_layouts
-from adaptsky.sim.multi_batch import network_batch
+from adaptsky.sim.multi_batch import MultiUavBatch, network_batch
 from adaptsky.sim.noma import jain_fairness
 from adaptsky.sim.observation import observation_size_of
 from adaptsky.training.evaluation import EVALUATION_KEYS, EvaluationSet, GreedyEvaluator
@@ -129,12 +130,13 @@ class StackRun:
         algorithm, steps = self.algorithm, self.scenario.train.steps
         start = self.episodes_done * steps
         states, rewards, chosen = [], [], []
-        # the reward per UAV where the algorithm learns from its parts
+        # the reward per UAV where the algorithm learns from its parts (the BDQ's
+        # reward_split with several UAVs)
         split = None
         if algorithm.reward_parts > 1:
-            mode = getattr(self.scenario.agent, "reward_split", "per-uav")
-            parts = getattr(self.env, "reward_parts")  # noqa: B009 (several UAVs' env only)
-            split = functools.partial(parts, split=mode)
+            env, agent = self.env, self.scenario.agent
+            assert isinstance(env, MultiUavBatch) and isinstance(agent, BdqAgent)
+            split = functools.partial(env.reward_parts, split=agent.reward_split)
         algorithm.begin_episode(start)
         if self.scenario.users.placement == "fresh":
             self.env.set_layouts(episode_layouts(self.scenario, self._seeds, self.episodes_done))

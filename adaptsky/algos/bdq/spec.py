@@ -19,7 +19,8 @@ from adaptsky.sim.observation import observation_size_of
 
 # /seeds/<S>/checkpoint/replay/actions: the sub-action of each of the D branches per row
 BRANCH_ACTIONS = Field("actions", "int", ("R", "D"))
-# /seeds/<S>/checkpoint/replay/rewards with agent.reward_split = "per-uav": G parts per row
+# /seeds/<S>/checkpoint/replay/rewards where the branches learn G > 1 parts (the BDQ's
+# reward_split "per-uav" or "difference" with several UAVs): G parts per row
 REWARD_PARTS = Field("rewards", "float", ("R", "G"))
 
 
