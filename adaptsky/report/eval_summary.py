@@ -12,7 +12,7 @@ import h5py
 from adaptsky.errors import AdaptskyError
 from adaptsky.report.user_rates import USER_RATES
 from adaptsky.rollouts.metrics import STEADY_STEPS, steady_user_rates
-from adaptsky.store.eval_file import KIND, check_searches
+from adaptsky.store.eval_file import KIND, check_searches, damaged_eval_file
 from adaptsky.store.run_file import open_run_file
 
 HEADER = ("adaptsky_version", "format_version", "created_utc", "command_line")
@@ -47,8 +47,7 @@ def read_eval_file(path: Path) -> tuple[dict[str, Any], dict[str, Any]]:
             if isinstance(results, dict) and isinstance(results.get("methods"), dict):
                 _add_user_rates(file, results["methods"])
     except (OSError, KeyError, ValueError, UnicodeDecodeError) as error:
-        raise AdaptskyError(f"{path}: damaged eval file "
-                            f"({(str(error).splitlines() or ['unreadable'])[0]})") from None
+        raise damaged_eval_file(path, error) from None
     if not isinstance(results, dict) or "methods" not in results:
         raise AdaptskyError(f"{path}: damaged eval file (results_json holds no methods)")
     return header, results

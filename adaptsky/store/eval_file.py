@@ -95,6 +95,12 @@ def write_eval(path: Path, results: dict[str, Any], methods: list[Method],
         _with_units(file)
 
 
+def damaged_eval_file(path: Path, error: BaseException) -> AdaptskyError:
+    """The one line for an eval file that cannot be read as one: the error's first line."""
+    return AdaptskyError(f"{path}: damaged eval file "
+                         f"({(str(error).splitlines() or ['unreadable'])[0]})")
+
+
 def read_eval_metrics(path: Path) -> tuple[dict[str, Any] | None, dict[str, dict[str, np.ndarray]]]:
     """An eval file's ``record`` (what it evaluated, if written by ``reproduce``) and the
     per-layout metrics of each method, by label (a search's datasets as ``search_<name>``)."""
@@ -115,7 +121,7 @@ def read_eval_metrics(path: Path) -> tuple[dict[str, Any] | None, dict[str, dict
                 methods[label] |= {f"{SEARCH}_{key}": np.asarray(value)
                                    for key, value in search.items()}
     except (OSError, KeyError, ValueError) as error:
-        raise AdaptskyError(f"{path}: damaged eval file ({str(error).splitlines()[0]})") from None
+        raise damaged_eval_file(path, error) from None
     return results.get("record"), methods
 
 
@@ -154,11 +160,6 @@ class EvalContents:
     results: dict[str, Any]
 
 
-def _damaged(path: Path, error: BaseException) -> AdaptskyError:
-    return AdaptskyError(f"{path}: damaged eval file "
-                         f"({(str(error).splitlines() or [type(error).__name__])[0]})")
-
-
 def read_eval_contents(path: Path) -> EvalContents:
     """:class:`EvalContents` of the eval file at ``path`` (no trajectory is read)."""
     try:
@@ -171,7 +172,7 @@ def read_eval_contents(path: Path) -> EvalContents:
             stored = {str(group.attrs.get("label", name)) for name, group in
                       file["methods"].items()}
     except (OSError, KeyError, ValueError, TypeError, UnicodeDecodeError) as error:
-        raise _damaged(path, error) from None
+        raise damaged_eval_file(path, error) from None
     labels = [label for label in results.get("methods", {}) if label in stored]
     if layouts_m.ndim != 3 or layouts_m.shape[2] != 2 or not labels:
         raise AdaptskyError(f"{path}: damaged eval file (layouts_m of shape "
@@ -205,4 +206,4 @@ def read_eval_trajectory(path: Path, label: str, layout: int, steps: int | None 
                 found["energy_j"] = np.asarray(energy[:rows, layout], dtype=np.float64)
             return found
     except (OSError, KeyError, ValueError, TypeError, IndexError) as error:
-        raise _damaged(path, error) from None
+        raise damaged_eval_file(path, error) from None
