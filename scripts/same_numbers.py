@@ -31,13 +31,14 @@ ROOT = Path(__file__).resolve().parents[1]
 RUN = ["--seeds", "0,1", "--episodes", "4", "--steps", "30", "--checkpoint-every", "2",
        "--workers", "1", "--quiet"]
 # (name, scenario, --set overrides): the paper's agent, the tuned preset, sampled LoS, fresh
-# layouts, the plain DQN
+# layouts, the plain DQN, the BDQ of two UAVs
 TRAININGS = [
     ("paper", "nyc_mmwave.toml", []),
     ("tuned", "nyc_mmwave_tuned.toml", []),
     ("sampled-los", "sub6_al_hourani.toml", ["channel.los=sampled"]),
     ("fresh-layouts", "nyc_mmwave_any_layout.toml", ["train.eval_layouts=2"]),
     ("plain-dqn", "nyc_mmwave.toml", ["agent.dueling=false"]),
+    ("two-uavs", "two_uavs_mmwave.toml", ["train.eval_every=0"]),
 ]
 CODE = ("import sys; from adaptsky_cli.cli.main import main; sys.exit(main(sys.argv[1:]))")
 

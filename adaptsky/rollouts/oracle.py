@@ -33,6 +33,7 @@ from adaptsky.errors import AdaptskyError
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim import noma
 from adaptsky.sim.batch import NomaUavBatch, build_channel, deterministic_gain, fading_active
+from adaptsky.sim.lattice import axis_lattice, share_lattice
 
 FloatArray = NDArray[np.float64]
 POINTS_PER_CHUNK = 200_000
@@ -49,20 +50,13 @@ class OracleResult:
     rate_bps: FloatArray
 
 
-def axis_lattice(start: float, step: float, low: float, high: float) -> FloatArray:
-    """start + k step for every integer k with low <= value <= high (1e-9 tolerance)."""
-    k_low = int(np.ceil((low - start) / step - 1e-9))
-    k_high = int(np.floor((high - start) / step + 1e-9))
-    return start + step * np.arange(k_low, k_high + 1)
-
-
 def lattice(scenario: Scenario) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """The reachable x, y, h values and the alpha_first grid."""
     uav, half_m = scenario.uav, scenario.area.side_m / 2
     xs = axis_lattice(uav.start_m[0], uav.step_m[0], -half_m, half_m)
     ys = axis_lattice(uav.start_m[1], uav.step_m[1], -half_m, half_m)
     hs = axis_lattice(uav.start_m[2], uav.step_m[2], uav.min_height_m, uav.max_height_m)
-    alphas = axis_lattice(uav.start_alpha, uav.power_step, uav.power_step, 1 - uav.power_step)
+    alphas = share_lattice(scenario)
     return xs, ys, hs, alphas
 
 

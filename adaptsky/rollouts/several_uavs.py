@@ -25,7 +25,6 @@ from adaptsky.rollouts.objective import constrained_sum_rate
 from adaptsky.rollouts.oracle import (
     POINTS_PER_CHUNK,
     _best_alpha_first,
-    axis_lattice,
     oracle,
     require_deterministic_gains,
 )
@@ -34,6 +33,7 @@ from adaptsky.scenario.models import Scenario
 from adaptsky.sim import noma
 from adaptsky.sim.batch import deterministic_gain, scenario_geometry
 from adaptsky.sim.interference import oma_rates_bps
+from adaptsky.sim.lattice import axis_lattice, share_lattice
 from adaptsky.sim.multi_batch import MultiUavBatch
 
 FloatArray = NDArray[np.float64]
@@ -112,8 +112,7 @@ class _Search:
         self.min_rate_bps = scenario.min_rate_bps
         self.full_reuse = radio.reuse == "full"
         uav, half_m = scenario.uav, scenario.area.side_m / 2
-        self.alphas = axis_lattice(uav.start_alpha, uav.power_step, uav.power_step,
-                                   1 - uav.power_step)
+        self.alphas = share_lattice(scenario)
         self.heights = [axis_lattice(h, uav.step_m[2], uav.min_height_m, uav.max_height_m)
                         for h in env.start_m[:, 2]]
         self.planes = []

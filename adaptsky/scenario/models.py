@@ -249,6 +249,11 @@ class Train(Section):
                                   description="episodes between checkpoints")
     trajectory_every: int = Field(0, ge=0, le=MAX_COUNT, description="also store every k-th "
                                   "episode's trajectory; 0 keeps only the last")
+    exploring_starts: Literal["none", "shares"] = Field(
+        "none", description="'shares': every training episode starts each cluster's "
+        "first-user share at a uniform point of its lattice instead of uav.start_alpha "
+        "(exploring starts, docs/training.md); greedy evaluations always start at "
+        "start_alpha")
     eval_every: int = Field(10, ge=0, le=MAX_COUNT, description="episodes between greedy "
                             "evaluations (docs/training.md); 0: none")
     eval_steps: int = Field(1000, ge=1, le=100_000, description="steps of a greedy "

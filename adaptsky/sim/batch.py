@@ -495,22 +495,25 @@ class NomaUavBatch:
         return observe(self.scenario, self.uav_m, self.users_m, self.state.alpha,
                        self.state.gain, self.observation_order)
 
-    def reset(self, seed: int | np.random.SeedSequence | list[np.random.SeedSequence] | None = None
-              ) -> tuple[NDArray[np.float32], NetworkState]:
+    def reset(self, seed: int | np.random.SeedSequence | list[np.random.SeedSequence] | None = None,
+              alpha_first: FloatArray | None = None) -> tuple[NDArray[np.float32], NetworkState]:
         """Start an episode: UAV at ``uav.start_m``, every alpha at ``start_alpha``
-        (docs/model.md §3).
+        (docs/model.md §3), or the first users' shares ``alpha_first`` (B, K) where given
+        (exploring starts, docs/training.md).
 
         A ``seed`` re-seeds the generator of LoS draws and user moves.
         """
         if seed is not None:
             self._seed(seed)
-        self._to_start()
+        self._to_start(alpha_first)
         self.state = self._evaluate(self.sim_state)
         return self._obs, self.state
 
-    def _to_start(self) -> None:
-        """Step 0: UAV at the start, first users' shares at start_alpha, users at home."""
-        self.sim_state = SimState(self._config(self._start_m, self.scenario.uav.start_alpha),
+    def _to_start(self, alpha_first: FloatArray | None = None) -> None:
+        """Step 0: UAV at the start, first users' shares at start_alpha (or ``alpha_first``),
+        users at home."""
+        shares = self.scenario.uav.start_alpha if alpha_first is None else alpha_first
+        self.sim_state = SimState(self._config(self._start_m, shares),
                                   user_positions(self.layouts_m), 0)
 
     @property

@@ -275,19 +275,23 @@ class MultiUavBatch:
     def users_m(self) -> FloatArray:
         return self.sim_state.users_m
 
-    def _to_start(self) -> None:
-        """Step 0: every UAV at its start, every alpha at ``start_alpha``, users at home."""
-        alpha = np.full((self.num_envs, self.num_uavs, self.num_clusters),
-                        self.scenario.uav.start_alpha)
+    def _to_start(self, alpha_first: FloatArray | None = None) -> None:
+        """Step 0: every UAV at its start, every alpha at ``start_alpha`` (or
+        ``alpha_first``), users at home."""
+        shape = (self.num_envs, self.num_uavs, self.num_clusters)
+        alpha = (np.full(shape, self.scenario.uav.start_alpha) if alpha_first is None
+                 else np.broadcast_to(alpha_first, shape))
         starts = np.broadcast_to(self.start_m, (self.num_envs, *self.start_m.shape))
         self.sim_state = SimState.of(starts, alpha, self.layouts_m)
 
-    def reset(self, seed: Seed = None) -> tuple[NDArray[np.float32], MultiNetworkState]:
-        """Start an episode (every UAV at its start position); a ``seed`` re-seeds the
-        generators."""
+    def reset(self, seed: Seed = None, alpha_first: FloatArray | None = None
+              ) -> tuple[NDArray[np.float32], MultiNetworkState]:
+        """Start an episode (every UAV at its start position, every first user's share at
+        ``start_alpha``, or ``alpha_first`` (B, U, K) where given: exploring starts,
+        docs/training.md); a ``seed`` re-seeds the generators."""
         if seed is not None:
             self._seed(seed)
-        self._to_start()
+        self._to_start(alpha_first)
         self.state = self._evaluate(self.sim_state)
         return self._obs, self.state
 

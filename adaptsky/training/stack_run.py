@@ -33,6 +33,7 @@ from adaptsky.scenario.agents import BdqAgent
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.batch import reward_weights
 from adaptsky.sim.energy import episode_energy
+from adaptsky.sim.lattice import exploring_shares
 from adaptsky.sim.layout import episode_layouts
 from adaptsky.sim.multi_batch import MultiUavBatch, network_batch
 from adaptsky.sim.noma import jain_fairness
@@ -142,7 +143,7 @@ class StackRun:
             self.env.set_layouts(episode_layouts(self.scenario, self._seeds, self.episodes_done))
         # a NaN or infinity is reported once, by _check_finite, not as numpy warnings
         with np.errstate(all="ignore"):
-            obs, _ = self.env.reset()
+            obs, _ = self.env.reset(alpha_first=self._start_shares())
             for tau in range(steps):
                 actions = algorithm.act(obs, start + tau)
                 next_obs, reward, _, state = self.env.step(actions)
@@ -166,6 +167,18 @@ class StackRun:
         return [self._result({name: values[:, index] for name, values in trajectory.items()},
                              algorithm.epsilon, losses[index], evaluations[index])
                 for index in range(len(self.members))]
+
+    def _start_shares(self) -> np.ndarray | None:
+        """The first users' shares a training episode starts from: None (``start_alpha``), or
+        with ``train.exploring_starts = "shares"`` each member's drawn by its environment's
+        generator, so that a seed draws the same alone, in a stack and resumed."""
+        if self.scenario.train.exploring_starts == "none":
+            return None
+        env = self.env
+        assert env.rngs is not None  # seeded with one sequence per member
+        shape = ((env.num_uavs, env.num_clusters) if isinstance(env, MultiUavBatch)
+                 else (env.num_clusters,))
+        return exploring_shares(self.scenario, env.rngs, shape)
 
     def _evaluate(self) -> list[dict[str, float] | None]:
         """A greedy evaluation of every member when one is due (``train.eval_every``), and

@@ -16,6 +16,7 @@ from adaptsky.scenario.toml_writer import dumps
 from adaptsky.sim.layout import user_layouts
 from adaptsky.store.run_file import RunReader
 from adaptsky.training import api
+from adaptsky.training.evaluation import evaluation_set
 from adaptsky.training.stack_run import Member, StackRun
 from adaptsky_cli.cli.main import main
 from tests.unit.training.test_gpu import assert_graphs_replay_eager, cuda
@@ -40,13 +41,15 @@ TWO_UAVS = {
 SPLITS = ["team", "per-uav", "difference"]
 
 
-def _with_split(split: str) -> dict:
-    return {**TWO_UAVS, "agent": {**TWO_UAVS["agent"], "reward_split": split}}
+def _with_split(split: str, exploring_starts: str = "none") -> dict:
+    return {**TWO_UAVS, "agent": {**TWO_UAVS["agent"], "reward_split": split},
+            "train": {**TWO_UAVS["train"], "exploring_starts": exploring_starts}}
 
 
-def _scenario_file(tmp_path: Path, split: str = "team") -> Path:
+def _scenario_file(tmp_path: Path, split: str = "team", exploring_starts: str = "none"
+                   ) -> Path:
     path = tmp_path / "two_small.toml"
-    path.write_text(dumps(_with_split(split)))
+    path.write_text(dumps(_with_split(split, exploring_starts)))
     return path
 
 
@@ -62,11 +65,12 @@ def test_a_seed_in_a_stack_equals_the_seed_alone(split):
     assert_same_checkpoints(stack.checkpoint(1), alone.checkpoint(0))
 
 
-@pytest.mark.parametrize("split", SPLITS)
-def test_resume_equals_the_uninterrupted_run_and_evaluations_use_best_response(tmp_path,
-                                                                               split):
-    args = {"scenario_path": _scenario_file(tmp_path, split), "seeds": [0, 1], "workers": 1,
-            "quiet": True}
+@pytest.mark.parametrize(("split", "exploring_starts"),
+                         [(split, "none") for split in SPLITS] + [("difference", "shares")])
+def test_resume_equals_the_uninterrupted_run_and_evaluations_use_best_response(
+        tmp_path, split, exploring_starts):
+    args = {"scenario_path": _scenario_file(tmp_path, split, exploring_starts),
+            "seeds": [0, 1], "workers": 1, "quiet": True}
     first, _ = api.train(out=tmp_path / "a.h5", episodes=4, **args)
     resumed, _ = api.train(out=tmp_path / "r.h5", episodes=2, **args)
     assert main(["train", "--resume", str(resumed), "--episodes", "4", "--workers", "1",
@@ -99,6 +103,33 @@ def test_resume_equals_the_uninterrupted_run_and_evaluations_use_best_response(t
             assert best_a is not None and best_a["episode"] == best_b["episode"]
             assert a.trajectory(seed)["uav_m"].shape == (10, 2, 3)
     assert main(["inspect", str(first)]) == 0
+
+
+def test_exploring_starts_draw_every_share_per_seed_and_evaluations_start_at_start_alpha():
+    scenario = parse_scenario(_with_split("difference", "shares"), "two")
+    plain_scenario = parse_scenario(_with_split("difference"), "two")
+    evaluation = evaluation_set(scenario)
+    stack = StackRun([Member(scenario, seed) for seed in (3, 4)])
+    alone = StackRun([Member(scenario, 4, evaluation)])
+    firsts = []
+    for together, single in zip([stack.run_episode() for _ in range(2)],
+                                [alone.run_episode() for _ in range(2)], strict=True):
+        assert_same_results(together[1], single[0])
+        firsts.append(together[1].trajectory["alpha"][0])
+    # after one step of 0.01 every share lies on the lattice 0.01 .. 0.99, and the episodes
+    # start from other shares than 0.5 (which one step leaves at 0.49 or 0.51)
+    for first in firsts:
+        assert np.allclose(first * 100, np.round(first * 100), atol=1e-9)
+        assert ((first >= 0.01 - 1e-12) & (first <= 0.99 + 1e-12)).all()
+        assert not np.isin(np.round(first, 9), [0.49, 0.51]).all()
+    assert not np.array_equal(firsts[0], firsts[1])
+    # a greedy evaluation starts every share at start_alpha, as without exploring starts
+    plain = StackRun([Member(plain_scenario, 4, evaluation)])
+    plain.restore(0, alone.checkpoint(0))
+    evaluated, expected = alone._evaluate()[0], plain._evaluate()[0]
+    assert evaluated is not None and expected is not None and evaluated.keys() == expected.keys()
+    for name, value in evaluated.items():
+        assert np.array_equal(value, expected[name], equal_nan=True), name
 
 
 @cuda

@@ -64,6 +64,17 @@ def test_a_seed_in_a_stack_of_four_equals_the_seed_alone():
     assert_same_checkpoints(stack.checkpoint(2), alone.checkpoint(0))
 
 
+def test_exploring_starts_of_one_uav_draw_per_seed_alone_or_in_a_stack():
+    base = scenario(train={"exploring_starts": "shares"})
+    stack = StackRun([Member(base, seed) for seed in (11, 12)])
+    alone = StackRun([Member(base, 12)])
+    for together, single in zip(episodes(stack, 2), episodes(alone, 2), strict=True):
+        assert_same_results(together[1], single[0])
+        first = together[1].trajectory["alpha"][0]      # (N,) after one step of 0.01
+        assert not np.isin(np.round(first, 9), [0.49, 0.51]).all()
+    assert_same_checkpoints(stack.checkpoint(1), alone.checkpoint(0))
+
+
 def test_members_may_differ_in_their_reward():
     weights = [{"min_se": 0.0, "w_rate": 1.0}, {"min_se": 2.0, "w_satisfied": 100.0,
                                                  "w_unsatisfied": 10.0}]
