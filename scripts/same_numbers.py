@@ -134,7 +134,9 @@ ADDED_SECTION_DEFAULTS = {("uav", "count"): 1, ("uav", "start_positions_m"): Non
                           ("users", "uav"): None, ("radio", "reuse"): "full",
                           # the energy (docs/model.md §10) and the BDQ's reward per UAV
                           ("uav", "step_s"): 1.0, ("reward", "w_energy"): 0.0,
-                          ("agent", "reward_split"): "team"}
+                          ("agent", "reward_split"): "team",
+                          # exploring starts (docs/training.md)
+                          ("train", "exploring_starts"): "none"}
 # names a newer adaptsky adds beside the numbers it had (JSON keys, HDF5 datasets with their
 # attributes): compared where both sides have them, left out where only the newer one does.
 # Each user's steady-state rate of eval (steady_user_rate_bps) and last-episode rate of
