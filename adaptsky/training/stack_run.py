@@ -176,9 +176,8 @@ class StackRun:
             return None
         env = self.env
         assert env.rngs is not None  # seeded with one sequence per member
-        shape = ((env.num_uavs, env.num_clusters) if isinstance(env, MultiUavBatch)
-                 else (env.num_clusters,))
-        return exploring_shares(self.scenario, env.rngs, shape)
+        # one member's shares: (K,) for one UAV, (U, K) for several
+        return exploring_shares(self.scenario, env.rngs, env.alpha_first.shape[1:])
 
     def _evaluate(self) -> list[dict[str, float] | None]:
         """A greedy evaluation of every member when one is due (``train.eval_every``), and
