@@ -11,14 +11,16 @@
 # Without --cpu or --cuda: a +cpu wheel in pip's find-links if there is one, else --cuda where
 # an NVIDIA driver is visible (nvidia-smi on PATH), else --cpu. torch is never pinned: the
 # newest build that fits is installed. PYTHON (default python3) and VENV (default .venv)
-# choose the interpreter and the environment's folder.
+# choose the interpreter and the environment's folder. Each of the four stages (the
+# environment, torch, adaptsky with its test tools, the example plugin) says on stderr what it
+# does and how long it took; pip itself is quiet.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 python=${PYTHON:-python3}
 venv=${VENV:-.venv}
 CPU_INDEX=https://download.pytorch.org/whl/cpu
 
-usage() { sed -n '2,14s/^# \{0,1\}//p' "$0"; }
+usage() { sed -n '2,17s/^# \{0,1\}//p' "$0"; }
 mode="" dry_run=""
 for arg in "$@"; do
   case "$arg" in
@@ -47,7 +49,25 @@ run() {  # run a command, or only print it with --dry-run
   if [ -n "$dry_run" ]; then printf '%s\n' "$*"; else "$@"; fi
 }
 
-run "$python" -m venv "$venv"
+stages=4 stage=0 started=$SECONDS
+took() {  # seconds as "42 s" or "2 min 5 s"
+  if (($1 < 60)); then echo "$1 s"; else echo "$(($1 / 60)) min $(($1 % 60)) s"; fi
+}
+stage() {  # stage WHAT COMMAND...: a line saying WHAT, the command, a line with its time
+  local what=$1 start=$SECONDS status=0
+  shift
+  stage=$((stage + 1))
+  echo "install: [$stage/$stages] $what" >&2
+  run "$@" || status=$?
+  if [ "$status" -ne 0 ]; then
+    echo "install: [$stage/$stages] failed after $(took $((SECONDS - start))) (exit code" \
+         "$status; the reason is above)" >&2
+    exit "$status"
+  fi
+  [ -n "$dry_run" ] || echo "install: [$stage/$stages] done in $(took $((SECONDS - start)))" >&2
+}
+
+stage "creating the virtual environment in $venv" "$python" -m venv "$venv"
 # with --dry-run the environment does not exist: ask the interpreter it would be made from
 probe=$venv/bin/python
 [ -n "$dry_run" ] && probe=$python
@@ -75,18 +95,18 @@ if [ -z "$mode" ]; then
 fi
 
 if [ "$mode" = cpu ] && [ -n "$cpu_wheel" ]; then
-  echo "install: using the CPU build of torch at $cpu_wheel" >&2
-  run "${pip[@]}" install "$cpu_wheel"
+  stage "torch, the CPU build at $cpu_wheel" "${pip[@]}" install "$cpu_wheel"
 elif [ "$mode" = cpu ]; then
-  echo "install: torch's CPU build from $CPU_INDEX" >&2
-  run "${pip[@]}" install torch --index-url "$CPU_INDEX"
+  stage "torch, the CPU build from $CPU_INDEX" "${pip[@]}" install torch --index-url "$CPU_INDEX"
 else
-  echo "install: torch from your package index (with CUDA)" >&2
-  run "${pip[@]}" install torch
+  stage "torch from your package index (with CUDA: several GB)" "${pip[@]}" install torch
 fi
 # torch is installed already, so its requirement is met and pip installs no other build
-run "${pip[@]}" install -e ".[dev]" -e plugins/example_channel
+stage "adaptsky and its test tools (editable, with the dev extras)" \
+  "${pip[@]}" install -e ".[dev]"
+stage "the example channel plugin (plugins/example_channel, editable)" \
+  "${pip[@]}" install -e plugins/example_channel
 if [ -z "$dry_run" ]; then
-  echo "install: done; activate with 'source $venv/bin/activate', then run 'adaptsky --help'" \
-       "(or run $venv/bin/adaptsky directly)"
+  echo "install: done in $(took $((SECONDS - started))); activate with 'source" \
+       "$venv/bin/activate', then run 'adaptsky --help' (or run $venv/bin/adaptsky directly)"
 fi

@@ -13,6 +13,7 @@ only the run that asks for it.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from difflib import get_close_matches
 from functools import cache
 from importlib.metadata import EntryPoint, entry_points
 
@@ -129,8 +130,13 @@ def discover() -> dict[str, PluginInfo]:
 
 
 def unknown_model(name: str) -> PluginError:
-    """The error for a name no installed plugin registers, naming those that are."""
+    """The error for a name no installed plugin registers, naming those that are, and the
+    one meant where the name is close to one (a letter or two off, ``mmwave-nyk``)."""
     installed = ", ".join(names()) or "none"
+    close = get_close_matches(name, names(), n=1, cutoff=0.75)
+    if close:
+        return PluginError(f"unknown channel model '{name}'; did you mean '{close[0]}'? "
+                           f"(installed: {installed})")
     return PluginError(f"unknown channel model '{name}'; installed: {installed}")
 
 

@@ -72,10 +72,18 @@ def curve_series(label: str, curves: list[np.ndarray], window: int, kind: BandKi
     """One series: every curve cut to the shortest, smoothed over ``window`` episodes, and
     banded over curves; x is the episode (1-based) that ends each window."""
     episodes = min(len(c) for c in curves)
-    smoothed = trailing_mean(np.stack([c[:episodes] for c in curves]), window)
+    smoothed = _trailing_mean_with_gaps(np.stack([c[:episodes] for c in curves]), window)
     mean, low, high = band_over_runs(smoothed, kind)
     return Series(label=label, x=np.arange(window, episodes + 1), mean=mean, low=low,
                   high=high, runs=len(curves))
+
+
+def _trailing_mean_with_gaps(values: np.ndarray, window: int) -> np.ndarray:
+    """:func:`trailing_mean`, NaN for a window with a NaN in it (the loss before the first
+    update) and not for every window after it, as a plain running sum would have it."""
+    gaps = np.isnan(values)
+    means = trailing_mean(np.where(gaps, 0.0, values), window)
+    return np.where(trailing_mean(gaps, window) > 0, np.nan, means)
 
 
 def point_series(label: str, curves: list[SeedCurve], kind: BandKind) -> Series:
@@ -95,7 +103,8 @@ def point_series(label: str, curves: list[SeedCurve], kind: BandKind) -> Series:
 
 def write_curves_csv(path: Path, series: list[Series], names: list[str] | None = None) -> None:
     """``episode`` then ``<name>_mean, _low, _high, _runs`` per series (``names``: default the
-    series' labels; rates in bit/s); empty cells where a series has no point."""
+    series' labels; rates in bit/s); empty cells where a series has no point (or a NaN one:
+    the loss before the first update)."""
     names = names or [s.label for s in series]
     episodes = np.unique(np.concatenate([s.x for s in series]))
     rows_at = [{int(e): k for k, e in enumerate(s.x)} for s in series]
@@ -106,7 +115,7 @@ def write_curves_csv(path: Path, series: list[Series], names: list[str] | None =
         row: list[object] = [episode]
         for s, at in zip(series, rows_at, strict=True):
             k = at.get(episode)
-            row += (["", "", "", ""] if k is None else
+            row += (["", "", "", ""] if k is None or np.isnan(s.mean[k]) else
                     [float(s.mean[k]), float(s.low[k]), float(s.high[k]), s.runs])
         writer.writerow(row)
     write_text_atomic(path, text.getvalue())
@@ -154,7 +163,9 @@ def _panel(metric: PlotMetric, groups: dict[str, Group], window: int | None,
               if metric.smoothed else point_series(name, g.curves[metric.name], kind)
               for name, g in groups.items() if g.curves[metric.name]]
     axis = _axis_of(metric, groups)
-    scale, unit = axis.shown([float(np.abs(s.mean).max()) for s in series])
+    # the largest value drawn (the loss is NaN before the first update: no point there)
+    scale, unit = axis.shown([float(np.abs(s.mean[np.isfinite(s.mean)]).max(initial=0.0))
+                              for s in series])
     return Panel(axis.label(unit), series, scale=scale, marker=None if metric.smoothed else "o")
 
 

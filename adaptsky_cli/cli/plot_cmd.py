@@ -30,8 +30,10 @@ def plot(
         show_default=False)] = None,
     metric: Annotated[str, typer.Option(
         metavar="METRICS", help="what to draw: sum-rate (R_e^tot), fairness (J_e), greedy "
-        "(the greedy evaluations' score) or energy-efficiency (bit/J per episode); several "
-        "comma-separated draw a panel each, e.g. sum-rate,fairness")] = "sum-rate",
+        "(the greedy evaluations' score), energy-efficiency (bit/J per episode), reward (the "
+        "episode's return), height (mean UAV height), epsilon (exploration rate), loss (mean "
+        "TD loss) or energy (J per episode); several comma-separated draw a panel each, e.g. "
+        "sum-rate,fairness")] = "sum-rate",
     band: Annotated[Band, typer.Option(
         metavar="std|bootstrap", help="shaded band: mean ± 1 std over seeds, or a 95% "
         "bootstrap interval of the mean")] = Band.std,
@@ -40,8 +42,8 @@ def plot(
 ) -> None:
     """Draw the learning curves of run files.
 
-    R_e^tot (a trailing mean), J_e or the greedy evaluations of every seed, with a band over
-    seeds, as a PNG, PDF or SVG and a CSV."""
+    R_e^tot (a trailing mean), J_e, the greedy evaluations or any other per-episode series
+    of every seed, with a band over seeds, as a PNG, PDF or SVG and a CSV."""
     from adaptsky.report.eval_summary import split_eval_files
     from adaptsky.report.plot_runs import default_figure_path, plot_runs  # matplotlib
 

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 import tomllib
@@ -20,7 +21,7 @@ CPU_INDEX = "https://download.pytorch.org/whl/cpu"
 # a dry run must create nothing: the environment it names stays absent (checked after each)
 VENV = Path("/nonexistent/adaptsky-dry-run-venv")
 PIP = f"{VENV}/bin/python -m pip --disable-pip-version-check -q install"
-PROJECT = f"{PIP} -e .[dev] -e plugins/example_channel"
+PROJECT = [f"{PIP} -e .[dev]", f"{PIP} -e plugins/example_channel"]
 
 
 def _path_without_nvidia_smi(extra: Path | None = None) -> str:
@@ -61,12 +62,12 @@ def test_default_prefers_the_newest_cpu_wheel_in_find_links(cpu_wheels):
     tag = f"cp{sys.version_info[0]}{sys.version_info[1]}"
     wheel = cpu_wheels / f"torch-2.10.0+cpu-{tag}-{tag}-manylinux_2_28_x86_64.whl"
     assert _commands(_install(find_links=cpu_wheels)) == [
-        f"{sys.executable} -m venv {VENV}", f"{PIP} {wheel}", PROJECT]
+        f"{sys.executable} -m venv {VENV}", f"{PIP} {wheel}", *PROJECT]
 
 
 def test_default_without_a_driver_installs_torch_from_pytorchs_cpu_index():
     result = _install()
-    assert _commands(result)[1:] == [f"{PIP} torch --index-url {CPU_INDEX}", PROJECT]
+    assert _commands(result)[1:] == [f"{PIP} torch --index-url {CPU_INDEX}", *PROJECT]
     assert "torch for CPU: no NVIDIA driver visible" in result.stderr
 
 
@@ -74,18 +75,62 @@ def test_default_with_a_driver_installs_torch_from_the_index(tmp_path):
     (tmp_path / "nvidia-smi").write_text("#!/bin/sh\n")
     (tmp_path / "nvidia-smi").chmod(0o755)
     result = _install(nvidia=tmp_path)
-    assert _commands(result)[1:] == [f"{PIP} torch", PROJECT]
+    assert _commands(result)[1:] == [f"{PIP} torch", *PROJECT]
     assert "torch for CUDA: nvidia-smi found an NVIDIA driver" in result.stderr
 
 
 def test_cpu_flag_uses_the_cpu_index_where_find_links_has_no_wheel():
     assert _commands(_install("--cpu"))[1:] == [f"{PIP} torch --index-url {CPU_INDEX}",
-                                                PROJECT]
+                                                *PROJECT]
 
 
 def test_cuda_flag_ignores_a_cpu_wheel_in_find_links(cpu_wheels):
     assert _commands(_install("--cuda", find_links=cpu_wheels))[1:] == [f"{PIP} torch",
-                                                                        PROJECT]
+                                                                        *PROJECT]
+
+
+def test_each_stage_says_what_it_does_before_its_command(cpu_wheels):
+    # two minutes of pip -q were three lines; now a line per stage, and its time when run
+    tag = f"cp{sys.version_info[0]}{sys.version_info[1]}"
+    wheel = cpu_wheels / f"torch-2.10.0+cpu-{tag}-{tag}-manylinux_2_28_x86_64.whl"
+    result = _install(find_links=cpu_wheels)
+    assert _commands(result) == [f"{sys.executable} -m venv {VENV}", f"{PIP} {wheel}", *PROJECT]
+    stages = [line for line in result.stderr.splitlines() if line.startswith("install: [")]
+    assert stages == [
+        f"install: [1/4] creating the virtual environment in {VENV}",
+        f"install: [2/4] torch, the CPU build at {wheel}",
+        "install: [3/4] adaptsky and its test tools (editable, with the dev extras)",
+        "install: [4/4] the example channel plugin (plugins/example_channel, editable)"]
+    assert "done in" not in result.stderr  # a dry run times nothing
+
+
+def test_a_stage_run_says_its_time_and_a_failing_one_where_it_stopped(tmp_path):
+    """A real run with a stand-in interpreter: every stage times itself, and the first that
+    fails ends the install with its exit code and one line naming it."""
+    python = tmp_path / "python"
+    # a "python" whose venv and pip succeed, except the install of the example plugin
+    python.write_text('#!/bin/bash\nif [ "$1" = -c ]; then echo "3.11.9 cp311"; exit 0; fi\n'
+                      'if [ "$2" = venv ]; then mkdir -p "$3/bin" && ln -s "$0" "$3/bin/python";'
+                      ' exit 0; fi\n'
+                      'case "$*" in *plugins/example_channel*) echo "pip: no network" >&2;'
+                      ' exit 3;; esac\nexit 0\n')
+    python.chmod(0o755)
+    env = dict(os.environ, PIP_CONFIG_FILE=os.devnull, PIP_FIND_LINKS="",
+               PATH=_path_without_nvidia_smi(), PYTHON=str(python), VENV=str(tmp_path / "v"))
+    result = subprocess.run(["bash", str(SCRIPT), "--cpu"], env=env, text=True,
+                            capture_output=True, timeout=60)
+    assert (result.returncode, result.stdout) == (3, "")
+    # a stage of a stand-in takes milliseconds: 0 s, or 1 s where a second's tick falls in it
+    assert re.sub(r"(done in|failed after) [01] s", r"\1 0 s", result.stderr).splitlines() == [
+        f"install: [1/4] creating the virtual environment in {tmp_path / 'v'}",
+        "install: [1/4] done in 0 s",
+        f"install: [2/4] torch, the CPU build from {CPU_INDEX}",
+        "install: [2/4] done in 0 s",
+        "install: [3/4] adaptsky and its test tools (editable, with the dev extras)",
+        "install: [3/4] done in 0 s",
+        "install: [4/4] the example channel plugin (plugins/example_channel, editable)",
+        "pip: no network",
+        "install: [4/4] failed after 0 s (exit code 3; the reason is above)"]
 
 
 @pytest.mark.parametrize(("flags", "message"), [

@@ -116,11 +116,11 @@ def _bad_calls(path: tuple[str, ...]) -> dict[str, list[str]]:
     option = max([*_options(command), "--help"], key=len)
     calls = {"wrong flag": [*path, "--no-such-flag"], "missing argument": missing,
              "misspelt option": [*path, _misspelt(option)]}
-    if "--set" in _options(command):
+    # (eval's --set needs a run file: tests/unit/evaluation/test_moving_users_and_sampled_los.py)
+    if "--set" in _options(command) and path != ("eval",):
         target = "e1a" if path == ("reproduce",) else SCENARIO
-        calls["misspelt key"] = [*path, target, "--set", "rewrd.min_se=1", "--report-only"
-                                 ] if path == ("reproduce",) else [*path, target, "--set",
-                                                                   "rewrd.min_se=1"]
+        more = {("reproduce",): ["--report-only"], ("baseline",): ["--method", "soa"]}
+        calls["misspelt key"] = [*path, target, "--set", "rewrd.min_se=1", *more.get(path, [])]
     return calls
 
 

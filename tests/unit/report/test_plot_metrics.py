@@ -139,11 +139,11 @@ def test_sum_rate_csv_keeps_its_columns(run, tmp_path):
 def test_bad_metrics_are_one_line_and_write_nothing(tmp_path, capsys):
     bare = make_run(tmp_path / "bare.h5", {0: 12})  # no greedy evaluation
     out = tmp_path / "out" / "fig.png"
-    cases = {"sum-rate,energy": "--metric: unknown metric 'energy'; choose from sum-rate, "
-                                "fairness, greedy, energy-efficiency, or several "
-                                "comma-separated (e.g. sum-rate,fairness)",
+    every = "sum-rate, fairness, greedy, energy-efficiency, reward, height, epsilon, loss, energy"
+    cases = {"sum-rate,power": f"--metric: unknown metric 'power'; choose from {every}, or "
+                               "several comma-separated (e.g. sum-rate,fairness)",
              "fairness,fairness": "--metric: fairness given more than once; name each metric "
-                                  "once (from sum-rate, fairness, greedy, energy-efficiency)",
+                                  f"once (from {every})",
              "greedy": f"{bare}: no seed has a greedy evaluation during training "
                        "(train.eval_every is 0, the runs are shorter than it, or they were made "
                        "before evaluations existed); nothing to plot for --metric greedy"}
