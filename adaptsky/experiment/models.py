@@ -36,6 +36,8 @@ QUANTITIES: dict[str, tuple[str, ...]] = {
 }
 # the key an energy-front figure sweeps (its x points are reward weights)
 ENERGY_SWEEP_KEY = "reward.w_energy"
+# the key a min-se-sweep figure sweeps (its x axis is the required minimum SE)
+MIN_SE_SWEEP_KEY = "reward.min_se"
 
 
 class Sweep(Section):
@@ -153,6 +155,17 @@ class Experiment(Section):
             raise ValueError(f"an energy-front figure needs the evaluated group "
                              f"'{spec.policy}' swept over {ENERGY_SWEEP_KEY} with 0 among "
                              "the values (the weight every other is compared with)")
+        if self.figure.kind == "min-se-sweep" and (
+                policy.sweep is None or policy.sweep.key != MIN_SE_SWEEP_KEY):
+            raise ValueError(f"a min-se-sweep figure needs the evaluated group "
+                             f"'{spec.policy}' swept over {MIN_SE_SWEEP_KEY} (its x axis)")
+        if self.figure.kind in PER_GROUP_KINDS:
+            swept = [name for name in (spec.policy, *spec.also)
+                     if self.group(name).sweep is not None]
+            if swept:
+                raise ValueError(f"groups.{swept[0]}.sweep: a {self.figure.kind} figure's "
+                                 "groups are its x points; give each swept value a group of "
+                                 "its own")
         if spec.also and self.figure.kind not in ("layout-gains", *PER_GROUP_KINDS):
             raise ValueError(f"evaluation.also: other groups are measured in a layout-gains "
                              f"or uav-count figure only, not in a {self.figure.kind} one")

@@ -95,6 +95,15 @@ class Plan:
     def group_runs(self, group: str) -> list[RunSpec]:
         return [run for run in self.runs if run.group == group]
 
+    def sweep_values(self, group: str) -> list[Any]:
+        """The sweep values of ``group``'s planned runs, in the file's order (``[None]`` for a
+        group without a sweep, ``[]`` for one without runs)."""
+        return list(dict.fromkeys(run.sweep_value for run in self.group_runs(group)))
+
+    def point_runs(self, group: str, sweep_value: Any) -> list[RunSpec]:
+        """The runs of ``group`` at one sweep value (None: a group without a sweep)."""
+        return [run for run in self.group_runs(group) if run.sweep_value == sweep_value]
+
     def run(self, group: str, seed: int, sweep_value: Any = None) -> RunSpec | None:
         return next((r for r in self.runs if (r.group, r.seed, r.sweep_value)
                      == (group, seed, sweep_value)), None)
@@ -111,6 +120,21 @@ class Plan:
 
 def _value_label(value: Any) -> str:
     return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def sweep_label(key: str, value: Any) -> str:
+    """A sweep point as figures and tables name it: 'users.speed_m_per_step = 2' (a float as
+    ``:g`` writes it, a bool as TOML does)."""
+    text = str(value).lower() if isinstance(value, bool) else _value_label(value)
+    return f"{key} = {text}"
+
+
+def point_title(group: Group, value: Any) -> str:
+    """A group's title at one sweep point: 'bdq, users.speed_m_per_step = 2' (its title alone
+    for a group without a sweep)."""
+    if group.sweep is None or value is None:
+        return group.title
+    return f"{group.title}, {sweep_label(group.sweep.key, value)}"
 
 
 def _group_runs(group: Group, experiment_file: Path, out: Path, seeds: list[int],

@@ -24,8 +24,14 @@ from matplotlib.figure import Figure
 from adaptsky import __version__
 from adaptsky.experiment.calls import read_calls
 from adaptsky.experiment.evaluation import Evaluations, Metrics
-from adaptsky.experiment.models import PER_GROUP_KINDS, Claim
-from adaptsky.experiment.plan import Plan, RunSpec, shipped_experiments
+from adaptsky.experiment.models import PER_GROUP_KINDS, Claim, Group
+from adaptsky.experiment.plan import (
+    Plan,
+    RunSpec,
+    point_title,
+    shipped_experiments,
+    sweep_label,
+)
 from adaptsky.report import figures
 from adaptsky.report.curves import LAST_EPISODES, band, curve_window
 from adaptsky.report.energy_figure import FrontPoint, draw_energy_front
@@ -126,53 +132,87 @@ def _baseline(evaluations: Evaluations, name: str, value: Any, metric: str) -> f
 
 
 def learning_curves(plan: Plan, evaluations: Evaluations, out: Outputs) -> Analysis:
-    """Fig. 2: R_e^tot against the episode per group, SoA level, oracle ceiling, J_e."""
+    """Fig. 2: R_e^tot against the episode for the policy's group, the SoA level, the oracle
+    ceiling and J_e; a swept group gives each sweep value its own curve, levels, rows (mean
+    and spread over that value's runs) and notes."""
     experiment, analysis = plan.experiment, Analysis()
-    group = experiment.evaluation.policy
-    runs = _done_runs(plan.group_runs(group))
-    if not runs:
-        analysis.notes.append(f"no run of '{group}' has finished: nothing to draw")
+    group = experiment.group(experiment.evaluation.policy)
+    swept = group.sweep is not None
+    done = {value: _done_runs(plan.point_runs(group.name, value))
+            for value in plan.sweep_values(group.name)}
+    if not any(done.values()):
+        analysis.notes.append(f"no run of '{group.name}' has finished: nothing to draw")
         return analysis
-    curves = [_curves(run) for run in runs]
-    rates = [c["sum_rate_bps"] for c in curves]
-    window = curve_window(min(len(r) for r in rates))
-    series = curve_series(experiment.group(group).title, rates, window, experiment.figure.band)
-    soa = _baseline(evaluations, "soa", None, "mean_sum_rate_bps")
-    soa_j = _baseline(evaluations, "soa", None, "fairness")
-    oracle = _baseline(evaluations, "oracle", None, "mean_sum_rate_bps")
-    row = experiment.group(group).title
-    for curve in curves:
-        r_e, j_e = _last_mean(curve["sum_rate_bps"]), _last_mean(curve["fairness"])
-        analysis.add(row, "sum_rate_bps", r_e, oracle)
-        analysis.add(row, "fairness", j_e)
-        if soa:
-            analysis.add(row, "gain_vs_soa_pct", 100 * (r_e - soa) / soa,
-                         100 * (oracle - soa) / soa if oracle else None)
-        if soa_j is not None:
-            analysis.add(row, "fairness_minus_soa", 100 * (j_e - soa_j))
-        if oracle:
-            analysis.add(row, "pct_of_oracle", 100 * r_e / oracle, 100.0)
-    levels = [figures.Level(label, value, style) for label, value, style in
-              (("SoA", soa, "--"), ("oracle (best reachable)", oracle, ":"))
-              if value is not None]
-    scale, unit = rate_unit([float(series.high.max()), *(lv.value for lv in levels)])
-    j_last = [float(np.mean(c["fairness"][-window:])) for c in curves]
-    note = (f"$J_e$ at the last episode: {np.mean(j_last):.3f} ± {np.std(j_last):.3f}"
-            + (f"; SoA {soa_j:.3f}" if soa_j is not None else "")
-            + f"\ntrailing mean over {plural(window, 'episode')}; band: "
+    curves = {value: [_curves(run) for run in runs] for value, runs in done.items() if runs}
+    window = curve_window(min(len(c["sum_rate_bps"]) for point in curves.values()
+                              for c in point))
+    series: list[figures.Series] = []
+    levels: list[figures.Level] = []
+    fairness_notes: list[str] = []
+    for value, runs in done.items():
+        if not runs:
+            analysis.notes.append(f"no run of '{group.name}' at {_point(group, value)} has "
+                                  "finished: no curve")
+    for index, (value, point) in enumerate(curves.items()):
+        row = point_title(group, value)
+        series.append(curve_series(row, [c["sum_rate_bps"] for c in point], window,
+                                   experiment.figure.band))
+        soa = _baseline(evaluations, "soa", value, "mean_sum_rate_bps")
+        soa_j = _baseline(evaluations, "soa", value, "fairness")
+        oracle = _baseline(evaluations, "oracle", value, "mean_sum_rate_bps")
+        for curve in point:
+            r_e, j_e = _last_mean(curve["sum_rate_bps"]), _last_mean(curve["fairness"])
+            analysis.add(row, "sum_rate_bps", r_e, oracle)
+            analysis.add(row, "fairness", j_e)
+            if soa:
+                analysis.add(row, "gain_vs_soa_pct", 100 * (r_e - soa) / soa,
+                             100 * (oracle - soa) / soa if oracle else None)
+            if soa_j is not None:
+                analysis.add(row, "fairness_minus_soa", 100 * (j_e - soa_j))
+            if oracle:
+                analysis.add(row, "pct_of_oracle", 100 * r_e / oracle, 100.0)
+        # a value's levels in its curve's colour, named short: 'oracle, speed_m_per_step = 2'
+        names = (("SoA", "oracle (best reachable)") if not swept else
+                 tuple(f"{name}, {_point(group, value, short=True)}" for name in ("SoA",
+                                                                             "oracle")))
+        color = f"C{index}" if swept else None
+        levels += [figures.Level(name, level, style, color) for name, level, style in
+                   zip(names, (soa, oracle), ("--", ":"), strict=True) if level is not None]
+        j_last = [float(np.mean(c["fairness"][-window:])) for c in point]
+        fairness = f"{np.mean(j_last):.3f} ± {np.std(j_last):.3f}"
+        if swept:  # a line per value: 'reward.min_se = 2: 0.761 ± 0.022, SoA 0.500'
+            fairness_notes.append(f"\n{_point(group, value)}: {fairness}" + (
+                f", SoA {soa_j:.3f}" if soa_j is not None else ""))
+        else:
+            fairness_notes.append(fairness + (f"; SoA {soa_j:.3f}" if soa_j is not None
+                                              else ""))
+        where = f" at {_point(group, value)}" if swept else ""
+        if soa is not None:
+            analysis.notes.append(f"SoA on the training layout{where}: {format_rate(soa)}, "
+                                  f"J = {soa_j:.3f} (evaluated over "
+                                  f"{experiment.evaluation.steps} steps)")
+        if oracle is not None:
+            analysis.notes.append(f"oracle (best sum rate over every reachable position and "
+                                  f"power split){where}: {format_rate(oracle)}")
+    scale, unit = rate_unit([max(float(s.high.max()) for s in series),
+                             *(lv.value for lv in levels)])
+    note = (f"$J_e$ at the last episode: {''.join(fairness_notes)}"
+            f"\ntrailing mean over {plural(window, 'episode')}; band: "
             f"{BAND_NOTES[experiment.figure.band]}")
-    figure = figures.learning_curves([series], levels, title=_title(plan),
+    figure = figures.learning_curves(series, levels, title=_title(plan),
                                      ylabel=f"{figures.RATE_LABEL} ({unit})", scale=scale,
-                                     note=note)
-    write_curves_csv(out.csv, [series])
-    if soa is not None:
-        analysis.notes.append(f"SoA on the training layout: {format_rate(soa)}, J = "
-                              f"{soa_j:.3f} (evaluated over {experiment.evaluation.steps} steps)")
-    if oracle is not None:
-        analysis.notes.append(f"oracle (best sum rate over every reachable position and "
-                              f"power split): {format_rate(oracle)}")
+                                     note=note, legend_columns=2 if swept else 3)
+    write_curves_csv(out.csv, series)
     analysis.files += out.save(figure)
     return analysis
+
+
+def _point(group: Group, value: Any, short: bool = False) -> str:
+    """'users.speed_m_per_step = 2' (``short``: 'speed_m_per_step = 2', as run files name
+    it): a swept group's point, as labels name it."""
+    assert group.sweep is not None, "only a swept group has points"
+    key = group.sweep.key.rsplit(".", 1)[-1] if short else group.sweep.key
+    return sweep_label(key, value)
 
 
 def _highest_served(values: list[Any], served: list[bool]) -> float | None:
@@ -287,68 +327,91 @@ def layout_gains(plan: Plan, evaluations: Evaluations, out: Outputs) -> Analysis
     """Fig. 4: per-layout sum rate of the policy as a gain over each baseline and compared
     group (paired by seed), for every evaluated policy (last, best) and every group measured
     as the policy is (``evaluation.also``); the oracle's gain over the same methods is the
-    reachable bound."""
+    reachable bound. A swept group gives each sweep value its own rows and curves, against
+    the baselines at that value (and the compared group's run of the same seed and value,
+    or of the same seed where the compared group has no sweep)."""
     experiment, analysis = plan.experiment, Analysis()
     spec = experiment.evaluation
     pooled: dict[str, list[np.ndarray]] = {}
+    methods: dict[str, str] = {}  # the method of each of the policy's pooled labels
     rows: list[dict[str, Any]] = []
     baselines = [m for m in spec.baselines if m != "oracle"]
-    oracle = evaluations.baselines.get(("oracle", None))
     labels = {m: f"vs {experiment.group(m).title if m in spec.compare_groups else NAMES[m]}"
               for m in (*baselines, *spec.compare_groups)}
-    for group in (spec.policy, *spec.also):
-        others = [*baselines, *(spec.compare_groups if group == spec.policy else [])]
-        for policy in spec.policies:
-            row = row_label(experiment.group(group).title, policy, spec.policies)
-            measured = evaluations.of(policy)
-            for run in plan.group_runs(group):
-                mine = measured.runs.get(run.name)
-                if mine is None:
-                    continue
-                columns: dict[str, np.ndarray] = {"policy": mine["mean_sum_rate_bps"]}
-                for method in others:
-                    if method in spec.compare_groups:
-                        partner = plan.run(method, run.seed, run.sweep_value)
-                        theirs = measured.runs.get(partner.name) if partner else None
-                    else:
-                        theirs = evaluations.baselines.get((method, None))
-                    if theirs is None:
+    evaluated = [experiment.group(name) for name in (spec.policy, *spec.also)]
+    key = next((g.sweep.key for g in evaluated if g.sweep is not None), None)
+    for group in evaluated:
+        others = [*baselines, *(spec.compare_groups if group.name == spec.policy else [])]
+        for value in plan.sweep_values(group.name):
+            oracle = evaluations.baselines.get(("oracle", value))
+            at = "" if value is None else f", {_point(group, value)}"
+            for policy in spec.policies:
+                row = row_label(point_title(group, value), policy, spec.policies)
+                measured = evaluations.of(policy)
+                for run in plan.point_runs(group.name, value):
+                    mine = measured.runs.get(run.name)
+                    if mine is None:
                         continue
-                    columns[method] = theirs["mean_sum_rate_bps"]
-                    result = compare(mine, theirs)
-                    reachable = compare(oracle, theirs) if oracle is not None else {}
-                    for key, name, scale in GAIN_QUANTITIES:
-                        analysis.add(row, f"{name}_vs_{method}", scale * result[key],
-                                     scale * reachable[key] if reachable else None)
-                    if group == spec.policy and policy == spec.policies[0]:
-                        pooled.setdefault(labels[method], []).append(_gain_pct(mine, theirs))
-                    elif method == "soa" and policy == spec.policies[0]:
-                        pooled.setdefault(f"{experiment.group(group).title} vs SoA",
-                                          []).append(_gain_pct(mine, theirs))
-                if oracle is not None:
-                    ceiling = oracle["mean_sum_rate_bps"]
-                    share = mine["steady_sum_rate_bps"][ceiling > 0] / ceiling[ceiling > 0]
-                    analysis.add(row, "steady_pct_of_oracle", float(100 * share.mean()), 100.0)
-                    columns["oracle"] = ceiling
-                for layout in range(len(mine["mean_sum_rate_bps"])):
-                    rows.append({"group": group, "policy": policy, "seed": run.seed,
-                                 "layout": layout, **{f"{name}_bps": float(c[layout])
-                                                      for name, c in columns.items()}})
+                    columns: dict[str, np.ndarray] = {"policy": mine["mean_sum_rate_bps"]}
+                    for method in others:
+                        if method in spec.compare_groups:
+                            partner = plan.run(method, run.seed, run.sweep_value if
+                                               experiment.group(method).sweep else None)
+                            theirs = measured.runs.get(partner.name) if partner else None
+                        else:
+                            theirs = evaluations.baselines.get((method, value))
+                        if theirs is None:
+                            continue
+                        columns[method] = theirs["mean_sum_rate_bps"]
+                        result = compare(mine, theirs)
+                        reachable = compare(oracle, theirs) if oracle is not None else {}
+                        for source, stat, scale in GAIN_QUANTITIES:
+                            analysis.add(row, f"{stat}_vs_{method}", scale * result[source],
+                                         scale * reachable[source] if reachable else None)
+                        if policy != spec.policies[0]:
+                            continue
+                        if group.name == spec.policy:
+                            methods[labels[method] + at] = method
+                            pooled.setdefault(labels[method] + at, []).append(
+                                _gain_pct(mine, theirs))
+                        elif method == "soa":
+                            pooled.setdefault(f"{point_title(group, value)} vs SoA",
+                                              []).append(_gain_pct(mine, theirs))
+                    if oracle is not None:
+                        ceiling = oracle["mean_sum_rate_bps"]
+                        share = (mine["steady_sum_rate_bps"][ceiling > 0]
+                                 / ceiling[ceiling > 0])
+                        analysis.add(row, "steady_pct_of_oracle", float(100 * share.mean()),
+                                     100.0)
+                        columns["oracle"] = ceiling
+                    point = {} if key is None else {key: "" if value is None else value}
+                    for layout in range(len(mine["mean_sum_rate_bps"])):
+                        rows.append({"group": group.name, **point, "policy": policy,
+                                     "seed": run.seed, "layout": layout,
+                                     **{f"{name}_bps": float(c[layout])
+                                        for name, c in columns.items()}})
     if not pooled:
         analysis.notes.append("no policy run has been evaluated: nothing to draw")
         return analysis
-    soa = evaluations.baselines.get(("soa", None))
-    if oracle is not None and soa is not None:
-        pooled["oracle vs SoA (the reachable bound)"] = [_gain_pct(oracle, soa)]
+    policy_group = experiment.group(spec.policy)
+    for value in plan.sweep_values(spec.policy):
+        soa = evaluations.baselines.get(("soa", value))
+        oracle = evaluations.baselines.get(("oracle", value))
+        if oracle is not None and soa is not None:
+            at = "" if value is None else f", {_point(policy_group, value)}"
+            pooled[f"oracle vs SoA (the reachable bound){at}"] = [_gain_pct(oracle, soa)]
     gains = {label: np.concatenate(g) for label, g in pooled.items()}
-    paper = {labels[m]: text for m in labels if (text := _paper_summary(plan, m))}
+    summaries = {m: _paper_summary(plan, m) for m in labels}
+    paper = {label: summaries[m] for label, m in methods.items() if summaries[m]}
     figure = figures.layout_gains(gains, title=_title(plan), paper=paper or None)
     header = list(dict.fromkeys(key for row in rows for key in row))
     _write_csv(out.csv, header,
                [[row.get(key, "") for key in header] for row in rows])
-    runs = len(plan.group_runs(spec.policy))
+    values = plan.sweep_values(spec.policy)
+    runs = max((len(plan.point_runs(spec.policy, v)) for v in values), default=0)
+    per = "per group and sweep value" if policy_group.sweep is not None else "per group"
     analysis.notes.append(f"gains over {spec.layouts or 1} layout(s) for each of up to {runs} "
-                          "run(s) per group; each run is compared with the compared group's run "
+                          f"run(s) {per}; each run is compared with the compared group's run "
                           "of the same seed (and the same policy, last or best) and with the "
                           "baselines; the figure pools the runs' layouts of the last policies")
     analysis.files += out.save(figure)

@@ -57,11 +57,13 @@ class Series:
 
 @dataclass(frozen=True)
 class Level:
-    """A horizontal reference line (the SoA level, the oracle ceiling) in the base unit."""
+    """A horizontal reference line (the SoA level, the oracle ceiling) in the base unit;
+    ``color`` (e.g. a swept value's curve's ``"C1"``), or the next colour after the curves'."""
 
     label: str
     value: float
     style: str = "--"
+    color: str | None = None
 
 
 @dataclass(frozen=True)
@@ -128,10 +130,11 @@ def _titles(figure: Figure, axes: Axes, title: str, note: str | None) -> None:
 
 
 def curve_panels(panels: list[Panel], *, title: str, note: str | None = None,
-                 xlabel: str = EPISODE_LABEL) -> Figure:
+                 xlabel: str = EPISODE_LABEL, legend_columns: int = 3) -> Figure:
     """Learning curves in stacked panels sharing the episode axis: per panel a line and band
     per series (value / the panel's ``scale``; one colour per series label in every panel), a
-    horizontal line per level (its value in the legend, in the panel's unit)."""
+    horizontal line per level (its value in the legend, in the panel's unit); the legend in
+    ``legend_columns`` columns (fewer for long labels)."""
     if not panels:
         raise ValueError("no panel to draw")
     height = SIZE_IN[1] if len(panels) == 1 else 1.5 + PANEL_HEIGHT_IN * len(panels)
@@ -144,22 +147,24 @@ def curve_panels(panels: list[Panel], *, title: str, note: str | None = None,
         unit = _unit(panel.ylabel)
         for j, level in enumerate(panel.levels):
             value = level.value / panel.scale
-            axes.axhline(value, color=f"C{len(colors) + j}", linestyle=level.style,
+            axes.axhline(value, color=level.color or f"C{len(colors) + j}",
+                         linestyle=level.style,
                          label=f"{level.label}: {value:.2f} {unit}".rstrip())
         axes.set_ylabel(panel.ylabel)
         _integer_ticks(axes)
     grid[-1].set_xlabel(xlabel)
     _titles(figure, grid[0], title, note)
-    legend_below(figure, list(grid))
+    legend_below(figure, list(grid), columns=legend_columns)
     return figure
 
 
 def learning_curves(series: list[Series], levels: list[Level], *, title: str,
                     ylabel: str = f"{RATE_LABEL} (Gbit/s)", scale: float = 1e9,
-                    note: str | None = None) -> Figure:
+                    note: str | None = None, legend_columns: int = 3) -> Figure:
     """Fig. 2: value / ``scale`` against episode, a line and band per series, a horizontal line
     per level (its value in the legend, in ``ylabel``'s unit), ``note`` under the title."""
-    return curve_panels([Panel(ylabel, series, levels, scale)], title=title, note=note)
+    return curve_panels([Panel(ylabel, series, levels, scale)], title=title, note=note,
+                        legend_columns=legend_columns)
 
 
 def min_se_sweep(series: list[Series], served: dict[str, float | None], *, title: str,
