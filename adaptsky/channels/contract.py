@@ -14,6 +14,7 @@ versions existed and is taken as contract 1 (users on the ground, no fading hook
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -175,6 +176,11 @@ class ChannelModel(ABC):
     """The contract the class was written for (``CONTRACT_VERSION`` today); None: 1."""
     supports: ClassVar[Supports | None] = None
     """Contract 2, optional: the shared settings it honours (:class:`Supports`); None: any."""
+    default_radio: ClassVar[Mapping[str, float] | None] = None
+    """Optional: the radio of the model's paper table, ``[radio]`` keys and values
+    (``{"tx_power_dbm": 30.0, "bandwidth_hz": 5e7, ...}``) that a scenario naming the model
+    takes for the keys it does not give (docs/plugins.md); None: adaptsky's defaults (the
+    paper's mmWave Table I)."""
 
     def __init__(self, params: ChannelParams | None = None) -> None:
         self.params = params if params is not None else self.Params()

@@ -9,6 +9,7 @@ import difflib
 import os
 import stat
 import tomllib
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, get_args
 
@@ -27,7 +28,8 @@ from adaptsky.channels.contract import (
 from adaptsky.channels.registry import get_model_class
 from adaptsky.errors import PluginError, ScenarioError
 from adaptsky.scenario.agents import AGENT_MODELS, UNKNOWN_ALGORITHM
-from adaptsky.scenario.models import Scenario
+from adaptsky.scenario.models import Radio, Scenario
+from adaptsky.scenario.overrides import apply_overrides
 
 
 def _models_in(annotation: Any) -> list[type[BaseModel]]:
@@ -87,8 +89,9 @@ def _error_lines(source: str, error: ValidationError, prefix: tuple[str | int, .
 
 
 def parse_scenario(data: dict[str, Any], source: str = "<scenario>") -> Scenario:
-    """Validate a scenario mapping; resolve ``channel.params`` with the named plugin's model
-    and ``radio.carrier_hz`` with them (docs/scenario-format.md, ``[radio]``)."""
+    """Validate a scenario mapping; resolve ``channel.params`` with the named plugin's model,
+    the ``[radio]`` keys it leaves out with the model's paper table (``default_radio``) and
+    ``radio.carrier_hz`` with them (docs/scenario-format.md, ``[radio]``)."""
     try:
         scenario = Scenario.model_validate(data)
     except ValidationError as error:
@@ -103,13 +106,39 @@ def parse_scenario(data: dict[str, Any], source: str = "<scenario>") -> Scenario
             f"plugin contract {contract_version_of(model_class)}, where users are on the "
             "ground; a user height needs a contract-2 model (docs/plugins.md, contract "
             "versions), or users.height_m = 0"])
+    radio, table_carrier_hz = _default_radio(scenario, model_class, source)
+    scenario = scenario.model_copy(update={"radio": radio})
     _refuse_unsupported(scenario, model_class, scenario.radio.carrier_hz, source)
-    params, carrier_hz = _channel_params(scenario, model_class, source)
+    params, carrier_hz = _channel_params(scenario, model_class, source, table_carrier_hz)
     if scenario.radio.carrier_hz is None:  # the carrier the model's defaults give
         _refuse_unsupported(scenario, model_class, carrier_hz, source)
     channel = scenario.channel.model_copy(update={"params": params.model_dump()})
     radio = scenario.radio.model_copy(update={"carrier_hz": carrier_hz})
     return scenario.model_copy(update={"channel": channel, "radio": radio})
+
+
+def _default_radio(scenario: Scenario, model_class: type[ChannelModel], source: str
+                   ) -> tuple[Radio, float | None]:
+    """``[radio]`` with every key the scenario does not give taken from the channel model's
+    paper table (its ``default_radio``; a model without one: the Radio defaults, the paper's
+    mmWave Table I), and the table's carrier (resolved with the model's parameters, by
+    :func:`_channel_params`)."""
+    table = getattr(model_class, "default_radio", None)
+    if table is None:
+        return scenario.radio, None
+    where = f"{source}: channel model '{scenario.channel.model}': default_radio"
+    if not isinstance(table, Mapping):
+        raise ScenarioError([f"{where}: {type(table).__name__} is not a table of [radio] keys; "
+                             "fix the plugin (docs/plugins.md)"])
+    try:
+        paper = Radio.model_validate(dict(table))
+    except ValidationError as error:
+        raise ScenarioError([f"{line}; fix the plugin (docs/plugins.md)"
+                             for line in _error_lines(where, error, model=Radio)]) from None
+    given = scenario.radio.model_fields_set
+    taken = {key: getattr(paper, key) for key in table if key not in given}
+    carrier_hz = taken.pop("carrier_hz", None)
+    return scenario.radio.model_copy(update=taken), carrier_hz
 
 
 def _refuse_unsupported(scenario: Scenario, model_class: type[ChannelModel],
@@ -134,17 +163,21 @@ def _refuse_unsupported(scenario: Scenario, model_class: type[ChannelModel],
         raise ScenarioError(lines)
 
 
-def _channel_params(scenario: Scenario, model_class: type[ChannelModel], source: str
-                    ) -> tuple[ChannelParams, float]:
+def _channel_params(scenario: Scenario, model_class: type[ChannelModel], source: str,
+                    table_hz: float | None = None) -> tuple[ChannelParams, float]:
     """The model's validated parameters and the run's carrier f_c.
 
     A model with a ``carrier_hz`` parameter shares it with ``[radio]``: given in one place,
-    the other takes it; given in both, they must agree. Otherwise f_c is ``radio.carrier_hz``
-    or, unset, the one carrier the model declares (``Supports``), else the paper's 28 GHz.
+    the other takes it; given in both, they must agree; given in neither, the carrier of the
+    model's paper table ``table_hz`` where it has one, else the parameter's default. Otherwise
+    f_c is ``radio.carrier_hz`` or, unset, ``table_hz``, the one carrier the model declares
+    (``Supports``), else the paper's 28 GHz.
     """
     data, radio_hz = dict(scenario.channel.params), scenario.radio.carrier_hz
     shared = "carrier_hz" in model_class.Params.model_fields
     given_hz = data.get("carrier_hz")
+    if shared and radio_hz is None and given_hz is None and table_hz is not None:
+        data["carrier_hz"] = table_hz
     if shared and radio_hz is not None:
         if given_hz is not None and given_hz != radio_hz:
             raise ScenarioError([f"{source}: channel.params.carrier_hz: {given_hz!r} Hz "
@@ -163,7 +196,9 @@ def _channel_params(scenario: Scenario, model_class: type[ChannelModel], source:
     value = carrier_parameter_hz(params)
     if value is not None:
         return params, value
-    return params, default_carrier_hz(model_class) if radio_hz is None else radio_hz
+    if radio_hz is not None:
+        return params, radio_hz
+    return params, default_carrier_hz(model_class) if table_hz is None else table_hz
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -175,6 +210,25 @@ def load_scenario_with_text(path: str | Path) -> tuple[Scenario, str]:
     """The validated scenario and the file's text (kept verbatim in run files)."""
     text = read_scenario_text(path)
     return parse_scenario(parse_toml(text, str(path)), str(path)), text
+
+
+def load_scenario_with_overrides(path: str | Path, set_values: list[str] | None = None
+                                 ) -> tuple[Scenario, str]:
+    """The scenario file at ``path`` with the ``--set section.key=value`` overrides
+    ``set_values`` applied, validated as one file (as ``train --set`` reads it), and the
+    source its lines name: the file, or ``FILE with --set``."""
+    return parse_with_overrides(read_scenario_text(path), path, set_values)
+
+
+def parse_with_overrides(text: str, path: str | Path, set_values: list[str] | None = None
+                         ) -> tuple[Scenario, str]:
+    """:func:`load_scenario_with_overrides` of the text ``text`` read from ``path``."""
+    source = str(path)
+    data = parse_toml(text, source)
+    if set_values:
+        data = apply_overrides(data, set_values, source)
+        source = f"{path} with --set"
+    return parse_scenario(data, source), source
 
 
 MAX_FILE_BYTES = 1 << 20  # scenario and experiment files are a few kB

@@ -8,6 +8,7 @@ import typer
 from adaptsky.errors import AdaptskyError
 from adaptsky_cli.cli.console import err
 from adaptsky_cli.cli.options import SEEDS_HELP, Device, Episodes, Steps, parse_seeds
+from adaptsky_cli.cli.plausibility import warn_experiment
 
 
 def reproduce(
@@ -69,6 +70,8 @@ def reproduce(
                    workers=workers, scheduler=scheduler, set_values=set_values, runs_only=runs_only,
                    report_only=report_only, device=device, quiet=quiet,
                    progress=RichReporter(err, quiet=quiet), figure_format=figure_format or "png")
+    if not report_only:  # what is trained: the scenarios of the experiment's runs
+        warn_experiment(experiment, set_values)
     if experiment == "all":
         results, index = reproduce_all(out=out, **options)
     else:

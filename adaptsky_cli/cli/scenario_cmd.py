@@ -5,6 +5,7 @@ import typer
 from adaptsky.errors import ScenarioError
 from adaptsky_cli.cli.console import err, out
 from adaptsky_cli.cli.options import ScenarioFile, ScenarioFiles
+from adaptsky_cli.cli.plausibility import warn_scenario
 
 app = typer.Typer(help="Check and print scenario files.", no_args_is_help=True)
 
@@ -25,6 +26,7 @@ def validate(files: ScenarioFiles) -> None:
             for line in error.lines:
                 err.print(line)
             continue
+        warn_scenario(scenario, str(path))
         out.print(f"ok  {path}  ({scenario.name}: {scenario.num_users} users, "
                   f"channel {scenario.channel.model}, LoS {scenario.channel.los}, "
                   f"about {format_bytes(needed.total)} of memory to train)",
@@ -35,8 +37,10 @@ def validate(files: ScenarioFiles) -> None:
 
 @app.command()
 def show(file: ScenarioFile) -> None:
-    """Print the resolved scenario, every default filled in, as TOML."""
+    """Print the resolved scenario, every default filled in (the [radio] keys the file leaves
+    out from its channel model's paper table), as TOML."""
     from adaptsky.scenario import load_scenario
     from adaptsky.scenario.toml_writer import dumps
     scenario = load_scenario(file)
+    warn_scenario(scenario, str(file))
     print(dumps(scenario.model_dump(mode="json")), end="")

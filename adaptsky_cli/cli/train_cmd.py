@@ -8,6 +8,7 @@ import typer
 from adaptsky.errors import AdaptskyError
 from adaptsky_cli.cli.console import err, out
 from adaptsky_cli.cli.options import SEEDS_HELP, Device, Episodes, SetValues, Steps, parse_seeds
+from adaptsky_cli.cli.plausibility import warn_scenario_file
 from adaptsky_cli.cli.usage import click_errors
 
 
@@ -53,6 +54,7 @@ def train(
         raise click_errors.UsageError("missing argument SCENARIO.toml (or --resume RUN.h5 to "
                                       "continue a run)", ctx)
     else:
+        warn_scenario_file(scenario, set_values)
         path, outcome = api.train(scenario_path=scenario, out=out_file, seeds=parse_seeds(seeds),
                                   episodes=episodes, steps=steps, workers=workers,
                                   checkpoint_every=checkpoint_every, set_values=set_values,

@@ -10,6 +10,8 @@ Gain, eq. 5:             g_k = C_k d^(-a_k),  k in {LoS, NLoS}, d in m.
 
 from __future__ import annotations
 
+from types import MappingProxyType
+
 import numpy as np
 from pydantic import Field
 
@@ -38,6 +40,10 @@ class MmWaveNyc(ChannelModel):
     contract_version = 2
     # the constants of eq. 4-5 are measured at 28 GHz (Table I): no other carrier is modelled
     supports = Supports(carrier_hz=(28e9, 28e9))
+    # the paper's Table I, mmWave column: what a scenario's [radio] leaves out
+    default_radio = MappingProxyType({
+        "carrier_hz": 28e9, "tx_power_dbm": 20.0, "bandwidth_hz": 2e9,
+        "thermal_noise_dbm": -84.0, "noise_figure_db": 0.0, "antennas_uav": 8, "antennas_ue": 8})
     description = "28 GHz mmWave, NYC path loss (Akdeniz 2014), sigmoid LoS probability"
     params: MmWaveNycParams
 

@@ -7,6 +7,8 @@ Gain, eq. 7:             g_k = (c / (4 pi f_c d))^2 10^(-eta_k / 10),  k in {LoS
 
 from __future__ import annotations
 
+from types import MappingProxyType
+
 import numpy as np
 from pydantic import Field
 
@@ -33,6 +35,10 @@ class Sub6AlHouraniParams(ChannelParams):
 class Sub6AlHourani(ChannelModel):
     Params = Sub6AlHouraniParams
     contract_version = 2
+    # the paper's Table I, sub-6 column: what a scenario's [radio] leaves out
+    default_radio = MappingProxyType({
+        "carrier_hz": 2e9, "tx_power_dbm": 30.0, "bandwidth_hz": 50e6,
+        "thermal_noise_dbm": -88.0, "noise_figure_db": 0.0, "antennas_uav": 1, "antennas_ue": 1})
     description = "2 GHz sub-6, free space + mean excess loss (Al-Hourani 2014)"
     params: Sub6AlHouraniParams
 

@@ -191,6 +191,9 @@ GUIDE_BLOCKS = {
     "scenario": lambda lang, text: lang == "toml" and 'model = "free-space"' in text,
     "commands": lambda lang, text: lang == "sh" and "adaptsky plugins check" in text,
     "tests": lambda lang, text: lang == "python" and "def test_matches_friis" in text,
+    "default radio": lambda lang, text: lang == "python" and "default_radio =" in text,
+    # section 9, run by tests/unit/channels/test_subclass_builtin.py
+    "subclass": lambda lang, text: lang == "python" and "class DenseNyc(MmWaveNyc)" in text,
 }
 
 
@@ -386,3 +389,17 @@ def test_contract_versions_at_discovery_and_in_plugins_check(tmp_path):
     assert refused.returncode == 1
     assert "users.height_m: channel model 'old-channel' follows plugin contract 1" in (
         refused.stdout + refused.stderr)
+
+
+def test_the_guides_default_radio_is_the_built_in_ones():
+    from adaptsky.channels.contract import ChannelModel
+    from adaptsky.channels.registry import get_model_class
+
+    names = {"ChannelModel": ChannelModel}
+    exec(_guide_block("default radio"), names)
+    declared = dict(names["Sub6AlHourani"].default_radio)
+    assert declared == dict(get_model_class("sub6-al-hourani").default_radio)
+    # the paper's Table I, sub-6 column (docs/model.md §2)
+    assert declared == {"carrier_hz": 2e9, "tx_power_dbm": 30.0, "bandwidth_hz": 50e6,
+                        "thermal_noise_dbm": -88.0, "noise_figure_db": 0.0,
+                        "antennas_uav": 1, "antennas_ue": 1}
