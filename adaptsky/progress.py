@@ -6,19 +6,27 @@ for a pipe, nohup, a batch job, CI), :class:`Silent`, and the time left of count
 
 from __future__ import annotations
 
+import math
 import sys
+import threading
 import time
 from collections import deque
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Literal, TextIO
+from typing import Literal, Protocol, TextIO
 
 from adaptsky.units import format_duration, plural
 
 LOG_EVERY_S = 30.0
 
-Tick = Callable[[int], None]
-"""Reports how many units of a stage are done."""
+
+class Tick(Protocol):
+    """Reports how many units of a stage are done: a whole number, or a fraction where the
+    work knows how far it is within a unit, with ``detail``, where in the unit it is ('round
+    2, UAV 3/3: 40%')."""
+
+    def __call__(self, done: float, detail: str = "", /) -> None: ...
+
 
 Layout = Literal["work", "seeds", "runs"]
 """How a live display draws its stages: bars of work units (gone when done), one row per
@@ -44,7 +52,7 @@ def _clock(seconds: float) -> str:
     return f"{minutes // 60}:{minutes % 60:02d}:{secs:02d}"
 
 
-def pace(seconds: float, done: int, total: int, unit: str) -> str:
+def pace(seconds: float, done: float, total: int, unit: str) -> str:
     """'0.91 s/layout, about 1 min 12 s left' (empty before the first unit)."""
     if done <= 0:
         return ""
@@ -144,8 +152,10 @@ class Reporter:
     def start(self, key: object, total: int, done: int = 0, **fields: object) -> None:
         """A stage of ``total`` units, ``done`` of them already; ``fields`` name its text."""
 
-    def advance(self, key: object, done: int, **fields: object) -> None:
-        """``done`` units of stage ``key`` are done; its text changes to ``fields``."""
+    def advance(self, key: object, done: float, **fields: object) -> None:
+        """``done`` units of stage ``key`` are done (a fraction within a unit: a
+        :class:`WorkProgress` stage's ``fields`` hold its ``detail``, where the work is within
+        the next unit, empty where it says nothing); its text changes to ``fields``."""
 
     def finish(self, key: object) -> None:
         """Stage ``key`` is over (a live display may drop it)."""
@@ -167,12 +177,16 @@ class LogLines(Reporter):
         self.stream, self.quiet = stream, quiet
 
     def print(self, text: str) -> None:
-        print(text, file=self.stream or sys.stderr, flush=True)
+        stream = self.stream or sys.stderr
+        stream.write(text + "\n")  # one write: a stage's heartbeat may print from a thread
+        stream.flush()
 
 
 class WorkProgress:
     """Stages of work with a known number of units (layouts, steps) each: a live bar per
-    stage, or a log line at its start and end and one every ``log_every_s``."""
+    stage (with the latest ``detail`` of its tick), or a log line at its start and end and one
+    every ``log_every_s``: at a tick, and from a thread where no tick comes (a unit, or the
+    part of one the work reports, takes longer)."""
 
     def __init__(self, reporter: Reporter, *, log_every_s: float | None = None) -> None:
         self.reporter = reporter
@@ -191,24 +205,72 @@ class WorkProgress:
 
     @contextmanager
     def stage(self, name: str, total: int, unit: str) -> Iterator[Tick]:
-        """A stage of ``total`` units; the yielded function takes the units done so far."""
-        start = last_log = time.monotonic()
+        """A stage of ``total`` units; the yielded function takes the units done so far (and
+        where the work is within the next, :class:`Tick`)."""
+        start = time.monotonic()
         key = object()
         self.reporter.start(key, total, name=name, unit=unit)
         self.log(f"{name}: {plural(total, unit)} ...")
+        state = _StageState(start)
 
-        def tick(done: int) -> None:
-            nonlocal last_log
-            self.reporter.advance(key, done)
-            now = time.monotonic()
-            if now - last_log >= self.log_every_s and done < total:
-                last_log = now
-                self.log(f"{name}: {done}/{total} {unit}s, {pace(now - start, done, total, unit)}")
+        def line(now: float) -> str:
+            done, detail = state.done, state.detail
+            speed = pace(now - start, done, total, unit)
+            if detail and done < total:
+                return (f"{name}: {unit} {min(total, math.floor(done) + 1)}/{total}, {detail}"
+                        + (f"; {speed}" if speed else ""))
+            return f"{name}: {_count(done)}/{total} {unit}s" + (f", {speed}" if speed else "")
 
+        def tick(done: float, detail: str = "", /) -> None:
+            self.reporter.advance(key, done, detail=detail)
+            with state.lock:
+                state.done, state.detail = done, detail
+                now = time.monotonic()
+                if now - state.last_log >= self.log_every_s and done < total:
+                    state.last_log = now
+                    self.log(line(now))
+
+        # a little early (1 s in 30), so that a line late by a busy machine still comes within
+        # log_every_s of the one before, as the lines' whole seconds show it
+        every = self.log_every_s - min(1.0, self.log_every_s / 30)
+
+        def heartbeat() -> None:
+            while not state.ended.wait(max(0.0, state.last_log + every - time.monotonic())):
+                with state.lock:
+                    now = time.monotonic()
+                    if now - state.last_log >= every:
+                        state.last_log = now
+                        self.log(line(now))
+
+        reporter = self.reporter
+        beating = None
+        if not reporter.live and not reporter.quiet and self.log_every_s > 0:
+            beating = threading.Thread(target=heartbeat, name=f"progress: {name}", daemon=True)
+            beating.start()
         try:
             yield tick
         finally:
+            state.ended.set()
+            if beating is not None:
+                beating.join()
             self.reporter.finish(key)
         seconds = time.monotonic() - start
         self.log(f"{name}: done in " + (f"{seconds:.1f} s" if seconds < 60
                                         else format_duration(seconds)))
+
+
+class _StageState:
+    """What a stage's ticks and its heartbeat share: the units done, the latest detail, when
+    it last logged, whether it ended."""
+
+    def __init__(self, start: float) -> None:
+        self.done: float = 0
+        self.detail = ""
+        self.last_log = start
+        self.lock = threading.Lock()
+        self.ended = threading.Event()
+
+
+def _count(done: float) -> str:
+    """'2' for whole units, '1.37' within one."""
+    return str(int(done)) if float(done).is_integer() else f"{done:.2f}"

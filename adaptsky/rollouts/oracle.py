@@ -34,6 +34,7 @@ from adaptsky.scenario.models import Scenario
 from adaptsky.sim import noma
 from adaptsky.sim.batch import NomaUavBatch, build_channel, deterministic_gain, fading_active
 from adaptsky.sim.lattice import axis_lattice, share_lattice
+from adaptsky.sim.state import users_move
 
 FloatArray = NDArray[np.float64]
 POINTS_PER_CHUNK = 200_000
@@ -92,8 +93,9 @@ def _best_alpha_first(gain_first: FloatArray, gain_second: FloatArray, alphas: F
 
 
 def has_oracle(scenario: Scenario) -> bool:
-    """Whether the oracle applies: deterministic gains (LoS not drawn at random, no fading)."""
-    return _random_gains(scenario) is None
+    """Whether the oracle applies: deterministic gains (LoS not drawn at random, no fading)
+    and users that stand (a search at their home positions bounds nothing once they walk)."""
+    return _random_gains(scenario) is None and not users_move(scenario)
 
 
 def _random_gains(scenario: Scenario) -> str | None:
@@ -115,10 +117,25 @@ def require_deterministic_gains(scenario: Scenario, method: str = "the oracle") 
                             "fading")
 
 
+def require_static_users(scenario: Scenario, method: str = "the oracle") -> None:
+    """Refuse a scenario whose users walk: the oracle (or another search over the lattice,
+    ``method``) finds one configuration for the users' home positions, which neither bounds
+    nor references a policy once the users move."""
+    if users_move(scenario):
+        raise AdaptskyError(
+            f"scenario '{scenario.name}': users.speed_m_per_step is "
+            f"{scenario.users.speed_m_per_step:g} m (the users walk); {method} searches one "
+            "configuration for the users' home positions and cannot follow moving users yet; "
+            "compare with soa or random, or evaluate with --set users.speed_m_per_step=0")
+
+
 def oracle(scenario: Scenario, users_m: FloatArray,
-           on_layout: Callable[[int], None] | None = None) -> OracleResult:
+           on_layout: Callable[[int], None] | None = None,
+           on_search: Callable[[float, str], None] | None = None) -> OracleResult:
     """The oracle for every layout in ``users_m`` (L, N, 2), paired as the environment pairs
-    them; ``on_layout`` hears the number of layouts searched after each."""
+    them; ``on_layout`` hears the number of layouts searched after each, ``on_search`` the
+    layouts searched (a fraction) and how much of the lattice after each chunk that leaves
+    some of a layout's lattice to search."""
     require_deterministic_gains(scenario)
     num_layouts = len(users_m)
     env = NomaUavBatch(scenario, num_envs=num_layouts, users_m=users_m)
@@ -145,6 +162,9 @@ def oracle(scenario: Scenario, users_m: FloatArray,
                 objective[layout] = total[best]
                 best_uav[layout] = points[best]
                 best_alpha[layout] = alpha[best]
+            searched = (start + len(points)) / len(grid)
+            if on_search is not None and searched < 1:
+                on_search(layout + searched, f"{searched:.0%} of the lattice")
         if on_layout is not None:
             on_layout(layout + 1)
     state = env.evaluate_at(best_uav, best_alpha)

@@ -39,6 +39,13 @@ from adaptsky.sim.multi_batch import MultiUavBatch
 FloatArray = NDArray[np.float64]
 DEFAULT_ROUNDS = 10
 RELATIVE_TOLERANCE = 1e-9
+EXPECTED_ROUNDS = 3.0
+"""Rounds a layout is taken to need until some layout is done (then their mean), for the
+share of a layout done that progress reports: a round's end is known only when it gains."""
+
+OnSearch = Callable[[float, str], None]
+"""Hears, after each chunk of a UAV's lattice, the layouts done (a fraction within one) and
+where the search is: 'round 2, UAV 3/3: 40%' (of that UAV's lattice searched)."""
 
 
 @dataclass(frozen=True)
@@ -162,11 +169,12 @@ class _Search:
         gain = self.gains(uav_m).reshape(len(uav_m), -1)                  # (U, N)
         return float(constrained_sum_rate(self.rates(gain, alpha_first), self.min_rate_bps))
 
-    def respond(self, u: int, uav_m: FloatArray, alpha_first: FloatArray
+    def respond(self, u: int, uav_m: FloatArray, alpha_first: FloatArray,
+                on_chunk: Callable[[float], None] | None = None
                 ) -> tuple[float, FloatArray, FloatArray]:
         """UAV ``u``'s best lattice point and shares with the others at ``uav_m`` (U, 3),
         ``alpha_first`` (U, K): (objective, its position, its shares); ties to the first
-        point met."""
+        point met. ``on_chunk`` hears the share of the lattice searched after each chunk."""
         fixed_gain = self.gains(uav_m)                                      # (U, N)
         others = np.arange(len(uav_m)) != u
         plane = self.planes[u]
@@ -192,6 +200,8 @@ class _Search:
             index = int(np.argmax(total))
             if total[index] > best[0]:
                 best = (float(total[index]), points[index], shares[index, u])
+            if on_chunk is not None:
+                on_chunk((start + len(chunk_h)) / len(heights))
         return best
 
     def _best_shares(self, u: int, gain: FloatArray) -> FloatArray:
@@ -205,8 +215,18 @@ class _Search:
         return np.where(np.isnan(alpha), self.alphas[0], alpha)
 
 
+def layout_share(rounds_done: float, expected: float) -> float:
+    """The share of a layout done (below 1) after ``rounds_done`` rounds (a fraction within
+    one) where a layout is taken to need ``expected`` rounds: 0.9 of it over those, the rest
+    halved with every further round."""
+    if rounds_done <= expected:
+        return 0.9 * rounds_done / expected
+    return 0.9 + 0.1 * (1.0 - 0.5 ** (rounds_done - expected))
+
+
 def _search(scenario: Scenario, users_m: FloatArray, rounds: int, oma: bool,
-            on_layout: Callable[[int], None] | None) -> SearchResult:
+            on_layout: Callable[[int], None] | None,
+            on_search: OnSearch | None = None) -> SearchResult:
     """Best responses from SoA per UAV on every layout (module doc)."""
     require_deterministic_gains(scenario)
     if rounds < 1:
@@ -220,14 +240,29 @@ def _search(scenario: Scenario, users_m: FloatArray, rounds: int, oma: bool,
     done_rounds = np.zeros(num_layouts, dtype=np.int64)
     converged = np.zeros(num_layouts, dtype=bool)
     rates = np.zeros((num_layouts, env.num_users))
+    num_uavs = env.num_uavs
+
+    def chunk_reporter(layout: int, round_index: int, u: int
+                       ) -> Callable[[float], None] | None:
+        if on_search is None:
+            return None
+        expected = (float(done_rounds[:layout].mean()) if layout else EXPECTED_ROUNDS)
+
+        def report(searched: float) -> None:
+            share = layout_share(round_index + (u + searched) / num_uavs, expected)
+            on_search(layout + share,
+                      f"round {round_index + 1}, UAV {u + 1}/{num_uavs}: {searched:.0%}")
+        return report
+
     for layout in range(num_layouts):
         search = _Search(env, layout, oma)
         positions, shares = uav_m[layout], alpha_first[layout]
         value = search.objective(positions, shares)
         for round_index in range(rounds):
             before = value
-            for u in range(env.num_uavs):
-                found, point, alpha = search.respond(u, positions, shares)
+            for u in range(num_uavs):
+                found, point, alpha = search.respond(u, positions, shares,
+                                                     chunk_reporter(layout, round_index, u))
                 if found > value:
                     value = found
                     positions[u], shares[u] = point, alpha
@@ -247,23 +282,27 @@ def _search(scenario: Scenario, users_m: FloatArray, rounds: int, oma: bool,
 
 
 def best_response(scenario: Scenario, users_m: FloatArray, *, rounds: int = DEFAULT_ROUNDS,
-                  on_layout: Callable[[int], None] | None = None) -> SearchResult:
-    """Best response on every layout (module doc); ``on_layout`` hears the layouts done.
-    For one UAV, the oracle (one search, converged)."""
+                  on_layout: Callable[[int], None] | None = None,
+                  on_search: OnSearch | None = None) -> SearchResult:
+    """Best response on every layout (module doc); ``on_layout`` hears the layouts done,
+    ``on_search`` where the search is within one (:data:`OnSearch`). For one UAV, the oracle
+    (one search, converged)."""
     if scenario.uav.count == 1:
         started = time.process_time()
-        found = oracle(scenario, users_m, on_layout)
+        found = oracle(scenario, users_m, on_layout, on_search)
         seconds = (time.process_time() - started) / max(1, len(users_m))
         count = len(users_m)
         return SearchResult(found.objective_bps, found.uav_m[:, None], found.alpha_first[:, None],
                             found.rate_bps, np.ones(count, dtype=np.int64),
                             np.ones(count, dtype=bool), seconds)
-    return _search(scenario, users_m, rounds, False, on_layout)
+    return _search(scenario, users_m, rounds, False, on_layout, on_search)
 
 
 def best_oma(scenario: Scenario, users_m: FloatArray, *, rounds: int = DEFAULT_ROUNDS,
-             on_layout: Callable[[int], None] | None = None) -> SearchResult:
+             on_layout: Callable[[int], None] | None = None,
+             on_search: OnSearch | None = None) -> SearchResult:
     """The best OMA configuration found the same way (module doc): each cluster's two users
     on half its band with half its power, R_i = (W/2) log2(1 + P_T G g_{u,i} / (I_i +
-    sigma^2)) (:func:`adaptsky.sim.interference.oma_rates_bps`)."""
-    return _search(scenario, users_m, rounds, True, on_layout)
+    sigma^2)) (:func:`adaptsky.sim.interference.oma_rates_bps`); progress as for
+    :func:`best_response`."""
+    return _search(scenario, users_m, rounds, True, on_layout, on_search)

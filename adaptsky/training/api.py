@@ -14,9 +14,8 @@ from adaptsky.arrays import Tree
 from adaptsky.channels.registry import plugin
 from adaptsky.errors import AdaptskyError
 from adaptsky.progress import LogLines, Reporter
-from adaptsky.scenario import Scenario, parse_scenario
-from adaptsky.scenario.loading import parse_toml, read_scenario_text
-from adaptsky.scenario.overrides import apply_overrides
+from adaptsky.scenario import Scenario
+from adaptsky.scenario.loading import parse_with_overrides, read_scenario_text
 from adaptsky.scenario.variants import with_values
 from adaptsky.store import run_file
 from adaptsky.store.atomic import (
@@ -28,7 +27,7 @@ from adaptsky.store.atomic import (
 )
 from adaptsky.store.lock import run_lock
 from adaptsky.store.run_file import RunReader
-from adaptsky.training.evaluation import EvaluationSet, evaluation_set
+from adaptsky.training.evaluation import EvaluationSet, evaluation_set, reference_name
 from adaptsky.training.progress import TrainingProgress
 from adaptsky.training.resources import check_fits
 from adaptsky.training.runner import RunOutcome, SeedTask, run_tasks
@@ -78,12 +77,7 @@ def load_with_overrides(scenario_path: Path, set_values: list[str] | None = None
                         ) -> tuple[Scenario, str]:
     """The scenario file with ``--set`` overrides applied, validated as one file; its text."""
     text = read_scenario_text(scenario_path)
-    data = parse_toml(text, str(scenario_path))
-    source = str(scenario_path)
-    if set_values:
-        data = apply_overrides(data, set_values, source)
-        source = f"{scenario_path} with --set"
-    return parse_scenario(data, source), text
+    return parse_with_overrides(text, scenario_path, set_values)[0], text
 
 
 def prepare_output(path: Path) -> None:
@@ -99,12 +93,13 @@ def prepare_output(path: Path) -> None:
 
 
 def create_run_file(path: Path, scenario: Scenario, text: str,
-                    set_values: list[str] | None = None) -> EvaluationSet | None:
+                    set_values: list[str] | None = None, progress: Reporter | None = None
+                    ) -> EvaluationSet | None:
     """A new run file for every seed of ``scenario`` (refuses an existing ``path``), with the
-    layouts and oracle of its greedy evaluations (returned); the caller holds its lock
-    (:func:`adaptsky.store.lock.run_lock`)."""
+    layouts and oracle of its greedy evaluations (returned; ``progress`` shows their search);
+    the caller holds its lock (:func:`adaptsky.store.lock.run_lock`)."""
     prepare_output(path)
-    evaluation = evaluation_set(scenario)
+    evaluation = evaluation_set(scenario, progress=progress)
     t = scenario.train
     run_file.create_run(path, text, scenario.model_dump(mode="json"), _plugins_used(scenario),
                         t.seeds, t.episodes, scenario.num_users, set_values or [],
@@ -134,7 +129,7 @@ def train(*, scenario_path: Path, out: Path | None = None, seeds: list[int] | No
     path = out if out is not None else default_output(scenario)
     prepare_output(path)
     with run_lock(path):
-        evaluation = create_run_file(path, scenario, text, set_values)
+        evaluation = create_run_file(path, scenario, text, set_values, progress)
         t = scenario.train
         tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every,
                           evaluation=evaluation) for seed in t.seeds]
@@ -187,7 +182,8 @@ def resume(*, run_path: Path, episodes: int | None = None, workers: int | None =
         if not tasks:
             return run_path, RunOutcome({seed: t.episodes for seed in checkpoints}, False,
                                         complete=True)
-        evaluation = evaluation_set(scenario, stored_oracle)  # computed only if it must run
+        # computed only if it must run
+        evaluation = evaluation_set(scenario, stored_oracle, progress)
         tasks = [replace(task, evaluation=evaluation) for task in tasks]
         before = {seed: int(c["episode"]) if c is not None else 0
                   for seed, c in checkpoints.items()}
@@ -222,7 +218,7 @@ def training_device(name: str) -> torch.device:
 def _run(path: Path, tasks: list[SeedTask], workers: int | None, device: torch.device,
          progress: Reporter) -> RunOutcome:
     try:
-        with TrainingProgress(progress) as view:
+        with TrainingProgress(progress, reference=reference_name(tasks[0].scenario)) as view:
             for task in tasks:
                 view.add_seed(task.seed, task.episodes_done, task.episodes)
             return run_tasks(path, tasks, workers or len(tasks), view, device)

@@ -7,7 +7,8 @@ none) and ``train.eval_layouts`` held-out uniform layouts drawn from ``train.eva
 and paired near-far. Its steady state is the mean over the last 100 steps (as ``adaptsky
 eval`` measures it), compared with the oracle of each layout where the scenario allows one
 (``channel.los`` not ``"sampled"``); for several UAVs the reference is best response
-(docs/model.md §9), stored and reported in the oracle's place.
+(docs/model.md §9), stored in the oracle's place and named in progress as what it is. The
+reference is computed before the first episode, with progress (round, UAV, time left).
 
 The evaluation has environments and generators of its own (LoS draws from seed 0, as
 ``eval``): it changes nothing of training, which gives the same numbers with or without it.
@@ -19,21 +20,26 @@ oracle, the same sum rates in bit/s.
 
 from __future__ import annotations
 
+import functools
 import json
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
+from adaptsky.progress import Reporter, Silent, Tick, WorkProgress
 from adaptsky.rollouts.metrics import STEADY_STEPS, percent_of
 from adaptsky.rollouts.oracle import has_oracle
-from adaptsky.rollouts.several_uavs import best_response
+from adaptsky.rollouts.several_uavs import OnSearch, best_response
 from adaptsky.scenario import Scenario
 from adaptsky.scenario.variants import eval_scenario
 from adaptsky.sim.layout import user_layouts
 from adaptsky.sim.multi_batch import NetworkBatch, network_batch
 from adaptsky.sim.noma import jain_fairness
 from adaptsky.store.layout import EVALUATIONS
+from adaptsky.units import plural
 
 FloatArray = NDArray[np.float64]
 # the [train] keys of the evaluation: they change nothing of training
@@ -72,45 +78,95 @@ class EvaluationSet:
                                    ("oracle_bps", group.oracle_bps))}
 
 
-def evaluation_set(scenario: Scenario, oracle_bps: list[FloatArray] | None = None
-                   ) -> EvaluationSet | None:
+def evaluation_set(scenario: Scenario, oracle_bps: list[FloatArray] | None = None,
+                   progress: Reporter | None = None) -> EvaluationSet | None:
     """The scenario's evaluation layouts (None when it evaluates nothing, also when its run
     is shorter than ``eval_every``), with their oracle: ``oracle_bps`` as stored (one array
     per group, training layout first), else computed (about 2 s per layout for the paper's
-    lattice). The held-out layouts are those of ``eval --layouts`` (uniform, near-far)."""
+    lattice, minutes for best response), saying so first to ``progress`` and showing the
+    search there. The held-out layouts are those of ``eval --layouts`` (uniform, near-far)."""
     train = scenario.train
     if train.eval_every == 0 or train.episodes < train.eval_every:
         return None  # nothing to evaluate (a longer --resume computes it then)
-    stored = iter(oracle_bps or [])
-
-    def group(variant: Scenario, count: int) -> LayoutGroup:
-        layouts_m = user_layouts(variant, count)
-        ceiling = next(stored, None)
-        if ceiling is None:
-            ceiling = (reference_bps(variant, layouts_m) if has_oracle(variant)
-                       else np.full(count, np.nan))
-        return LayoutGroup(variant, layouts_m, np.asarray(ceiling, dtype=np.float64))
-
-    training = None if scenario.users.placement == "fresh" else group(scenario, 1)
-    held_out = (group(eval_scenario(scenario, train.eval_layouts, train.eval_layout_seed),
-                      train.eval_layouts) if train.eval_layouts else None)
-    if training is None and held_out is None:
+    groups: dict[str, tuple[Scenario, int]] = {}
+    if scenario.users.placement != "fresh":
+        groups["training"] = (scenario, 1)
+    if train.eval_layouts:
+        groups["held-out"] = (eval_scenario(scenario, train.eval_layouts,
+                                            train.eval_layout_seed), train.eval_layouts)
+    if not groups:
         return None
-    return EvaluationSet(training, held_out)
+    stored = dict(zip(groups, oracle_bps or [], strict=False))
+    searched = [name for name, (variant, _) in groups.items()
+                if name not in stored and has_oracle(variant)]
+    found: dict[str, LayoutGroup] = {}
+    with _reference_stage(scenario, {name: groups[name][1] for name in searched},
+                          progress) as ticks:
+        for name, (variant, count) in groups.items():
+            layouts_m = user_layouts(variant, count)
+            if name in stored:
+                ceiling = stored[name]
+            elif name in ticks:
+                ceiling = reference_bps(variant, layouts_m, ticks[name])
+            else:
+                ceiling = np.full(count, np.nan)
+            found[name] = LayoutGroup(variant, layouts_m, np.asarray(ceiling, dtype=np.float64))
+    return EvaluationSet(found.get("training"), found.get("held-out"))
+
+
+def reference_name(scenario: Scenario) -> str:
+    """What the greedy evaluations are a percentage of: 'oracle' for one UAV, 'best
+    response' for several (docs/model.md §9)."""
+    return "best response" if scenario.uav.count > 1 else "oracle"
+
+
+@contextmanager
+def _reference_stage(scenario: Scenario, counts: dict[str, int], progress: Reporter | None
+                     ) -> Iterator[dict[str, OnSearch]]:
+    """A stage of ``progress`` for the reference searches of the groups ``counts`` (their
+    layouts), announced in a line ('computing best response on the training layout and 8
+    held-out layouts for the greedy evaluations (3 UAVs) ...'): a tick per group, counting
+    on from the groups before it."""
+    if not counts:
+        yield {}
+        return
+    reporter = progress or Silent()
+    where = " and ".join("the training layout" if name == "training"
+                         else plural(count, "held-out layout") for name, count in counts.items())
+    uavs = f" ({scenario.uav.count} UAVs)" if scenario.uav.count > 1 else ""
+    name = reference_name(scenario)
+    reporter.note(f"computing {'the ' if name == 'oracle' else ''}{name} on {where} for the "
+                  f"greedy evaluations{uavs} ...")
+    with WorkProgress(reporter) as work, \
+            work.stage(name, sum(counts.values()), "layout") as tick:
+        ticks: dict[str, OnSearch] = {}
+        before = 0
+        for group, count in counts.items():
+            ticks[group] = functools.partial(_shifted, tick, before)
+            before += count
+        yield ticks
+
+
+def _shifted(tick: Tick, before: int, done: float, detail: str = "") -> None:
+    """``tick`` of a stage of several groups: ``done`` of a group after ``before`` layouts."""
+    tick(before + done, detail)
 
 
 _REFERENCES: dict[tuple[str, bytes], FloatArray] = {}
 
 
-def reference_bps(scenario: Scenario, layouts_m: FloatArray) -> FloatArray:
+def reference_bps(scenario: Scenario, layouts_m: FloatArray,
+                  on_progress: OnSearch | None = None) -> FloatArray:
     """The reference sum rate (L,) of every layout: the oracle; for several UAVs best
     response (docs/model.md §9). Kept per process for the scenario's physics (not its name,
     agent or training) and layouts, so the runs of a stack, which share them, search once
-    (best response takes minutes a layout)."""
+    (best response takes minutes a layout). ``on_progress`` hears the layouts done (a
+    fraction within one) and where the search is."""
     physics = scenario.model_dump(mode="json", exclude={"name", "description", "agent", "train"})
     key = (json.dumps(physics, sort_keys=True), layouts_m.tobytes())
     if key not in _REFERENCES:
-        _REFERENCES[key] = best_response(scenario, layouts_m).objective_bps
+        _REFERENCES[key] = best_response(scenario, layouts_m, on_layout=on_progress,
+                                         on_search=on_progress).objective_bps
     return _REFERENCES[key].copy()
 
 

@@ -25,10 +25,13 @@ class _SeedLog:
 
 
 class TrainingProgress:
-    """Episode, moving-average sum rate (last 100 episodes), fairness and epsilon per seed."""
+    """Episode, moving-average sum rate (last 100 episodes), fairness and epsilon per seed,
+    and the last greedy evaluation, a percentage of ``reference`` ('oracle', or 'best
+    response' for several UAVs)."""
 
-    def __init__(self, reporter: Reporter, log_every_s: float | None = None) -> None:
-        self.reporter = reporter
+    def __init__(self, reporter: Reporter, log_every_s: float | None = None,
+                 reference: str = "oracle") -> None:
+        self.reporter, self.reference = reporter, reference
         self.log_every_s = work_progress.LOG_EVERY_S if log_every_s is None else log_every_s
         self.totals: dict[int, int] = {}
         self.logs: dict[int, _SeedLog] = {}
@@ -61,7 +64,8 @@ class TrainingProgress:
         mean_fairness = sum(fairness) / len(fairness)
         if "greedy" in metrics:
             self.greedy[seed] = metrics["greedy"]  # type: ignore[assignment]
-        greedy = greedy_text(self.greedy[seed], short=True) if seed in self.greedy else "-"
+        greedy = (greedy_text(self.greedy[seed], short=True, reference=self.reference)
+                  if seed in self.greedy else "-")
         self.reporter.advance(seed, episode, rate=rate, fairness=f"{mean_fairness:.3f}",
                               epsilon=f"{metrics['epsilon']:.3f}", greedy=greedy,
                               left=pace.left(short=True))
@@ -77,7 +81,8 @@ class TrainingProgress:
         log.last_log = now
         speed = log.pace.text("episode")
         averaged = len(self.rates[seed])
-        greedy = f"; greedy {greedy_text(self.greedy[seed])}" if seed in self.greedy else ""
+        greedy = (f"; greedy {greedy_text(self.greedy[seed], reference=self.reference)}"
+                  if seed in self.greedy else "")
         self.reporter.log(f"seed {seed}: episode {episode}/{total}, mean of the last "
                           f"{averaged}: sum rate {rate}, J {fairness:.3f}; eps {epsilon:.3f}"
                           f"{greedy}" + (f", {speed}" if speed else ""))
@@ -87,14 +92,20 @@ class TrainingProgress:
         self.reporter.message(text)
 
 
-def greedy_text(row: dict[str, float], short: bool = False) -> str:
-    """The last greedy evaluation in a few characters: percent of the oracle on the training
-    layout, else on the held-out layouts (mean), else the training layout's sum rate;
-    ``short`` (the live row, 80 columns) leaves out what it is measured against."""
+SHORT_REFERENCE = {"oracle": "oracle", "best response": "BR"}
+"""A reference's name in a live row (80 columns)."""
+
+
+def greedy_text(row: dict[str, float], short: bool = False, reference: str = "oracle") -> str:
+    """The last greedy evaluation in a few characters: percent of the reference (the oracle,
+    or for several UAVs best response) on the training layout, else on the held-out layouts
+    (mean), else the training layout's sum rate: '97.4% of best response (held-out)';
+    ``short`` (the live row, 80 columns): '97.4% BR'."""
     name = next((name for name in ("pct_oracle", "heldout_pct_oracle", "sum_rate_bps")
                  if math.isfinite(row[name])), "heldout_sum_rate_bps")
     value = format_rate(row[name]) if name.endswith("bps") else f"{row[name]:.1f}%"
+    of = name.endswith("oracle")
     if short:
-        return value
-    return (value + (" of oracle" if name.endswith("oracle") else "")
+        return f"{value} {SHORT_REFERENCE.get(reference, reference)}" if of else value
+    return (value + (f" of {reference}" if of else "")
             + (" (held-out)" if name.startswith("heldout") else ""))

@@ -23,7 +23,7 @@ def _columns(layout: Layout) -> tuple[list[ProgressColumn], bool]:
     if layout == "work":
         return [TextColumn("{task.fields[name]}"), BarColumn(), MofNCompleteColumn(),
                 TextColumn("{task.fields[unit]}s"), TimeElapsedColumn(),
-                TimeRemainingColumn()], True
+                TimeRemainingColumn(), TextColumn("{task.fields[detail]}")], True
     if layout == "seeds":
         return [TextColumn("seed {task.fields[seed]:>3}"), MofNCompleteColumn(),
                 TextColumn("R {task.fields[rate]} J {task.fields[fairness]} "
@@ -58,9 +58,11 @@ class RichReporter(Reporter):
 
     def start(self, key: object, total: int, done: int = 0, **fields: object) -> None:
         if self.progress is not None:
-            self.tasks[key] = self.progress.add_task("", total=total, completed=done, **fields)
+            # detail: where a stage is within its next unit (a search's round and UAV)
+            self.tasks[key] = self.progress.add_task("", total=total, completed=done,
+                                                     **{"detail": "", **fields})
 
-    def advance(self, key: object, done: int, **fields: object) -> None:
+    def advance(self, key: object, done: float, **fields: object) -> None:
         if self.progress is not None:
             self.progress.update(self.tasks[key], completed=done, **fields)
 
