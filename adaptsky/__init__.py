@@ -30,6 +30,7 @@ _EXPORTS = {
     "resume": "adaptsky.training.api",
     "evaluate": "adaptsky.evaluation.api",
     "baseline": "adaptsky.evaluation.api",
+    "evaluate_policy": "adaptsky.evaluation.outside",
 }
 
 __all__ = ["ENV_ID", "__version__", *_EXPORTS]

@@ -31,6 +31,8 @@ class EpisodeData:
     under full reuse); ``los`` (T, N) the LoS state of every user's serving link, or None
     where LoS is not drawn (``los = "always"`` or ``"expected"``, or not stored);
     ``power_w`` (T, U) every UAV's propulsion power, W, or None (not modelled);
+    ``user_track_m`` (T, N, 2) every user's position at every row, m, where the users move
+    (``users_m`` is then where they started), or None where they stand at ``users_m``;
     ``step_s`` the duration of a step, s, or None (the steps are counted, not timed);
     ``label`` the title of its picture.
     """
@@ -46,6 +48,7 @@ class EpisodeData:
     step_s: float | None = None
     first_step: int = 1
     label: str = ""
+    user_track_m: FloatArray | None = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__  # frozen: normalise the arrays once, here
@@ -58,8 +61,9 @@ class EpisodeData:
             set_(self, name, np.asarray(getattr(self, name), dtype=np.intp))
         if self.los is not None:
             set_(self, "los", np.asarray(self.los, dtype=bool))
-        if self.power_w is not None:
-            set_(self, "power_w", np.asarray(self.power_w, dtype=np.float64))
+        for name in ("power_w", "user_track_m"):
+            if getattr(self, name) is not None:
+                set_(self, name, np.asarray(getattr(self, name), dtype=np.float64))
         self._check_shapes()
 
     def _check_shapes(self) -> None:
@@ -67,7 +71,8 @@ class EpisodeData:
         steps, uavs = self.uav_m.shape[:2] if self.uav_m.ndim == 3 else (-1, -1)
         expected = {"users_m": (n, 2), "uav_m": (steps, uavs, 3), "alpha": (steps, n),
                     "rate_bps": (steps, n), "serving_uav": (n,), "cluster": (n,),
-                    "los": (steps, n), "power_w": (steps, uavs)}
+                    "los": (steps, n), "power_w": (steps, uavs),
+                    "user_track_m": (steps, n, 2)}
         for name, shape in expected.items():
             value = getattr(self, name)
             if value is not None and value.shape != shape:
@@ -95,6 +100,15 @@ class EpisodeData:
         return len(self.users_m)
 
     @property
+    def users_move(self) -> bool:
+        """Whether the users have a track (they move; None: they stand at ``users_m``)."""
+        return self.user_track_m is not None
+
+    def users_at(self, row: int) -> FloatArray:
+        """Every user's position (N, 2) at row ``row``."""
+        return self.users_m if self.user_track_m is None else self.user_track_m[row]
+
+    @property
     def held(self) -> bool:
         """Whether every UAV stays where it is (a baseline holding one configuration)."""
         return bool(np.all(self.uav_m == self.uav_m[:1]))
@@ -118,7 +132,9 @@ class EpisodeData:
         return replace(self, uav_m=self.uav_m[:steps], alpha=self.alpha[:steps],
                        rate_bps=self.rate_bps[:steps],
                        los=None if self.los is None else self.los[:steps],
-                       power_w=None if self.power_w is None else self.power_w[:steps])
+                       power_w=None if self.power_w is None else self.power_w[:steps],
+                       user_track_m=None if self.user_track_m is None
+                       else self.user_track_m[:steps])
 
 
 def default_every(steps: int, max_frames: int = MAX_FRAMES) -> int:
@@ -137,7 +153,12 @@ def frame_steps(steps: int, every: int) -> list[int]:
 @dataclass
 class EpisodeBuffer:
     """Rows of an episode recorded as it runs, in arrays made once for ``capacity`` rows:
-    :meth:`record` adds one, :meth:`episode` gives those so far as :class:`EpisodeData`."""
+    :meth:`record` adds one, :meth:`episode` gives those so far as :class:`EpisodeData`.
+
+    Rows recorded with the users' positions give the episode a user track once the users
+    have moved within an episode; from then on every episode has one (cleared or not), so
+    that a figure of one episode fits the next (:meth:`EpisodeFigure.fits`). Users that
+    never move give none: the picture of standing users."""
 
     capacity: int
     num_uavs: int
@@ -149,6 +170,7 @@ class EpisodeBuffer:
     rate_bps: FloatArray = field(init=False)
     los: BoolArray = field(init=False)
     power_w: FloatArray = field(init=False)
+    users_m: FloatArray = field(init=False)
 
     def __post_init__(self) -> None:
         self.uav_m = np.zeros((self.capacity, self.num_uavs, 3))
@@ -157,15 +179,20 @@ class EpisodeBuffer:
         self.power_w = np.zeros((self.capacity, self.num_uavs))
         self._powered = True   # every row so far came with its power
         self.los = np.zeros((self.capacity, self.num_users if self.with_los else 0), dtype=bool)
+        self.users_m = np.zeros((self.capacity, self.num_users, 2))
+        self._placed = True    # every row so far came with the users' positions
+        self.walks = False     # the users moved within an episode (kept by clear())
 
     def clear(self) -> None:
         self.rows = 0
         self._powered = True
+        self._placed = True
 
     def record(self, uav_m: FloatArray, alpha: FloatArray, rate_bps: FloatArray,
-               los: BoolArray | None = None, power_w: FloatArray | None = None) -> None:
+               los: BoolArray | None = None, power_w: FloatArray | None = None,
+               users_m: FloatArray | None = None) -> None:
         """One row: positions (U, 3) (or (3,)), shares and rates (N,), LoS states (N,), every
-        UAV's power (U,) (or a number), W."""
+        UAV's power (U,) (or a number), W, every user's position (N, 2), m (copied)."""
         if self.rows >= self.capacity:
             raise ValueError(f"EpisodeBuffer holds {self.capacity} rows; clear() it first")
         row = self.rows
@@ -177,13 +204,23 @@ class EpisodeBuffer:
             self._powered = False
         else:
             self.power_w[row] = power_w
+        if users_m is None:
+            self._placed = False
+        else:
+            self.users_m[row] = users_m
+            self.walks = self.walks or (row > 0 and not np.array_equal(self.users_m[row],
+                                                                        self.users_m[0]))
         self.rows += 1
 
     def episode(self, users_m: FloatArray, serving_uav: IntArray, cluster: IntArray,
                 first_step: int = 0, label: str = "") -> EpisodeData:
-        """The rows so far (views of the buffer: valid until the next :meth:`record`)."""
+        """The rows so far (views of the buffer: valid until the next :meth:`record`), with
+        users at ``users_m`` (N, 2); where the users walk (:attr:`walks`), with their track
+        and starting at the first row's positions instead."""
         rows = self.rows
-        return EpisodeData(users_m, self.uav_m[:rows], self.alpha[:rows], self.rate_bps[:rows],
-                           serving_uav, cluster, self.los[:rows] if self.with_los else None,
+        track = self.users_m[:rows] if self.walks and self._placed and rows else None
+        return EpisodeData(users_m if track is None else track[0], self.uav_m[:rows],
+                           self.alpha[:rows], self.rate_bps[:rows], serving_uav, cluster,
+                           self.los[:rows] if self.with_los else None,
                            power_w=self.power_w[:rows] if self._powered else None,
-                           first_step=first_step, label=label)
+                           first_step=first_step, label=label, user_track_m=track)

@@ -57,6 +57,10 @@ LOS_CMAP = "RdYlBu"
 """Users coloured by the share of their steps in LoS so far: red never, blue always."""
 AREA_MARGIN = 0.05
 """Room around the area (its edge dashed), so that users on the edge show whole."""
+TRACK_WIDTH = 0.9
+"""The line width of a moving user's track (its cluster's colour)."""
+START_ALPHA = 0.45
+"""The opacity of a moving user's start, a hollow grey marker of its cluster."""
 HEADROOM = 0.25
 """A panel whose lines leave its limits (the env's growing episode) gets this much room more."""
 LABEL_PT = 8
@@ -73,6 +77,16 @@ def _lighter(colour: str, share: float) -> tuple[float, float, float, float]:
     red, green, blue, _ = to_rgba(colour)
     return (red + (1 - red) * share, green + (1 - green) * share, blue + (1 - blue) * share,
             1.0)
+
+
+def cluster_colours(episode: EpisodeData) -> dict[tuple[int, int], Any]:
+    """The colour of every cluster (UAV u, cluster k): its line in the power split panel
+    (one UAV: the default cycle; several: UAV u's colour, lighter for its later clusters)."""
+    pairs = episode.pairs()
+    most = max(k for _, k, _ in pairs) or 1
+    num_uavs = episode.num_uavs
+    return {(u, k): _lighter(uav_colour(u, num_uavs), 0.55 * k / most) if num_uavs > 1
+            else f"C{k % 10}" for u, k, _ in pairs}
 
 
 def _limits(values: FloatArray, pad: float = 0.05) -> tuple[float, float]:
@@ -124,9 +138,10 @@ class _Panel:
 @dataclass
 class _Block:
     """The artists of one episode: those that grow with the steps (``paths``, every UAV's
-    segments in one collection; the panels' lines) and those that move (``markers``, every
-    UAV in one scatter; ``serving``; the cursors; ``step_text``; the users where LoS colours
-    them). A collection is one draw whatever it holds: a frame of four UAVs and sixteen
+    segments in one collection; the panels' lines; ``tracks``, every moving user's segments)
+    and those that move (``markers``, every UAV in one scatter; ``serving``; the cursors;
+    ``step_text``; the users where LoS colours them or they move, and where they move their
+    numbers). A collection is one draw whatever it holds: a frame of four UAVs and sixteen
     users draws about as many artists as one of one UAV."""
 
     episode: EpisodeData
@@ -140,11 +155,15 @@ class _Block:
     user_labels: list[Annotation] = field(default_factory=list)
     serving: LineCollection | None = None
     panels: list[_Panel] = field(default_factory=list)
+    tracks: LineCollection | None = None
+    starts: list[tuple[PathCollection, list[int]]] = field(default_factory=list)
 
     @property
     def growing(self) -> list[Artist]:
-        return [self.paths, *(artist for panel in self.panels
-                              for artist in (panel.lines, panel.dots) if artist is not None)]
+        growing: list[Artist] = [self.paths] if self.tracks is None else [self.paths,
+                                                                           self.tracks]
+        return [*growing, *(artist for panel in self.panels
+                            for artist in (panel.lines, panel.dots) if artist is not None)]
 
     @property
     def moving(self) -> list[Artist]:
@@ -152,8 +171,10 @@ class _Block:
                                 *(panel.cursor for panel in self.panels)]
         if self.serving is not None:
             moving.append(self.serving)
-        if self.episode.los is not None:
+        if self.episode.los is not None or self.episode.users_move:
             moving += [collection for collection, _ in self.users]
+        if self.episode.users_move:
+            moving += self.user_labels
         return moving
 
     def columns(self) -> list[FloatArray]:
@@ -171,16 +192,43 @@ class _Block:
         mine = segments[u * per_uav:(u + 1) * per_uav]
         return np.concatenate([mine[:, 0], mine[-1:, 1]]) if per_uav else np.empty((0, 2))
 
-    def grow(self, first: int, last: int) -> None:
-        """Give the growing artists rows ``first`` to ``last``."""
+    def track(self, i: int) -> FloatArray:
+        """The points (n, 2) user i's track joins as it holds them now."""
+        if self.tracks is None:
+            return np.empty((0, 2))
+        segments = np.asarray(self.tracks.get_segments())
+        per_user = len(segments) // self.episode.num_users
+        mine = segments[i * per_user:(i + 1) * per_user]
+        return np.concatenate([mine[:, 0], mine[-1:, 1]]) if per_user else np.empty((0, 2))
+
+    def grow(self, drawn: int, last: int) -> None:
+        """Give the growing artists the rows after ``drawn`` up to ``last``, joined to row
+        ``drawn`` (-1: none drawn yet; a track then starts where its user started)."""
         episode = self.episode
         time = episode.time
+        first = max(drawn, 0)
         xy = np.swapaxes(episode.uav_m[first:last + 1, :, :2], 0, 1)   # (U, n, 2)
         segments = np.stack([xy[:, :-1], xy[:, 1:]], axis=2)           # (U, n - 1, 2, 2)
         self.paths.set_segments(segments.reshape(-1, 2, 2))
         self.paths.set_array(np.tile(time[first + 1:last + 1], episode.num_uavs))
+        if self.tracks is not None and episode.user_track_m is not None:
+            track = episode.user_track_m[first:last + 1]
+            if drawn < 0:  # from where the users started
+                track = np.concatenate([episode.users_m[None], track])
+            xy = np.swapaxes(track, 0, 1)                                # (N, n, 2)
+            segments = np.stack([xy[:, :-1], xy[:, 1:]], axis=2)         # (N, n - 1, 2, 2)
+            self.tracks.set_segments(segments.reshape(-1, 2, 2))
+            self.tracks.set_color(np.repeat(self.track_colours, segments.shape[1], axis=0))
         for panel in self.panels:
             panel.grow(time, first, last)
+
+    @property
+    def track_colours(self) -> FloatArray:
+        """Every user's track colour (N, 4): its cluster's (:func:`cluster_colours`)."""
+        colours = cluster_colours(self.episode)
+        return np.array([to_rgba(colours[key]) for key in
+                         zip(self.episode.serving_uav.tolist(), self.episode.cluster.tolist(),
+                             strict=True)])
 
 
 class EpisodeFigure:
@@ -287,6 +335,15 @@ class EpisodeFigure:
                 edgecolors=[uav_colour(u, num_uavs) for u in serving] if several else "black",
                 linewidths=1.8 if several else 1.0)
             block.users.append((collection, members))
+            if episode.users_move:  # where they started: faint, hollow
+                start = top.scatter(episode.users_m[members, 0], episode.users_m[members, 1],
+                                    marker=CLUSTER_MARKERS[k % len(CLUSTER_MARKERS)], s=30,
+                                    facecolors="none", edgecolors="0.35", linewidths=0.8,
+                                    alpha=START_ALPHA, zorder=2)
+                block.starts.append((start, members))
+        if episode.users_move:  # every user's track so far, in its cluster's colour
+            block.tracks = LineCollection([], linewidths=TRACK_WIDTH, alpha=0.8, zorder=2)
+            top.add_collection(block.tracks)
         for i, (x, y) in enumerate(episode.users_m):
             block.user_labels.append(top.annotate(str(i + 1), (x, y), xytext=(5, 4),
                                                   textcoords="offset points", fontsize=TICK_PT))
@@ -314,8 +371,8 @@ class EpisodeFigure:
 
     @staticmethod
     def _top_legend(episode: EpisodeData, held: bool) -> list[Artist]:
-        """Proxies: the start, the UAV (now, or at the end), each cluster's marker, each
-        UAV's colour."""
+        """Proxies: the start, the UAV (now, or at the end), each cluster's marker, moving
+        users' start and track, each UAV's colour."""
         grey = "0.4"
         if held:
             handles: list[Artist] = [Line2D([], [], marker="^", color=grey, linestyle="",
@@ -329,6 +386,11 @@ class EpisodeFigure:
             handles.append(Line2D([], [], marker=CLUSTER_MARKERS[k % len(CLUSTER_MARKERS)],
                                   color="0.3", markerfacecolor="0.7", linestyle="",
                                   label=f"cluster {k + 1}"))
+        if episode.users_move:
+            handles += [Line2D([], [], marker="o", color="0.35", markerfacecolor="none",
+                               alpha=START_ALPHA, linestyle="", label="user start"),
+                        Line2D([], [], color="0.35", linewidth=TRACK_WIDTH,
+                               label="user track")]
         if episode.num_uavs > 1:
             handles += [Line2D([], [], color=uav_colour(u, episode.num_uavs), linewidth=3,
                                label=f"UAV {u + 1}") for u in range(episode.num_uavs)]
@@ -343,11 +405,9 @@ class EpisodeFigure:
                               [f"UAV {u + 1}" for u in range(num_uavs)] if num_uavs > 1
                               else None)]
         pairs = episode.pairs()
-        most = max(k for _, k, _ in pairs) or 1
+        colours = cluster_colours(episode)
         alpha = self._panel(  # several UAVs: UAV u's colour, lighter for its later clusters
-            axes[1], shares, r"power split $\alpha$",
-            [_lighter(uav_colour(u, num_uavs), 0.55 * k / most) if num_uavs > 1
-             else f"C{k % 10}" for u, k, _ in pairs],
+            axes[1], shares, r"power split $\alpha$", [colours[u, k] for u, k, _ in pairs],
             [rf"$\alpha_{{{members[0] + 1}}}$ ({'users ' if len(pairs) <= 4 else ''}"
              f"{', '.join(str(i + 1) for i in members)})" for _, _, members in pairs])
         alpha.axes.set_ylim(-0.03, 1.03)  # a share of 0 or 1 shows beside the frame
@@ -398,7 +458,12 @@ class EpisodeFigure:
                 raise ValueError("EpisodeFigure.update: other UAVs, users, clusters or "
                                  "panels; make a new figure")
             if not np.array_equal(episode.users_m, old.users_m):
-                self._move_users(block, episode.users_m)
+                if episode.users_move:  # a new start: in the background
+                    for collection, members in block.starts:
+                        collection.set_offsets(episode.users_m[members])
+                    self._background = None
+                else:
+                    self._move_users(block, episode.users_m)
             block.episode = episode
             for panel, values in zip(block.panels, block.columns(), strict=True):
                 panel.values = values
@@ -414,14 +479,18 @@ class EpisodeFigure:
                 and np.array_equal(new.serving_uav, old.serving_uav)
                 and np.array_equal(new.cluster, old.cluster)
                 and (new.los is None) == (old.los is None)
-                and (new.power_w is None) == (old.power_w is None))
+                and (new.power_w is None) == (old.power_w is None)
+                and new.users_move == old.users_move)
 
     def _move_users(self, block: _Block, users_m: FloatArray) -> None:
+        """The users' markers and numbers at ``users_m`` (N, 2). Users that stand are in
+        the background (drawn again at the next frame); moving users move with every frame."""
         for collection, members in block.users:
             collection.set_offsets(users_m[members])
         for label, position in zip(block.user_labels, users_m, strict=True):
             label.xy = tuple(position)
-        self._background = None
+        if not block.episode.users_move:
+            self._background = None
 
     def show(self, step: int | None = None) -> None:
         """Show rows 0 to ``step`` of every episode (of a shorter one: all its rows), with a
@@ -436,9 +505,12 @@ class EpisodeFigure:
         episode = block.episode
         time = episode.time
         block.markers.set_offsets(episode.uav_m[last, :, :2])
+        users_m = episode.users_at(last)
+        if episode.users_move:
+            self._move_users(block, users_m)
         if block.serving is not None:
             uavs = episode.uav_m[last, episode.serving_uav, :2]
-            block.serving.set_segments(np.stack([episode.users_m, uavs], axis=1))
+            block.serving.set_segments(np.stack([users_m, uavs], axis=1))
         if episode.los is not None:
             colours = matplotlib.colormaps[LOS_CMAP](episode.los[:last + 1].mean(axis=0))
             for collection, members in block.users:
@@ -485,7 +557,7 @@ class EpisodeFigure:
         grew = False
         for block, last, drawn in zip(self.blocks, self._rows, self._trail_rows, strict=True):
             if last > drawn:  # the new rows, joined to the last drawn
-                block.grow(max(drawn, 0), last)
+                block.grow(drawn, last)
                 for artist in block.growing:
                     artist.draw(renderer)
                 grew = True
@@ -507,7 +579,7 @@ class EpisodeFigure:
         if fmt not in FIGURE_FORMATS:
             raise ValueError(f"format {fmt!r}: choose from {', '.join(FIGURE_FORMATS)}")
         for block, last in zip(self.blocks, self._rows, strict=True):
-            block.grow(0, last)
+            block.grow(-1, last)
         data = figure_bytes(self.figure, fmt, self.figure.dpi)
         self._background = None  # saving drew on the canvas: the next frame starts again
         return data

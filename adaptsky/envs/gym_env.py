@@ -23,7 +23,8 @@ Starting State
     at their layout positions (``users.placement = "fresh"``: a new uniform layout at every
     reset, drawn from the environment's ``np_random``, unless ``users_m`` fixes it).
 Episode End
-    Truncation after ``train.steps`` steps; the network has no terminal state.
+    Truncation after ``max_episode_steps`` steps (default ``train.steps``); the network has no
+    terminal state.
 Arguments
     ``scenario``: a path to a scenario file or a :class:`Scenario` (default: the shipped
     ``nyc_mmwave.toml``); ``users_m``: optional layout override (N, 2) (vector env:
@@ -31,6 +32,8 @@ Arguments
     single env only, ``"rgb_array"`` (the picture of the episode so far,
     :mod:`adaptsky.drawing`);
     ``action_space``: ``None`` (the default above), ``"discrete"`` or ``"multi-discrete"``;
+    ``max_episode_steps``: the time limit, a whole number >= 1 (None: ``train.steps``;
+    ``adaptsky eval`` runs 1000 steps, docs/environment.md, "Episodes");
     single env: ``layout_index``, which of the scenario's layouts (for ``placement =
     "uniform"``: the i-th drawn, sub-environment i of the vector env); vector env:
     ``num_envs``.
@@ -74,6 +77,8 @@ INFO_KEYS = ("uav_m", "alpha", "gain", "los", "p_los", "rate_bps", "sum_rate_bps
              "energy_j")
 # several UAVs: also the interference every user hears (W)
 MULTI_INFO_KEYS = (*INFO_KEYS[:3], "interference_w", *INFO_KEYS[3:])
+MAX_EPISODE_STEPS = 10**9
+"""The largest ``max_episode_steps``, as for ``train.steps``."""
 
 
 def _resolve(scenario: Scenario | str | Path | None) -> Scenario:
@@ -89,6 +94,20 @@ def observation_space(scenario: Scenario, batch: NetworkBatch) -> spaces.Box:
     return spaces.Box(low, high, dtype=np.float32)
 
 
+def episode_steps(scenario: Scenario, max_episode_steps: object) -> int:
+    """The time limit of an episode: ``max_episode_steps``, checked to be a whole number
+    from 1 to 10^9, or ``train.steps`` for None."""
+    if max_episode_steps is None:
+        return scenario.train.steps
+    if isinstance(max_episode_steps, bool) or not isinstance(max_episode_steps,
+                                                             int | np.integer) \
+            or not 1 <= max_episode_steps <= MAX_EPISODE_STEPS:
+        raise ValueError(f"max_episode_steps must be a whole number from 1 to "
+                         f"{MAX_EPISODE_STEPS:_} (None: train.steps, "
+                         f"{scenario.train.steps}), got {max_episode_steps!r}")
+    return int(max_episode_steps)
+
+
 def _check_render_mode(render_mode: str | None, modes: list[str]) -> str | None:
     if render_mode is not None and render_mode not in modes:
         allowed = ", ".join(["None", *(repr(mode) for mode in modes)])
@@ -96,8 +115,9 @@ def _check_render_mode(render_mode: str | None, modes: list[str]) -> str | None:
     return render_mode
 
 
-def render_text(batch: NetworkBatch, index: int) -> str:
-    """Environment ``index``'s state in a few lines of text (``render_mode="ansi"``)."""
+def render_text(batch: NetworkBatch, index: int, max_steps: int) -> str:
+    """Environment ``index``'s state in a few lines of text (``render_mode="ansi"``), in an
+    episode of ``max_steps`` steps."""
     state = batch.state
     if state is None:
         return "not reset yet\n"
@@ -107,7 +127,7 @@ def render_text(batch: NetworkBatch, index: int) -> str:
                      for name, (x, y, h) in zip(names, positions, strict=True))
     rates = " ".join(f"{rate / 1e6:.1f}" for rate in state.rate_bps[index])
     alphas = " ".join(f"{alpha:.2f}" for alpha in state.alpha[index])
-    return (f"step {batch.t}/{batch.max_steps}  {uavs}  "
+    return (f"step {batch.t}/{max_steps}  {uavs}  "
             f"sum rate {state.sum_rate_bps[index] / 1e6:.1f} Mbit/s  "
             f"fairness {state.fairness[index]:.3f}\n"
             f"  rates Mbit/s: {rates}\n  alpha: {alphas}\n")
@@ -120,9 +140,11 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64 | np.ndarray]):
 
     def __init__(self, scenario: Scenario | str | Path | None = None,
                  users_m: np.ndarray | None = None, render_mode: str | None = None,
-                 layout_index: int = 0, action_space: str | None = None) -> None:
+                 layout_index: int = 0, action_space: str | None = None,
+                 max_episode_steps: int | None = None) -> None:
         self.render_mode = _check_render_mode(render_mode, RENDER_MODES)
         self.scenario = _resolve(scenario)
+        self.max_episode_steps = episode_steps(self.scenario, max_episode_steps)
         if layout_index < 0:
             raise ValueError(f"layout_index must be >= 0, got {layout_index}")
         if users_m is None:
@@ -152,14 +174,15 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64 | np.ndarray]):
              ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """One step; ``action`` a dense index, or the sub-actions (D,) of the MultiDiscrete
         space."""
-        if self.batch.t >= self.batch.max_steps:
+        if self.batch.t >= self.max_episode_steps:
             raise RuntimeError("episode is over: call reset()")
         if self.action_kind == "discrete":
             dense = np.array([action])
         else:
             dense = to_dense(self.batch.actions, np.asarray(action)[None])
-        obs, reward, truncated, state = self.batch.step(dense)
+        obs, reward, _, state = self.batch.step(dense)  # (the batch's limit is train.steps)
         self._record(state)
+        truncated = self.batch.t >= self.max_episode_steps
         return obs[0], float(reward[0]), False, truncated, state.for_env(0)
 
     def _record(self, state: NetworkState | MultiNetworkState) -> None:
@@ -168,12 +191,14 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64 | np.ndarray]):
             return
         if self._episode is None:
             batch = self.batch
-            self._episode = EpisodeBuffer(batch.max_steps + 1, batch.num_uavs, batch.num_users,
+            self._episode = EpisodeBuffer(self.max_episode_steps + 1, batch.num_uavs,
+                                          batch.num_users,
                                           with_los=self.scenario.channel.los == "sampled")
         if self.batch.t == 0:
             self._episode.clear()
         self._episode.record(state.uav_m[0], state.alpha[0], state.rate_bps[0], state.los[0],
-                             state.energy_j[0] / self.scenario.uav.step_s)
+                             state.energy_j[0] / self.scenario.uav.step_s,
+                             users_m=self.batch.users_m[0])
 
     def render(self) -> str | np.ndarray | None:
         """``render_mode="ansi"``: the state as text; ``"rgb_array"``: the picture of the
@@ -185,7 +210,7 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64 | np.ndarray]):
             return None
         if self.render_mode == "rgb_array":
             return self._frame()
-        return render_text(self.batch, 0)
+        return render_text(self.batch, 0, self.max_episode_steps)
 
     def _frame(self) -> np.ndarray:
         from adaptsky.drawing.episode_figure import EpisodeFigure  # matplotlib: when asked
@@ -200,7 +225,7 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64 | np.ndarray]):
             self._picture.update([episode])
         else:  # the first frame, or a new layout (users.placement = "fresh")
             self._picture = EpisodeFigure([episode], side_m=self.scenario.area.side_m,
-                                          steps=self.batch.max_steps + 1)
+                                          steps=self.max_episode_steps + 1)
         self._picture.show(episode.steps - 1)
         return self._picture.rgb()
 
@@ -222,9 +247,11 @@ class NomaUavVectorEnv(VectorEnv):
 
     def __init__(self, scenario: Scenario | str | Path | None = None, num_envs: int = 1,
                  users_m: np.ndarray | None = None, render_mode: str | None = None,
-                 action_space: str | None = None) -> None:
+                 action_space: str | None = None, max_episode_steps: int | None = None
+                 ) -> None:
         self.render_mode = _check_render_mode(render_mode, VECTOR_RENDER_MODES)
         self.scenario = _resolve(scenario)
+        self.max_episode_steps = episode_steps(self.scenario, max_episode_steps)
         self.num_envs = num_envs
         self.action_kind = action_space_kind(self.scenario, action_space)
         self.batch = network_batch(self.scenario, num_envs=num_envs, users_m=users_m)
@@ -272,7 +299,8 @@ class NomaUavVectorEnv(VectorEnv):
             dense = np.asarray(actions)
         else:
             dense = to_dense(self.batch.actions, np.asarray(actions))
-        obs, reward, truncated, state = self.batch.step(dense)
+        obs, reward, _, state = self.batch.step(dense)  # (the batch's limit is train.steps)
+        truncated = self.batch.t >= self.max_episode_steps
         self._needs_reset = truncated
         return obs, reward, terminated, np.full(self.num_envs, truncated), self._info(state)
 
@@ -281,7 +309,8 @@ class NomaUavVectorEnv(VectorEnv):
         if self.render_mode is None:
             gym.logger.warn("render() called without a render_mode; give render_mode='ansi'")
             return None
-        return tuple(render_text(self.batch, index) for index in range(self.num_envs))
+        return tuple(render_text(self.batch, index, self.max_episode_steps)
+                     for index in range(self.num_envs))
 
 
 register_envs()  # importing the environments makes gymnasium.make("adaptsky/NomaUav-v0") work

@@ -1,7 +1,11 @@
 """Registers ``adaptsky/NomaUav-v0`` with Gymnasium (done on ``import adaptsky`` or
 ``import adaptsky.envs.gym_env``); without a ``scenario`` argument it uses the shipped
 default. The one id serves scenarios of one UAV and of several (``uav.count > 1``: a
-MultiDiscrete action space by default, docs/environment.md, "Several UAVs").
+MultiDiscrete action space by default, docs/environment.md, "Several UAVs"). The envs take
+their time limit as ``max_episode_steps`` (default ``train.steps``): ``gymnasium.make_vec``
+passes it on, while ``gymnasium.make`` keeps that name for its own ``TimeLimit`` wrapper, which
+can end an episode earlier than the env's limit, never later (docs/environment.md,
+"Episodes").
 
 ``import adaptsky`` does not import Gymnasium for this (it takes about 0.2 s, which every
 ``adaptsky`` command would pay): where Gymnasium is not imported yet, the registration runs

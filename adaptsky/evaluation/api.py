@@ -29,7 +29,9 @@ from adaptsky.progress import Reporter, Silent, WorkProgress
 from adaptsky.report.evaluations import curve_json, score_kind
 from adaptsky.rollouts.metrics import Method, compare, percent_of, summary_row
 from adaptsky.rollouts.rollout import Policy, greedy_policy, rollout
-from adaptsky.scenario import Scenario, load_scenario
+from adaptsky.scenario import Scenario
+from adaptsky.scenario.loading import load_scenario_with_overrides, parse_scenario
+from adaptsky.scenario.overrides import apply_overrides
 from adaptsky.scenario.toml_writer import dumps
 from adaptsky.scenario.variants import eval_scenario
 from adaptsky.sim.layout import user_layouts
@@ -217,28 +219,22 @@ def _baseline_method(scenario: Scenario, name: str, steps: int, users_m: np.ndar
         return run_baseline(scenario, name, steps, users_m, on_progress=tick)
 
 
-def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path | None = None,
-             layouts: int | None = None, layout_seed: int = 0, steps: int = 1000,
-             compare_with: list[str] | None = None, progress: Reporter | None = None,
-             policy: str = "best") -> tuple[dict[str, Any], list[Method]]:
-    """Greedy rollouts of a checkpoint's ``policy`` (``best``: the best greedy evaluation
-    during training, ``last``: the last checkpoint) next to baselines and other runs (their
-    policy alike); results as JSON-able values and the methods (policy first) with their
-    traces. Every input is checked before the first rollout; ``progress`` shows the rollouts
-    and the oracle's search (default: nothing)."""
-    compared = compared_methods(compare_with or [])
-    trained, arrays, chosen, used, curve = read_trained(checkpoint, seed, policy)
-    base = load_scenario(scenario_path) if scenario_path else trained
-    scenario = eval_scenario(base, layouts, layout_seed)
-    _check_compatible(checkpoint, trained, scenario)
+def checked_compared(scenario: Scenario, compared: list[Compared], policy: str
+                     ) -> dict[str, tuple[Policy, dict[str, Any]]]:
+    """Refuse a compared baseline the evaluation ``scenario`` cannot have; the greedy policy
+    (``best`` or ``last``) of every compared run file, checked to fit it, by label."""
     for item in compared:
         if item.baseline is not None:
             require_applies(scenario, item.baseline, "--compare")
-    others = {item.label: load_policy(item.run, None, scenario, policy)
-              for item in compared if item.run is not None}
-    check_rollout_memory(scenario, steps, layouts or 1, 1 + len(compared), str(checkpoint))
-    users_m = eval_layouts(scenario, layouts)
-    policy = greedy_policy(trained, arrays)
+    return {item.label: load_policy(item.run, None, scenario, policy)
+            for item in compared if item.run is not None}
+
+
+def rollouts(scenario: Scenario, policy: Policy, compared: list[Compared],
+             others: dict[str, tuple[Policy, dict[str, Any]]], steps: int,
+             users_m: np.ndarray, progress: Reporter | None) -> list[Method]:
+    """The evaluated ``policy``'s rollout, then every compared method's, on the layouts
+    ``users_m`` with the same draws; ``progress`` shows each (default: nothing)."""
     with WorkProgress(progress or Silent()) as work:
         methods = [_policy_method(POLICY, scenario, policy, steps, users_m, work)]
         for item in compared:
@@ -247,6 +243,46 @@ def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path |
             else:
                 methods.append(_policy_method(item.label, scenario, others[item.label][0],
                                               steps, users_m, work))
+    return methods
+
+
+def evaluation_base(scenario_path: Path | None, trained: Scenario | None,
+                    set_values: list[str] | None) -> Scenario:
+    """The scenario an evaluation starts from: the file ``scenario_path``, else the
+    ``trained`` one, with the ``--set section.key=value`` overrides ``set_values`` applied and
+    validated as a file is (as ``train --set`` does)."""
+    if scenario_path is not None:   # overridden in the file's own keys, as train does
+        return load_scenario_with_overrides(scenario_path, set_values)[0]
+    assert trained is not None, "an evaluation needs a scenario"
+    if not set_values:
+        return trained
+    source = "the run's scenario with --set"
+    return parse_scenario(apply_overrides(trained.model_dump(mode="json"), set_values, source),
+                          source)
+
+
+def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path | None = None,
+             layouts: int | None = None, layout_seed: int = 0, steps: int = 1000,
+             compare_with: list[str] | None = None, progress: Reporter | None = None,
+             policy: str = "best", set_values: list[str] | None = None
+             ) -> tuple[dict[str, Any], list[Method]]:
+    """Greedy rollouts of a checkpoint's ``policy`` (``best``: the best greedy evaluation
+    during training, ``last``: the last checkpoint) next to baselines and other runs (their
+    policy alike); results as JSON-able values and the methods (policy first) with their
+    traces. The evaluation scenario is ``scenario_path`` or the training scenario, with the
+    ``set_values`` overrides (``section.key=value``). Every input is checked before the
+    first rollout; ``progress`` shows the rollouts and the oracle's search (default:
+    nothing)."""
+    compared = compared_methods(compare_with or [])
+    trained, arrays, chosen, used, curve = read_trained(checkpoint, seed, policy)
+    base = evaluation_base(scenario_path, trained, set_values)
+    scenario = eval_scenario(base, layouts, layout_seed)
+    _check_compatible(checkpoint, trained, scenario)
+    others = checked_compared(scenario, compared, policy)
+    check_rollout_memory(scenario, steps, layouts or 1, 1 + len(compared), str(checkpoint))
+    users_m = eval_layouts(scenario, layouts)
+    methods = rollouts(scenario, greedy_policy(trained, arrays), compared, others, steps,
+                       users_m, progress)
     results = results_json(methods, scenario, steps, layouts, layout_seed, users_m)
     used["score_kind"] = score_kind(trained)
     results |= {"checkpoint": used["path"], "seed": chosen, "checkpoint_episode":
@@ -259,11 +295,12 @@ def evaluate(*, checkpoint: Path, seed: int | None = None, scenario_path: Path |
 
 
 def baseline(*, scenario_path: Path, method: str, layouts: int | None = None,
-             layout_seed: int = 0, steps: int = 1000, progress: Reporter | None = None
-             ) -> tuple[dict[str, Any], list[Method]]:
-    """One baseline on the scenario's layout or on uniform layouts; ``progress`` shows its
-    work (default: nothing)."""
-    scenario = eval_scenario(load_scenario(scenario_path), layouts, layout_seed)
+             layout_seed: int = 0, steps: int = 1000, progress: Reporter | None = None,
+             set_values: list[str] | None = None) -> tuple[dict[str, Any], list[Method]]:
+    """One baseline on the scenario's layout or on uniform layouts, the scenario with the
+    ``set_values`` overrides; ``progress`` shows its work (default: nothing)."""
+    scenario = eval_scenario(evaluation_base(scenario_path, None, set_values), layouts,
+                             layout_seed)
     if method not in BASELINES:
         raise EvaluationError(f"--method: unknown method '{method}'; choose from "
                               f"{', '.join(BASELINES)}")
@@ -293,6 +330,8 @@ def results_json(methods: list[Method], scenario: Scenario, steps: int, layouts:
         if "rounds" in method.details:  # best response and OMA
             entry["search"] = {key: np.asarray(method.details[key]).tolist()
                                for key in SEARCH_KEYS}
+        if "note" in method.details:    # what a method is where that is not obvious
+            entry["note"] = method.details["note"]
         results["methods"][method.name] = entry
     first, others = methods[0], methods[1:]
     if first.name == POLICY:

@@ -6,7 +6,11 @@ One UAV: SoA, the oracle, best response (the oracle itself), OMA and random. Sev
 is defined for one UAV and refused. The searches (oracle, best response, OMA) hold what they
 found for one step, as gains are deterministic; OMA's rates are its own (each user of a
 cluster on half the band with half the power), held as the search computed them, since the
-environment computes NOMA rates.
+environment computes NOMA rates. Under sampled LoS best response and OMA search the expected
+gains and hold what they found for every step, their rates taken under the policy's own LoS
+draws (:data:`SAMPLED_LOS_NOTE`). Where the users walk, every rollout moves them with the same
+draws as the policy's; the searches, which find one configuration for the users' home
+positions, are refused there.
 """
 
 from __future__ import annotations
@@ -17,13 +21,15 @@ from typing import Any
 import numpy as np
 
 from adaptsky.errors import AdaptskyError
+from adaptsky.progress import Tick
 from adaptsky.rollouts import several_uavs
 from adaptsky.rollouts.metrics import Method
-from adaptsky.rollouts.oracle import oracle, require_deterministic_gains
-from adaptsky.rollouts.rollout import Tick, Trace, hold, random_policy, rollout
+from adaptsky.rollouts.oracle import oracle, require_deterministic_gains, require_static_users
+from adaptsky.rollouts.rollout import Trace, hold, random_policy, rollout
 from adaptsky.rollouts.several_uavs import SearchResult
 from adaptsky.rollouts.soa import soa_configuration
 from adaptsky.scenario import Scenario
+from adaptsky.scenario.variants import with_values
 from adaptsky.sim.actions import ActionSet
 from adaptsky.sim.batch import NomaUavBatch
 from adaptsky.sim.multi_batch import network_batch
@@ -42,17 +48,36 @@ class EvaluationError(AdaptskyError):
     pass
 
 
+SAMPLED_LOS_NOTE = ("searched on the expected gains (channel.los = 'expected'), its rates "
+                    "under the policy's own LoS draws (channel.los = 'sampled'): a reference, "
+                    "not a bound")
+"""What best response and OMA are under sampled LoS (their label in tables and files)."""
+
+
 def require_applies(scenario: Scenario, method: str, option: str = "") -> None:
     """Refuse, in one line (starting with ``option``, the command's option, if given), a
-    baseline the scenario cannot have: the oracle for several UAVs; a search where gains are
-    drawn at random."""
+    baseline the scenario cannot have: the oracle for several UAVs; a search where the users
+    walk, or where gains are drawn at random (best response and OMA search sampled LoS on its
+    expected gains: :func:`searched_scenario`)."""
     count = scenario.uav.count
     if method == "oracle" and count > 1:
         where = f"{option}: " if option else ""
         raise EvaluationError(f"{where}the oracle is defined for one UAV; use best-response "
                               f"(scenario '{scenario.name}' has {count} UAVs)")
     if method in SEARCHES:
-        require_deterministic_gains(scenario, "the oracle" if method == "oracle" else method)
+        name = "the oracle" if method == "oracle" else method
+        require_static_users(scenario, name)
+        require_deterministic_gains(scenario if method == "oracle" else
+                                    searched_scenario(scenario), name)
+
+
+def searched_scenario(scenario: Scenario) -> Scenario:
+    """The scenario best response and OMA search on: as it is, or under sampled LoS, the
+    same with every link at its expected gain (``channel.los = "expected"``)."""
+    if scenario.channel.los != "sampled":
+        return scenario
+    return with_values(scenario, "channel", {"los": "expected"},
+                       f"{scenario.name} with channel.los = 'expected'")
 
 
 def baseline_work(method: str, steps: int, users_m: np.ndarray) -> tuple[int, str]:
@@ -63,8 +88,12 @@ def baseline_work(method: str, steps: int, users_m: np.ndarray) -> tuple[int, st
 def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarray,
                  seed: int = 0, on_progress: Tick | None = None) -> Method:
     """A baseline of :data:`BASELINES` on ``users_m`` (L, N, 2); ``on_progress`` hears the
-    units of :func:`baseline_work` done. The searches' details: ``seconds_per_layout`` and
-    ``objective_bps`` (L,); best response and OMA also ``rounds`` and ``converged`` (L,)."""
+    units of :func:`baseline_work` done (the searches: within a layout too, with where they
+    are). The searches' details: ``seconds_per_layout`` and
+    ``objective_bps`` (L,); best response and OMA also ``rounds`` and ``converged`` (L,),
+    and under sampled LoS a ``note`` (:data:`SAMPLED_LOS_NOTE`). Every rollout moves the
+    users as the policy's does, with the same draws (:func:`~adaptsky.rollouts.rollout.hold`):
+    SoA plans once and its rates are taken at each step's positions."""
     if method not in BASELINES:
         raise EvaluationError(f"unknown method '{method}'; choose from {', '.join(BASELINES)}")
     require_applies(scenario, method)
@@ -79,17 +108,25 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
         trace = hold(scenario, uav_m, alpha_first, steps, users_m, seed, on_progress)
     elif method == "oracle":
         start = time.process_time()
-        best = oracle(scenario, users_m, on_progress)
+        best = oracle(scenario, users_m, on_progress, on_progress)
         details["seconds_per_layout"] = (time.process_time() - start) / len(users_m)
         details["objective_bps"] = best.objective_bps
         trace = hold(scenario, best.uav_m, best.alpha_first, 1, users_m, seed)
     elif method in SEARCHES:
-        found = search(scenario, method, users_m, on_progress)
+        searched = searched_scenario(scenario)
+        found = search(searched, method, users_m, on_progress)
         details |= search_details(found)
         uav_m = found.uav_m[:, 0] if one_uav else found.uav_m
+        drawn = searched is not scenario   # rates under the policy's LoS draws, every step
+        if drawn:
+            details["note"] = SAMPLED_LOS_NOTE
         if method == "best-response":
             alpha_first = found.alpha_first[:, 0] if one_uav else found.alpha_first
-            trace = hold(scenario, uav_m, alpha_first, 1, users_m, seed)
+            trace = hold(scenario, uav_m, alpha_first, steps if drawn else 1, users_m, seed)
+        elif drawn:
+            held = found.alpha_first[:, 0] if one_uav else found.alpha_first  # NaN: no split
+            trace = hold(scenario, uav_m, np.full(held.shape, OMA_POWER_SHARE), steps,
+                         users_m, seed, oma=True)
         else:
             hover_j = network_batch(scenario, len(users_m), users_m=users_m).hover_energy_j
             trace = Trace(found.rate_bps[None].copy(), uav_m[None].copy(),
@@ -106,7 +143,7 @@ def search(scenario: Scenario, method: str, users_m: np.ndarray,
     """Best response (for one UAV the oracle: 1 round, converged) or OMA
     (:mod:`adaptsky.rollouts.several_uavs`) on ``users_m``."""
     run = several_uavs.best_oma if method == "oma" else several_uavs.best_response
-    return run(scenario, users_m, on_layout=on_progress)
+    return run(scenario, users_m, on_layout=on_progress, on_search=on_progress)
 
 
 def search_details(found: SearchResult) -> dict[str, Any]:

@@ -43,7 +43,8 @@ def run_episode(path: Path, *, seed: int | None = None, policy: str = "best",
                 ) -> tuple[Scenario, EpisodeData, list[str]]:
     """The greedy episode of ``seed``'s ``policy`` (default: the first seed's best; its
     last where it has none, said in a note) on the run's training layout, ``steps`` steps
-    (default: ``train.steps``) from the start; the run's scenario, the episode, the notes."""
+    (default: ``train.steps``) from the start (users that move walk as in ``eval``: the
+    episode has their track); the run's scenario, the episode, the notes."""
     scenario, arrays, chosen, record, _ = read_trained(path, seed, policy)
     steps = steps or scenario.train.steps
     check_rollout_memory(scenario, steps, 1, 1, str(path))

@@ -1,6 +1,7 @@
 """Episodes to draw (:class:`~adaptsky.drawing.episode.EpisodeData`) from a rollout's trace or
 from an eval file: the arrays of one layout, with every user's serving UAV and cluster as the
-simulation associates them on that layout (docs/pictures.md)."""
+simulation associates them on that layout, and where the users move, where each was at
+every step (docs/pictures.md)."""
 
 from __future__ import annotations
 
@@ -15,7 +16,12 @@ from adaptsky.rollouts.rollout import Trace
 from adaptsky.scenario import Scenario
 from adaptsky.scenario.loading import parse_scenario, parse_toml
 from adaptsky.sim.multi_batch import network_batch, user_roles
-from adaptsky.store.eval_file import EvalContents, read_eval_contents, read_eval_trajectory
+from adaptsky.store.eval_file import (
+    OUTSIDE,
+    EvalContents,
+    read_eval_contents,
+    read_eval_trajectory,
+)
 
 FloatArray = NDArray[np.float64]
 POLICY = "policy"  # the label of an eval file's policy (evaluation.api.POLICY)
@@ -31,15 +37,17 @@ def layout_roles(scenario: Scenario, users_m: FloatArray
 
 def episode_of(scenario: Scenario, users_m: FloatArray, uav_m: FloatArray, alpha: FloatArray,
                rate_bps: FloatArray, los: NDArray[np.bool_] | None = None, label: str = "",
-               power_w: FloatArray | None = None) -> EpisodeData:
+               power_w: FloatArray | None = None, user_track_m: FloatArray | None = None
+               ) -> EpisodeData:
     """One layout's episode: ``users_m`` (N, 2), ``uav_m`` (T, 3) or (T, U, 3), ``alpha`` and
     ``rate_bps`` (T, N); ``los`` (T, N) is kept where the scenario draws LoS states;
     ``power_w`` (T, U), every UAV's propulsion power (W) where a model gives one, adds its
-    panel."""
+    panel; ``user_track_m`` (T, N, 2), every user's position at every step where the users
+    move (None: they stand at ``users_m``, the layout, where moving users start)."""
     serving, cluster = layout_roles(scenario, users_m)
     return EpisodeData(users_m, uav_m, alpha, rate_bps, serving, cluster,
                        los=los if scenario.channel.los == "sampled" else None,
-                       power_w=power_w, label=label)
+                       power_w=power_w, label=label, user_track_m=user_track_m)
 
 
 def power_of(scenario: Scenario, energy_j: FloatArray) -> FloatArray:
@@ -51,11 +59,13 @@ def power_of(scenario: Scenario, energy_j: FloatArray) -> FloatArray:
 
 def trace_episode(scenario: Scenario, trace: Trace, users_m: FloatArray, layout: int = 0,
                   label: str = "") -> EpisodeData:
-    """Layout ``layout`` of a rollout's ``trace`` on the layouts ``users_m`` (L, N, 2)."""
+    """Layout ``layout`` of a rollout's ``trace`` on the layouts ``users_m`` (L, N, 2), with
+    the users' track where they move (``trace.users_m``)."""
     return episode_of(scenario, users_m[layout], trace.uav_m[:, layout],
                       trace.alpha[:, layout], trace.rate_bps[:, layout],
                       None if trace.los is None else trace.los[:, layout], label,
-                      power_of(scenario, trace.energy_j[:, layout]))
+                      power_of(scenario, trace.energy_j[:, layout]),
+                      None if trace.users_m is None else trace.users_m[:, layout])
 
 
 def eval_scenario_of(path: Path, contents: EvalContents) -> Scenario:
@@ -65,7 +75,10 @@ def eval_scenario_of(path: Path, contents: EvalContents) -> Scenario:
 
 
 def policy_title(record: dict[str, object]) -> str:
-    """'policy of seed 0: best (episode 40)', from an evaluation's policy record."""
+    """'policy of seed 0: best (episode 40)', from an evaluation's policy record; "policy:
+    the outside policy 'sb3-ppo'" for one from outside adaptsky (``evaluate_policy``)."""
+    if record.get("policy") == OUTSIDE:
+        return f"{POLICY}: the outside policy '{record.get('label', '?')}'"
     return (f"{POLICY} of seed {record.get('seed', '?')}: {record.get('policy', '?')} "
             f"(episode {record.get('episode', '?')})")
 
@@ -74,7 +87,8 @@ def eval_episodes(path: Path, *, layout: int | None = None, method: str | None =
                   steps: int | None = None) -> tuple[Scenario, list[EpisodeData]]:
     """The eval file's policy and ``method`` (default: the first other method it holds) on
     layout ``layout`` (default 0), their first ``steps`` rows (default: all), as stored (a
-    search's configuration is held: its position does not change). An eval file without
+    search's configuration is held: its position does not change; users that move, where the
+    file stores their positions, move in either). An eval file without
     another method gives the policy alone. One line names what exists where ``layout`` or
     ``method`` does not."""
     contents = read_eval_contents(path)
@@ -103,5 +117,6 @@ def eval_episodes(path: Path, *, layout: int | None = None, method: str | None =
         episodes.append(episode_of(scenario, users_m, arrays["uav_m"], arrays["alpha"],
                                    arrays["rate_bps"], label=f"{title}, layout {chosen}",
                                    power_w=None if energy is None else power_of(scenario,
-                                                                                energy)))
+                                                                                energy),
+                                   user_track_m=arrays.get("users_m")))
     return scenario, episodes

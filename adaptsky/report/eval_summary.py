@@ -12,7 +12,7 @@ import h5py
 from adaptsky.errors import AdaptskyError
 from adaptsky.report.user_rates import USER_RATES
 from adaptsky.rollouts.metrics import STEADY_STEPS, steady_user_rates
-from adaptsky.store.eval_file import KIND, check_searches, damaged_eval_file
+from adaptsky.store.eval_file import KIND, check_searches, damaged_eval_file, outside_record
 from adaptsky.store.run_file import open_run_file
 
 HEADER = ("adaptsky_version", "format_version", "created_utc", "command_line")
@@ -75,8 +75,25 @@ def _plain(value: Any) -> Any:
 
 def eval_header_line(path: Path, header: dict[str, Any], results: dict[str, Any]) -> str:
     """The first line of ``inspect EVAL.h5``: what the file is and what it evaluated."""
-    what = (f"seed {results['seed']} of {results['checkpoint']}"
-            if results.get("checkpoint") else "baselines")
+    outside = outside_record(results)
+    if outside is not None:
+        what = f"the outside policy '{outside['label']}'"
+    elif results.get("checkpoint"):
+        what = f"seed {results['seed']} of {results['checkpoint']}"
+    else:
+        what = "baselines"
     made = f", created {header['created_utc']}" if "created_utc" in header else ""
     return (f"{path}: eval file of {what}, adaptsky {header.get('adaptsky_version', '?')}"
             f"{made}")
+
+
+def outside_policy_line(results: dict[str, Any]) -> str | None:
+    """Which policy was evaluated, where it came from outside adaptsky (``evaluate_policy``):
+    its label and action space; it has no run file and no training curve. None otherwise."""
+    outside = outside_record(results)
+    if outside is None:
+        return None
+    space = outside.get("action_space")
+    actions = f", {space} actions" if space else ""
+    return (f"policy: the outside policy '{outside['label']}'{actions} (evaluate_policy; no "
+            "run file, no training curve)")

@@ -51,6 +51,13 @@ def methods_table(results: dict[str, Any]) -> Table:
     return table
 
 
+def note_lines(results: dict[str, Any]) -> list[str]:
+    """One line per method whose results say what it is where that is not obvious (best
+    response and OMA under sampled LoS: searched on the expected gains)."""
+    return [f"{name}: {entry['note']}" for name, entry in results["methods"].items()
+            if entry.get("note")]
+
+
 def search_lines(results: dict[str, Any]) -> list[str]:
     """One line per search with rounds (best response, OMA): its rounds, the layouts where it
     converged (its last round gained less than 1e-9 relative) and its time."""

@@ -7,7 +7,7 @@ chooses)."""
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -17,7 +17,9 @@ from adaptsky.algos.registry import algorithm_of
 from adaptsky.arrays import Tree
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.batch import NetworkState
+from adaptsky.sim.interference import oma_rates_bps
 from adaptsky.sim.multi_batch import MultiNetworkState, NetworkBatch, network_batch
+from adaptsky.sim.state import users_move
 
 Tick = Callable[[int], None]
 FloatArray = NDArray[np.float64]
@@ -27,24 +29,30 @@ FloatArray = NDArray[np.float64]
 class Trace:
     """Per step and layout: rates (T, L, N), UAV positions (T, L, 3) for one UAV and
     (T, L, U, 3) for U > 1, every user's power share (T, L, N), each UAV's energy of the
-    step (T, L) or (T, L, U), J (docs/model.md §10), and the LoS state of each user's serving
-    link (T, L, N) (None where a search computed the rates: OMA)."""
+    step (T, L) or (T, L, U), J (docs/model.md §10), the LoS state of each user's serving
+    link (T, L, N) (None where a search computed the rates: OMA), and every user's position
+    (T, L, N, 2), m, where the users move (None where they stand: their layout)."""
 
     rate_bps: FloatArray
     uav_m: FloatArray
     alpha: FloatArray
     energy_j: FloatArray
     los: NDArray[np.bool_] | None = None
+    users_m: FloatArray | None = None
 
     @property
     def sum_rate_bps(self) -> FloatArray:
         return self.rate_bps.sum(axis=-1)
 
     @classmethod
-    def of(cls, states: list[NetworkState] | list[MultiNetworkState]) -> Trace:
+    def of(cls, states: list[NetworkState] | list[MultiNetworkState],
+           users_m: list[FloatArray] | None = None) -> Trace:
+        """The trace of the states of a rollout, with the users' positions of each step
+        (``users_m``: none where they stand)."""
         return cls(np.array([s.rate_bps for s in states]), np.array([s.uav_m for s in states]),
                    np.array([s.alpha for s in states]), np.array([s.energy_j for s in states]),
-                   np.array([s.los for s in states]))
+                   np.array([s.los for s in states]),
+                   None if users_m is None else np.array(users_m))
 
 
 def _env(scenario: Scenario, users_m: FloatArray, seed: int) -> NetworkBatch:
@@ -58,27 +66,49 @@ def rollout(scenario: Scenario, policy: Policy, steps: int, users_m: FloatArray,
     env = _env(scenario, users_m, seed)
     obs, _ = env.reset()
     states = []
+    walked: list[FloatArray] | None = [] if users_move(scenario) else None
     for step in range(steps):  # the batch core reports truncation but never enforces it
         obs, _, _, state = env.step(policy(obs))
         states.append(state)
+        if walked is not None:
+            walked.append(env.users_m)
         if on_step is not None:
             on_step(step + 1)
-    return Trace.of(states)
+    return Trace.of(states, walked)
 
 
 def hold(scenario: Scenario, uav_m: FloatArray, alpha_first: FloatArray, steps: int,
-         users_m: FloatArray, seed: int = 0, on_step: Tick | None = None) -> Trace:
+         users_m: FloatArray, seed: int = 0, on_step: Tick | None = None, oma: bool = False
+         ) -> Trace:
     """Keep the UAV at ``uav_m`` (L, 3) with shares ``alpha_first`` (L, K) for ``steps``
-    steps, or for U > 1 every UAV at ``uav_m`` (L, U, 3) with ``alpha_first`` (L, U, K_u)
-    (LoS drawn every step for ``los = "sampled"``)."""
+    steps, or for U > 1 every UAV at ``uav_m`` (L, U, 3) with ``alpha_first`` (L, U, K_u),
+    while the users move as they do under a policy with the same ``seed`` (the same
+    headings and LoS draws, step by step: ``hold_step``). With ``oma`` the rates are OMA's
+    (:func:`oma_rates`) at each step's gains, not NOMA's."""
     env = _env(scenario, users_m, seed)
     env.reset()
     states = []
+    walked: list[FloatArray] | None = [] if users_move(scenario) else None
     for step in range(steps):
-        states.append(env.evaluate_at(uav_m, alpha_first))
+        state = env.hold_step(uav_m, alpha_first)
+        states.append(replace(state, rate_bps=oma_rates(scenario, state)) if oma else state)
+        if walked is not None:
+            walked.append(env.users_m)
         if on_step is not None:
             on_step(step + 1)
-    return Trace.of(states)
+    return Trace.of(states, walked)
+
+
+def oma_rates(scenario: Scenario, state: NetworkState | MultiNetworkState) -> FloatArray:
+    """Every user's OMA rate (B, N), bit/s, at the gains of ``state`` (docs/model.md §9:
+    half the band and half the power of its cluster each; the interference of several UAVs
+    as the state heard it)."""
+    radio = scenario.radio
+    interference = (state.interference_w if isinstance(state, MultiNetworkState)
+                    else np.zeros_like(state.gain))
+    return oma_rates_bps(state.gain, interference, tx_power_w=radio.tx_power_w,
+                         antenna_gain=radio.antenna_gain, noise_w=radio.noise_w,
+                         bandwidth_hz=radio.bandwidth_hz)
 
 
 def random_policy(num_actions: int, seed: int = 0) -> Policy:

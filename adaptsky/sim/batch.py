@@ -484,9 +484,22 @@ class NomaUavBatch:
 
     def evaluate_at(self, uav_m: FloatArray, alpha_first: FloatArray) -> NetworkState:
         """The network with every UAV at ``uav_m`` (B, 3) and first users' shares
-        ``alpha_first`` (B, K), taken as given (no clipping); LoS is drawn as in a step.
-        Baselines use this to hold a configuration."""
+        ``alpha_first`` (B, K), taken as given (no clipping); LoS is drawn as in a step;
+        the users stay where they are."""
         self._set_config(uav_m, alpha_first)
+        self.state = self._evaluate(self.sim_state)
+        return self.state
+
+    def hold_step(self, uav_m: FloatArray, alpha_first: FloatArray) -> NetworkState:
+        """One step of a held configuration: the users move as in :meth:`step` (the same
+        draws in the same order: headings, then LoS), the UAV is at ``uav_m`` (B, 3) with
+        shares ``alpha_first`` (B, K), as given; a hovering step's energy. Baselines use
+        this to hold a configuration while the users walk (docs/evaluation.md)."""
+        state = self.sim_state
+        users_m = state.users_m
+        if self._speed_m:
+            users_m = self._dynamics.walked(users_m, self._headings())
+        self.sim_state = SimState._new(self._config(uav_m, alpha_first), users_m, state.t + 1)
         self.state = self._evaluate(self.sim_state)
         return self.state
 

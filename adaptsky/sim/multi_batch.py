@@ -319,12 +319,28 @@ class MultiUavBatch:
 
     def evaluate_at(self, uav_m: FloatArray, alpha_first: FloatArray) -> MultiNetworkState:
         """The network with the UAVs at ``uav_m`` (B, U, 3) and first users' shares
-        ``alpha_first`` (B, U, K_u), as given (no clipping); LoS drawn as in a step."""
+        ``alpha_first`` (B, U, K_u), as given (no clipping); LoS drawn as in a step; the
+        users stay where they are."""
         state = self.sim_state
+        return self._held(uav_m, alpha_first, state.users_m, state.t)
+
+    def hold_step(self, uav_m: FloatArray, alpha_first: FloatArray) -> MultiNetworkState:
+        """One step of a held configuration: the users move as in :meth:`step` (the same
+        draws in the same order), the UAVs are at ``uav_m`` (B, U, 3) with shares
+        ``alpha_first`` (B, U, K_u), as given; a hovering step's energy."""
+        state = self.sim_state
+        users_m = state.users_m
+        if self._speed_m:
+            users_m = self._dynamics.walked(users_m, self._headings())
+        return self._held(uav_m, alpha_first, users_m, state.t + 1)
+
+    def _held(self, uav_m: FloatArray, alpha_first: FloatArray, users_m: FloatArray, t: int
+              ) -> MultiNetworkState:
+        """The network in the state of the given configuration, users and step count."""
         uav_m = np.broadcast_to(uav_m, (self.num_envs, self.num_uavs, 3))
         alpha_first = np.broadcast_to(alpha_first, (self.num_envs, self.num_uavs,
                                                     self.num_clusters))
-        self.sim_state = SimState.of(uav_m, alpha_first, state.users_m, state.t)
+        self.sim_state = SimState.of(uav_m, alpha_first, users_m, t)
         self.state = self._evaluate(self.sim_state)
         return self.state
 

@@ -94,6 +94,11 @@ def user_positions(users_m: FloatArray) -> FloatArray:
     return np.array(np.moveaxis(users_m, -1, 0), dtype=np.float64, order="C").transpose(1, 2, 0)
 
 
+def users_move(scenario: Scenario) -> bool:
+    """Whether the scenario's users walk (``users.speed_m_per_step`` > 0, docs/model.md §3)."""
+    return scenario.users.speed_m_per_step > 0
+
+
 def users_xy(users_m: FloatArray) -> FloatArray:
     """User positions (B, N, 2) as x and y (2, B, N): a view."""
     return users_m.transpose(2, 0, 1)

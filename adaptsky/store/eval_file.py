@@ -4,6 +4,7 @@ with what software (docs/evaluation.md#eval-files)."""
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -28,9 +29,38 @@ UNITS = {"mean_sum_rate_bps": "bit/s", "steady_sum_rate_bps": "bit/s", "sum_rate
          "rate_bps": "bit/s", "min_user_se": "bit/s/Hz", "fairness": "1",
          "satisfied_share": "1", "steady_satisfied_share": "1", "alpha": "1",
          "steady_user_rate_bps": "bit/s",
-         "final_uav_m": "m", "uav_m": "m", "layouts_m": "m", "objective_bps": "bit/s",
+         "final_uav_m": "m", "uav_m": "m", "users_m": "m", "layouts_m": "m",
+         "objective_bps": "bit/s",
          "rounds": "1", "converged": "1"}
 """The ``units`` attribute of every numeric dataset, by name ("1": dimensionless)."""
+
+
+OUTSIDE = "outside"
+"""The ``policy`` of the record of a policy from outside adaptsky (``evaluate_policy``): no
+run file, no checkpoint, no training curve; the root attributes ``policy`` and
+``policy_label`` say so."""
+
+
+def outside_record(results: dict[str, Any]) -> dict[str, Any] | None:
+    """The record of the evaluated policy where it came from outside adaptsky, else None."""
+    record = results.get("policy")
+    return record if isinstance(record, dict) and record.get("policy") == OUTSIDE else None
+
+
+def check_new_eval_file(path: Path, option: str = "out") -> None:
+    """Refuse, before any work, an eval file path that exists, names a folder, or lies in a
+    folder that is missing or cannot be written."""
+    if path.is_dir():
+        raise AdaptskyError(f"{option} {path}: is a folder; give an eval file name, e.g. "
+                            f"{path / 'eval.h5'}")
+    if path.exists():
+        raise AdaptskyError(f"{option} {path}: exists; choose another {option}")
+    if not path.parent.is_dir():
+        raise AdaptskyError(f"{option} {path}: the folder {path.parent} does not exist; create "
+                            f"it or choose another {option}")
+    if not os.access(path.parent, os.W_OK | os.X_OK):
+        raise AdaptskyError(f"{option} {path}: cannot write in {path.parent} (permission "
+                            f"denied or read-only); choose another {option}")
 
 
 SEARCH = "search"
@@ -70,6 +100,9 @@ def write_eval(path: Path, results: dict[str, Any], methods: list[Method],
         for key in ("checkpoint", "seed", "checkpoint_episode", "scenario_file"):
             if results.get(key) is not None:
                 file.attrs[key] = results[key]
+        outside = outside_record(results)
+        if outside is not None:  # no run file: what the caller named the policy
+            file.attrs.update(policy=OUTSIDE, policy_label=outside["label"])
         file.attrs.update(provenance or {})
         string_dataset(file, "results_json", json.dumps(results))
         if results.get("scenario_toml") is not None:
@@ -80,10 +113,12 @@ def write_eval(path: Path, results: dict[str, Any], methods: list[Method],
             group.attrs["label"] = method.name
             write_tree(group, {key: np.asarray(value) for key, value in method.metrics.items()})
             trace = method.trace
-            write_tree(group.create_group("trajectory"), {
-                "sum_rate_bps": trace.sum_rate_bps, "rate_bps": trace.rate_bps,
-                "uav_m": trace.uav_m, "alpha": trace.alpha, "energy_j": trace.energy_j},
-                compress=True)
+            trajectory = {"sum_rate_bps": trace.sum_rate_bps, "rate_bps": trace.rate_bps,
+                          "uav_m": trace.uav_m, "alpha": trace.alpha,
+                          "energy_j": trace.energy_j}
+            if trace.users_m is not None:   # users that walk: where they were at each step
+                trajectory["users_m"] = trace.users_m
+            write_tree(group.create_group("trajectory"), trajectory, compress=True)
             if "rounds" in method.details:  # best response and OMA
                 search = group.create_group(SEARCH)
                 write_tree(search, {key: np.asarray(method.details[key]) for key in
@@ -184,8 +219,9 @@ def read_eval_trajectory(path: Path, label: str, layout: int, steps: int | None 
                          ) -> dict[str, np.ndarray]:
     """Method ``label``'s trajectory on layout ``layout``, its first ``steps`` rows (None:
     all): ``uav_m`` (T, 3), or (T, U, 3) for several UAVs, ``alpha`` and ``rate_bps``
-    (T, N), and each step's energy ``energy_j`` (T,) or (T, U) where the file holds it (eval
-    files made before the energy do not). Only those rows of that layout are read."""
+    (T, N), each step's energy ``energy_j`` (T,) or (T, U) where the file holds it (eval
+    files made before the energy do not), and every user's position ``users_m`` (T, N, 2)
+    where the users walk. Only those rows of that layout are read."""
     names = ("uav_m", "alpha", "rate_bps")
     try:
         with open_run_file(path) as file:
@@ -198,12 +234,14 @@ def read_eval_trajectory(path: Path, label: str, layout: int, steps: int | None 
                                  f"{[data.shape for data in datasets]}")
             found = {name: np.asarray(data[:rows, layout], dtype=np.float64)
                      for name, data in zip(names, datasets, strict=True)}
-            energy = group.get("energy_j")
-            if energy is not None:
-                if energy.shape[:2] != datasets[0].shape[:2]:
-                    raise ValueError(f"methods/{group_name(label)}/trajectory/energy_j: "
-                                     f"shape {energy.shape}")
-                found["energy_j"] = np.asarray(energy[:rows, layout], dtype=np.float64)
+            for name in ("energy_j", "users_m"):   # (files before the energy hold none;
+                data = group.get(name)                # users_m only where users walk)
+                if data is None:
+                    continue
+                if data.shape[:2] != datasets[0].shape[:2]:
+                    raise ValueError(f"methods/{group_name(label)}/trajectory/{name}: "
+                                     f"shape {data.shape}")
+                found[name] = np.asarray(data[:rows, layout], dtype=np.float64)
             return found
     except (OSError, KeyError, ValueError, TypeError, IndexError) as error:
         raise damaged_eval_file(path, error) from None

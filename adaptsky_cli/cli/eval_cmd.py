@@ -13,6 +13,7 @@ import typer
 from adaptsky.errors import AdaptskyError
 from adaptsky_cli.cli.console import err, out
 from adaptsky_cli.cli.options import CsvFile, Json, Layout, ScenarioFile, command_line
+from adaptsky_cli.cli.plausibility import warn_scenario_file
 from adaptsky_cli.cli.usage import click_errors
 
 Layouts = Annotated[int | None, typer.Option(min=1, metavar="N", show_default=False,
@@ -21,6 +22,10 @@ Layouts = Annotated[int | None, typer.Option(min=1, metavar="N", show_default=Fa
 LayoutSeed = Annotated[int, typer.Option(min=0, metavar="SEED",
                                          help="seed of the uniform layouts")]
 Steps = Annotated[int, typer.Option(min=1, metavar="N", help="steps per layout")]
+EvalSetValues = Annotated[list[str] | None, typer.Option(
+    "--set", metavar="KEY=VALUE", show_default=False,
+    help="override a key of the evaluation scenario, section.key=value (repeatable), e.g. "
+    "--set channel.los=expected; recorded in the eval file")]
 PROBE_BYTES = 64 * 1024
 """The trial write before the rollouts: a full disk refuses it as it would the eval file."""
 
@@ -60,12 +65,13 @@ def show_results(results: dict[str, Any], layout: int | None = None) -> None:
     from adaptsky.report.eval_table import (
         energy_lines,
         methods_table,
+        note_lines,
         oracle_line,
         search_lines,
     )
     from adaptsky.report.user_rates import eval_user_table
     out.print(methods_table(results))
-    for line in (*search_lines(results), *energy_lines(results)):
+    for line in (*note_lines(results), *search_lines(results), *energy_lines(results)):
         out.print(line, markup=False)
     line = oracle_line(results)
     if line:
@@ -130,6 +136,7 @@ def evaluate(
     layout: Layout = None,
     csv_file: CsvFile = None,
     as_json: Json = False,
+    set_values: EvalSetValues = None,
 ) -> None:
     """Evaluate a trained policy against baselines and other runs.
 
@@ -147,10 +154,11 @@ def evaluate(
         _writable_new_file(path)
     check_tables(layout, layouts or 1, csv_file, as_json)
     methods = [item.strip() for item in compare.split(",") if item.strip()]
+    warn_scenario_file(scenario, set_values)
     results, traces = api.evaluate(checkpoint=checkpoint, seed=seed, scenario_path=scenario,
                                    layouts=layouts, layout_seed=layout_seed, steps=steps,
                                    compare_with=methods, progress=RichReporter(err),
-                                   policy=policy)
+                                   policy=policy, set_values=set_values)
     write_eval(path, results, traces, provenance={
         "command_line": json.dumps(command_line(ctx)), "wall_time_s": time.monotonic() - start})
     written = {"eval_file": str(path)}
@@ -191,6 +199,7 @@ def baseline(
     layout_seed: LayoutSeed = 0,
     steps: Steps = 1000,
     as_json: Json = False,
+    set_values: EvalSetValues = None,
 ) -> None:
     """Run one baseline on a scenario.
 
@@ -201,9 +210,10 @@ def baseline(
     if method not in api.BASELINES:
         raise AdaptskyError(f"--method: unknown method '{method}'; choose from "
                             f"{', '.join(api.BASELINES)}")
+    warn_scenario_file(scenario, set_values)
     results, (result,) = api.baseline(scenario_path=scenario, method=method, layouts=layouts,
                                       layout_seed=layout_seed, steps=steps,
-                                      progress=RichReporter(err))
+                                      progress=RichReporter(err), set_values=set_values)
     if method == "oracle":
         results["optimum"] = [
             {"uav_m": result.trace.uav_m[-1, i].tolist(),

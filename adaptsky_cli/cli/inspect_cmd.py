@@ -63,7 +63,11 @@ def _inspect_eval(path: Path, layout: int | None, csv_file: Path | None,
     """What the eval file evaluated, its comparison table and per-user rates, as ``eval``
     printed them; its per-layout numbers to ``csv_file``."""
     from adaptsky.report.eval_csv import write_eval_csv
-    from adaptsky.report.eval_summary import eval_header_line, read_eval_file
+    from adaptsky.report.eval_summary import (
+        eval_header_line,
+        outside_policy_line,
+        read_eval_file,
+    )
     from adaptsky_cli.cli.eval_cmd import check_tables, show_results, show_training
 
     header, results = read_eval_file(path)
@@ -74,7 +78,11 @@ def _inspect_eval(path: Path, layout: int | None, csv_file: Path | None,
                          indent=2))
         return
     out.print(eval_header_line(path, header, results), markup=False, soft_wrap=True)
-    show_training(results)
+    outside = outside_policy_line(results)  # a policy from outside: no run, no curve
+    if outside is not None:
+        out.print(outside, markup=False, soft_wrap=True)
+    else:
+        show_training(results)
     show_results(results, layout or 0)
     if csv_file is not None:
         err.print(f"CSV: {csv_file}")

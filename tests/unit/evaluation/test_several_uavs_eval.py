@@ -77,10 +77,12 @@ def test_the_oracle_is_refused_for_two_uavs_in_one_line(tmp_path, capsys):
                               "(scenario 'two' has 2 UAVs)"]
 
 
-def test_searches_need_deterministic_gains(tmp_path, capsys):
-    path = small(tmp_path, channel={"los": "sampled"})
-    assert main(["baseline", str(path), "--method", "best-response"]) == 1
-    assert _lines(capsys) == ["scenario 'two': channel.los is 'sampled'; best-response needs "
+def test_the_oracle_needs_deterministic_gains(tmp_path, capsys):
+    # best response and OMA search sampled LoS on its expected gains
+    # (test_moving_users_and_sampled_los.py); the oracle, a bound, refuses it
+    path = small(tmp_path, "one", uavs=1, channel={"los": "sampled"})
+    assert main(["baseline", str(path), "--method", "oracle"]) == 1
+    assert _lines(capsys) == ["scenario 'one': channel.los is 'sampled'; the oracle needs "
                               "deterministic gains: los = 'always' or 'expected', without "
                               "fading"]
 
