@@ -11,12 +11,13 @@ from types import MappingProxyType
 import numpy as np
 import pytest
 
-from adaptsky.channels import ChannelModel, free_space_gain, registry
+from adaptsky.channels import registry
 from adaptsky.channels.registry import PluginInfo
 from adaptsky.errors import ScenarioError
 from adaptsky.scenario import load_scenario, parse_scenario
 from adaptsky.scenario.toml_writer import dumps
 from tests.conftest import SCENARIOS
+from tests.unit.scenario.free_space import FreeSpaceAny
 
 # Table I: f_c, P_T, N_UAV x N_UE, W per cluster, thermal noise (no noise figure)
 SUB6_TABLE = {"carrier_hz": 2e9, "tx_power_dbm": 30.0, "antennas_uav": 1, "antennas_ue": 1,
@@ -95,29 +96,16 @@ def test_every_shipped_scenario_gives_its_whole_radio(path):
 
 # --- plugins: declaring a radio, or not ------------------------------------------------------
 
-class FreeSpace(ChannelModel):
-    contract_version = 2
-
-    def los_probability(self, geometry):
-        return np.ones(geometry.shape)
-
-    def gain_los(self, geometry):
-        return free_space_gain(geometry.distance_m, geometry.carrier_hz)
-
-    def gain_nlos(self, geometry):
-        return 0.1 * self.gain_los(geometry)
-
-
-class WithRadio(FreeSpace):
+class WithRadio(FreeSpaceAny):
     default_radio = MappingProxyType({"carrier_hz": 3.5e9, "tx_power_dbm": 23.0,
                                       "bandwidth_hz": 20e6, "antennas_uav": 4})
 
 
-class BrokenRadio(FreeSpace):
+class BrokenRadio(FreeSpaceAny):
     default_radio = MappingProxyType({"tx_power_dbm": 500.0})
 
 
-class TypoRadio(FreeSpace):
+class TypoRadio(FreeSpaceAny):
     default_radio = MappingProxyType({"bandwith_hz": 20e6})
 
 
@@ -130,7 +118,7 @@ def register(monkeypatch):
 
 
 def test_a_plugin_without_a_default_radio_gets_the_defaults_as_before(register):
-    register("free-space", FreeSpace)
+    register("free-space", FreeSpaceAny)
     radio = _radio("free-space")
     assert _table_part(radio) == MMWAVE_TABLE
 

@@ -4,15 +4,15 @@ still loads. Every shipped scenario and experiment is plausible."""
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
-from adaptsky.channels import ChannelModel, free_space_gain, registry
+from adaptsky.channels import registry
 from adaptsky.channels.registry import PluginInfo
 from adaptsky.experiment.plan import load_experiment, shipped_experiments
 from adaptsky.scenario import load_scenario, parse_scenario
 from adaptsky.scenario.plausibility import plausibility_warnings
 from tests.conftest import SCENARIOS
+from tests.unit.scenario.free_space import FreeSpaceAny
 
 
 def _warnings(**sections) -> list[str]:
@@ -92,21 +92,6 @@ CASES = {
         {"reward": {"min_se": 50.0}}, {"reward": {"min_se": 3.5}},
         ["reward.min_se = 50 bit/s/Hz is far above", "the unit is bit/s/Hz"]),
 }
-
-
-class FreeSpaceAny(ChannelModel):
-    """Friis at any carrier, every link LoS: a model that reaches the carrier's range."""
-
-    contract_version = 2
-
-    def los_probability(self, geometry):
-        return np.ones(geometry.shape)
-
-    def gain_los(self, geometry):
-        return free_space_gain(geometry.distance_m, geometry.carrier_hz)
-
-    def gain_nlos(self, geometry):
-        return 0.1 * self.gain_los(geometry)
 
 
 @pytest.fixture(autouse=True)
