@@ -16,7 +16,7 @@ def uninterrupted(tmp_path_factory: pytest.TempPathFactory
     """The uninterrupted reference of test_reproduce's and test_dask's stopped runs: the two
     runs of ``curves_experiment`` trained once per session, in this process (both tests
     trained the same two runs again). Specs and curves only: nothing to change."""
-    from tests.e2e.test_reproduce import train_uninterrupted
+    from tests.helpers.reproduce import train_uninterrupted
 
     folder: Path = tmp_path_factory.mktemp("uninterrupted")
     return train_uninterrupted(folder)

@@ -8,7 +8,6 @@ import os
 import subprocess
 import sys
 import textwrap
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,8 +16,8 @@ from adaptsky.scenario import load_scenario
 from adaptsky.sim.batch import NomaUavBatch
 from adaptsky_cli.cli.main import main
 from tests.conftest import SCENARIOS
-
-ADAPTSKY = Path(sys.executable).with_name("adaptsky")
+from tests.helpers.cli import ADAPTSKY
+from tests.helpers.plugins import fake_distribution
 
 MALFORMED = {
     "wrong_type": ('name = "x"\n[area]\nside_m = "big"\n', "area.side_m",
@@ -94,20 +93,9 @@ def test_plugins_list_and_show(capsys):
     assert "unknown channel model 'nope'" in capsys.readouterr().err
 
 
-def _fake_distribution(root: Path, name: str, module_text: str) -> None:
-    """A plugin distribution on ``root`` (a dist-info folder and its module), as pip leaves it."""
-    module = name.replace("-", "_")
-    (root / f"{module}.py").write_text(textwrap.dedent(module_text))
-    info = root / f"{module}-0.3.dist-info"
-    info.mkdir()
-    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {name}\nVersion: 0.3\n")
-    (info / "entry_points.txt").write_text(
-        f"[adaptsky.channel_models]\n{name} = {module}:Model\n")
-
-
 def test_a_plugin_is_imported_when_used_or_listed_only(tmp_path):
     # every installed plugin was imported and called when a run needed one model
-    _fake_distribution(tmp_path, "probe-channel", "import sys\nsys.stdout.write('IMPORTED')\n")
+    fake_distribution(tmp_path, "probe-channel", "import sys\nsys.stdout.write('IMPORTED')\n")
     env = {**os.environ, "PYTHONPATH": str(tmp_path)}
     code = ("from adaptsky.channels.registry import get_model_class, names; "
             "get_model_class('mmwave-nyc'); print(' '.join(names()))")
@@ -143,7 +131,7 @@ def test_a_name_registered_by_two_packages_is_broken_and_neither_is_imported(tmp
 
 
 def test_a_broken_plugin_is_listed_and_breaks_nothing_else(tmp_path):
-    _fake_distribution(tmp_path, "broken-channel", "import no_such_module\n")
+    fake_distribution(tmp_path, "broken-channel", "import no_such_module\n")
     env = {**os.environ, "PYTHONPATH": str(tmp_path)}
     run = lambda *args: subprocess.run([str(ADAPTSKY), *args], capture_output=True,  # noqa: E731
                                        text=True, env=env, check=False)

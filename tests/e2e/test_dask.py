@@ -15,13 +15,13 @@ from pathlib import Path
 import pytest
 
 from adaptsky_cli.cli.main import main
-from tests.e2e.test_reproduce import (
+from tests.helpers.reproduce import (
     EPISODES,
     STEPS,
-    _episodes,
-    _wait_for,
     assert_equal_to_uninterrupted,
     curves_experiment,
+    episodes_trained,
+    wait_for,
 )
 
 pytest.importorskip("distributed")
@@ -81,7 +81,7 @@ def test_shipped_experiment_through_a_scheduler(cluster, tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 0, err
     assert "2 to run on Dask at" in err
-    assert [_episodes(out / "runs" / f"adaptsky-seed{s}.h5") for s in (0, 1)] == [3, 3]
+    assert [episodes_trained(out / "runs" / f"adaptsky-seed{s}.h5") for s in (0, 1)] == [3, 3]
     assert (out / "report.md").is_file() and (out / "e1a.png").is_file()
 
 
@@ -96,11 +96,11 @@ def test_a_killed_worker_s_run_resumes_from_its_checkpoint(cluster, tmp_path, un
     process = subprocess.Popen([str(BIN / "adaptsky"), *args], stdout=log.open("w"),
                                stderr=subprocess.STDOUT)
     # each worker holds one run; kill one once both have a checkpoint
-    _wait_for(lambda: min(_episodes(r) for r in runs) >= 2)
+    wait_for(lambda: min(episodes_trained(r) for r in runs) >= 2)
     cluster.workers[0].kill()
     cluster.workers[0].wait()
     assert process.wait(timeout=180) == 0, log.read_text()
-    assert [_episodes(r) for r in runs] == [EPISODES, EPISODES]
+    assert [episodes_trained(r) for r in runs] == [EPISODES, EPISODES]
     text = log.read_text()
     resumed = [int(n) for n in re.findall(r"resumed from episode (\d+)", text)]
     assert len(resumed) == 1 and 2 <= resumed[0] < EPISODES, text

@@ -17,7 +17,7 @@ from adaptsky.experiment.plan import load_experiment
 from adaptsky.scenario.toml_writer import dumps
 from adaptsky.store.eval_file import read_eval_metrics
 from adaptsky_cli.cli.main import main
-from tests.unit.sim.test_energy import scalar_power_w
+from tests.helpers.scalar_models import scalar_power_w
 
 SCENARIO = {"name": "small_energy", "area": {"side_m": 20.0},
             "users": {"positions_m": [[-8.0, 6.0], [-3.0, -7.0], [7.0, 5.0], [9.0, -8.0]]},

@@ -13,19 +13,17 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 import pytest
 
-from adaptsky.scenario import Scenario
 from adaptsky.store import atomic
 from adaptsky.store.atomic import error_code, storage_error
 from adaptsky.store.lock import lock_path, run_lock
 from adaptsky.store.run_file import RunReader
-from adaptsky.training import api
 from adaptsky.training.runner import RunFileWriter, SeedTask, train_stack
 from adaptsky_cli.cli.main import main
 from tests.conftest import SCENARIOS
-from tests.unit.training.test_train import assert_same_curves, curves, small_scenario
+from tests.helpers.faults import assert_same_run, leftovers, resume, stub
+from tests.helpers.training import small_scenario
 
 ADAPTSKY = Path(sys.executable).with_name("adaptsky")
 RUN = ["--seeds", "0,1", "--episodes", "2", "--steps", "10", "--checkpoint-every", "1",
@@ -48,29 +46,6 @@ def test_sigterm_at_start_up_is_one_line_and_130(tmp_path):
     assert "Traceback" not in stderr
     if process.returncode == 130:
         assert stderr.strip() == "interrupted"
-
-
-def resume(path: Path) -> list[str]:
-    return ["train", "--resume", str(path), "--workers", "1", "--quiet"]
-
-
-def weights(path: Path) -> dict[int, dict[str, np.ndarray]]:
-    with RunReader(path) as run:
-        return {seed: run.checkpoint(seed)["agent"]["policy"] for seed in run.seeds}
-
-
-def assert_same_run(path: Path, expected: Path) -> None:
-    """Learning curves and final policy weights equal, bit for bit."""
-    assert_same_curves(curves(path), curves(expected))
-    got, want = weights(path), weights(expected)
-    for seed in want:
-        for name in want[seed]:
-            assert np.array_equal(got[seed][name], want[seed][name]), (seed, name)
-
-
-def leftovers(path: Path) -> list[str]:
-    """Hidden copies and lock files beside ``path``."""
-    return sorted(p.name for p in path.parent.glob(f".{path.name}*"))
 
 
 def one_line(captured: pytest.CaptureResult) -> str:
@@ -230,15 +205,6 @@ def test_real_full_disk_exits_1_not_a_segfault(scenario, reference, tmp_path):
     assert leftovers(out) == []
     assert main(resume(out)) == 0
     assert_same_run(out, reference)
-
-
-def stub(scenario: Path, path: Path) -> Scenario:
-    """The run file as ``train`` makes it before any checkpoint (a run killed then)."""
-    loaded, text = api.load_with_overrides(scenario)
-    loaded = api._with_train(loaded, seeds=[0, 1], episodes=2, steps=10, checkpoint_every=1)
-    with run_lock(path):
-        api.create_run_file(path, loaded, text)
-    return loaded
 
 
 def test_run_killed_before_its_first_checkpoint_resumes(scenario, reference, tmp_path,

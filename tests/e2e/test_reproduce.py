@@ -8,67 +8,25 @@ import csv
 import os
 import re
 import signal
-import subprocess
-import sys
 import time
-from pathlib import Path
 
-import h5py
 import numpy as np
 import pytest
 
-from adaptsky.experiment.plan import RunSpec, load_experiment, plan_experiment
-from adaptsky.experiment.runs import execute_run
 from adaptsky.store.eval_file import read_eval_metrics
-from adaptsky.store.run_file import RunReader
 from adaptsky_cli.cli.main import main
-from tests.conftest import ROOT
-
-ADAPTSKY = Path(sys.executable).with_name("adaptsky")
-SMALL_AGENT = ['"agent.hidden_sizes=[32, 32]"', '"agent.batch_size=32"',
-               '"agent.memory_size=2000"']
-
-
-def write_experiment(folder: Path, body: str, name: str = "tiny") -> Path:
-    """An experiment file beside a link to the shipped scenarios."""
-    folder.mkdir(parents=True, exist_ok=True)
-    if not (folder.parent / "scenarios").exists():
-        (folder.parent / "scenarios").symlink_to(ROOT / "scenarios")
-    path = folder / f"{name}.toml"
-    path.write_text(body)
-    return path
-
-
-def curves_experiment(tmp_path: Path, runs: int = 2) -> Path:
-    return write_experiment(tmp_path / "experiments", f"""
-id = "tiny"
-title = "tiny learning curves"
-[[groups]]
-name = "agent"
-scenario = "../scenarios/sub6_al_hourani_released_code.toml"
-runs = {runs}
-set = [{", ".join(SMALL_AGENT)}]
-[evaluation]
-policy = "agent"
-steps = 50
-baselines = ["soa", "oracle"]
-[figure]
-kind = "learning-curves"
-[[claims]]
-text = "sum rate"
-quantity = "sum_rate_bps"
-paper = 400e6
-[[claims]]
-text = "gain"
-quantity = "gain_vs_soa_pct"
-""")
-
-
-def last_mean(path: Path, name: str = "sum_rate_bps") -> float:
-    with h5py.File(path, "r") as file:
-        group = next(iter(file["seeds"].values()))
-        done = int(group.attrs["episodes_done"])
-        return float(np.mean(group["episodes"][name][:done][-100:]))
+from tests.helpers.reproduce import (
+    EPISODES,
+    SMALL_AGENT,
+    STEPS,
+    assert_equal_to_uninterrupted,
+    curves_experiment,
+    episodes_trained,
+    last_mean,
+    start_adaptsky,
+    wait_for,
+    write_experiment,
+)
 
 
 def test_reproduce_writes_report_figure_csv_and_then_only_redraws(tmp_path, capsys):
@@ -121,30 +79,6 @@ def test_another_configuration_in_the_folder_is_refused(tmp_path, capsys):
     assert "made with another configuration (train.steps is 10 there, 20 here)" in line
 
 
-# long enough that neither run ends while the other's process still starts
-EPISODES, STEPS = 60, 100
-
-
-def _start(args: list[str], log: Path) -> subprocess.Popen:
-    return subprocess.Popen([str(ADAPTSKY), *args], stdout=log.open("w"),
-                            stderr=subprocess.STDOUT, start_new_session=True)
-
-
-def _episodes(path: Path) -> int:
-    try:
-        with RunReader(path) as run:
-            return run.seed_attrs(run.seeds[0])["episodes_done"]
-    except Exception:
-        return 0
-
-
-def _wait_for(condition, timeout_s: float = 120) -> None:
-    end = time.monotonic() + timeout_s
-    while not condition():
-        assert time.monotonic() < end, "timed out"
-        time.sleep(0.1)
-
-
 def test_kill_and_interrupt_lose_at_most_one_checkpoint_interval(tmp_path, uninterrupted):
     """kill -9 of the whole process group, then Ctrl-C, then a restart: every run ends equal,
     bit for bit, to an uninterrupted run of the same spec."""
@@ -154,16 +88,16 @@ def test_kill_and_interrupt_lose_at_most_one_checkpoint_interval(tmp_path, unint
             "--steps", str(STEPS), "--workers", "2", "--set", "train.checkpoint_every=2",
             "--runs-only"]
     runs = [out / "runs" / f"agent-seed{s}.h5" for s in (0, 1)]
-    process = _start(args, tmp_path / "first.log")
-    _wait_for(lambda: min(_episodes(r) for r in runs) >= 4)
+    process = start_adaptsky(args, tmp_path / "first.log")
+    wait_for(lambda: min(episodes_trained(r) for r in runs) >= 4)
     os.killpg(process.pid, signal.SIGKILL)
     process.wait()
-    at_kill = [_episodes(r) for r in runs]
+    at_kill = [episodes_trained(r) for r in runs]
     time.sleep(1.0)  # orphaned workers notice their parent is gone and stop
-    assert [_episodes(r) for r in runs] == at_kill  # no writer is left behind
+    assert [episodes_trained(r) for r in runs] == at_kill  # no writer is left behind
 
-    process = _start(args, tmp_path / "second.log")
-    _wait_for(lambda: all(_episodes(r) >= min(done + 4, EPISODES)
+    process = start_adaptsky(args, tmp_path / "second.log")
+    wait_for(lambda: all(episodes_trained(r) >= min(done + 4, EPISODES)
                           for r, done in zip(runs, at_kill, strict=True)))
     os.killpg(process.pid, signal.SIGINT)
     assert process.wait(timeout=60) in (0, 130)  # 0 if both happened to finish first
@@ -171,47 +105,13 @@ def test_kill_and_interrupt_lose_at_most_one_checkpoint_interval(tmp_path, unint
     resumed = [int(n) for n in re.findall(r"resumed from episode (\d+)", log)]
     unfinished = [done for done in at_kill if done < EPISODES]
     assert sorted(resumed) == sorted(unfinished)  # each continued from its checkpoint
-    if min(_episodes(r) for r in runs) < EPISODES:
+    if min(episodes_trained(r) for r in runs) < EPISODES:
         assert "interrupted; every run keeps its last checkpoint" in log
 
-    process = _start(args, tmp_path / "third.log")
+    process = start_adaptsky(args, tmp_path / "third.log")
     assert process.wait(timeout=120) == 0
-    assert [_episodes(r) for r in runs] == [EPISODES, EPISODES]
+    assert [episodes_trained(r) for r in runs] == [EPISODES, EPISODES]
     assert_equal_to_uninterrupted(experiment, runs, tmp_path / "fresh", uninterrupted)
-
-
-def _plan(experiment: Path, folder: Path) -> list[RunSpec]:
-    """The runs of ``experiment`` at EPISODES x STEPS, a checkpoint every 2, into ``folder``."""
-    model, path = load_experiment(str(experiment))
-    return plan_experiment(model, path, folder, episodes=EPISODES, steps=STEPS,
-                           set_values=["train.checkpoint_every=2"]).runs
-
-
-def train_uninterrupted(folder: Path) -> list[tuple[RunSpec, dict[str, np.ndarray]]]:
-    """curves_experiment's two runs trained without a stop, in this process (EPISODES x STEPS,
-    a checkpoint every 2): each run's spec and learning curves. The session fixture
-    ``uninterrupted`` (tests/e2e/conftest.py) trains them once for every test that stops and
-    restarts these runs."""
-    trained = []
-    for spec in _plan(curves_experiment(folder), folder / "fresh"):
-        execute_run(spec)
-        with RunReader(spec.path) as run:
-            trained.append((spec, run.episodes(spec.seed)))
-    return trained
-
-
-def assert_equal_to_uninterrupted(experiment: Path, runs: list[Path], folder: Path,
-                                  uninterrupted: list[tuple[RunSpec, dict[str, np.ndarray]]]
-                                  ) -> None:
-    """Each run file's curves equal those of the same run trained without a stop
-    (``uninterrupted``: the same spec, checked here, trained in this process)."""
-    specs = _plan(experiment, folder)
-    assert len(specs) == len(uninterrupted)
-    for spec, (fresh, curves), stopped in zip(specs, uninterrupted, runs, strict=True):
-        assert (spec.name, spec.seed, spec.config) == (fresh.name, fresh.seed, fresh.config)
-        with RunReader(stopped) as b:
-            for name, values in curves.items():
-                assert np.array_equal(values, b.episodes(spec.seed)[name], equal_nan=True), name
 
 
 def test_min_se_sweep_marks_what_soa_serves(tmp_path):

@@ -10,8 +10,8 @@ from pathlib import Path
 from PIL import Image
 
 from adaptsky_cli.cli.main import main
-from tests.e2e.test_reproduce import curves_experiment
-from tests.e2e.test_usage import one_line
+from tests.helpers.cli import one_line
+from tests.helpers.reproduce import curves_experiment
 
 SHORT = ["--episodes", "2", "--steps", "10", "--workers", "1", "--quiet"]
 

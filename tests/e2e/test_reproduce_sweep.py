@@ -13,7 +13,7 @@ import pytest
 
 from adaptsky.store.eval_file import read_eval_metrics
 from adaptsky_cli.cli.main import main
-from tests.e2e.test_reproduce import SMALL_AGENT, last_mean, write_experiment
+from tests.helpers.reproduce import SMALL_AGENT, last_mean, write_experiment
 
 KEY = "users.speed_m_per_step"
 

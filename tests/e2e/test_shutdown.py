@@ -28,8 +28,8 @@ from adaptsky.training import host, interrupts
 from adaptsky_cli.cli import entry
 from adaptsky_cli.cli.main import main
 from tests.conftest import SCENARIOS
-from tests.e2e.test_faults import assert_same_run, leftovers, resume, stub
-from tests.unit.training.test_train import small_scenario
+from tests.helpers.faults import assert_same_run, leftovers, resume, stub
+from tests.helpers.training import small_scenario
 
 ADAPTSKY = Path(sys.executable).with_name("adaptsky")
 SCENARIO = SCENARIOS / "nyc_mmwave.toml"

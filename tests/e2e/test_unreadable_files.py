@@ -19,7 +19,7 @@ import pytest
 
 from adaptsky_cli.cli.main import main
 from tests.conftest import SCENARIOS
-from tests.e2e.test_usage import one_line
+from tests.helpers.cli import one_line
 
 
 def _really_locked(path: Path) -> bool:

@@ -18,18 +18,10 @@ from adaptsky.store.run_file import RunReader
 from adaptsky_cli.cli.main import app, main
 from adaptsky_cli.cli.options import parse_seeds
 from tests.conftest import ROOT, SCENARIOS
+from tests.helpers.cli import one_line
 
 SCENARIO = str(SCENARIOS / "nyc_mmwave.toml")
 DOC_PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
-
-
-def one_line(capsys: pytest.CaptureFixture[str]) -> str:
-    """The one line on stderr (nothing on stdout, no traceback)."""
-    captured = capsys.readouterr()
-    lines = captured.err.strip().splitlines()
-    assert len(lines) == 1, captured.err
-    assert captured.out == "" and "Traceback" not in captured.err
-    return lines[0]
 
 
 # ---- usage errors: one line, exit 2, the fix where it is obvious ---------------------------

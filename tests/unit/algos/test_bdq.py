@@ -28,14 +28,15 @@ from adaptsky.store.run_file import RunReader
 from adaptsky.training import api
 from adaptsky.training.stack_run import Member, StackRun
 from adaptsky_cli.cli.main import main
-from tests.unit.training.test_gpu import assert_graphs_replay_eager
-from tests.unit.training.test_stack import assert_same_checkpoints, assert_same_results
-from tests.unit.training.test_stack import scenario as stack_scenario
-from tests.unit.training.test_train import (
+from tests.helpers.training import (
+    assert_graphs_replay_eager,
+    assert_same_checkpoints,
     assert_same_curves,
+    assert_same_results,
     curves,
     greedy_over_random,
     small_scenario,
+    stack_scenario,
 )
 
 BDQ_AGENT = {"algorithm": "bdq"}

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import subprocess
 import sys
 import textwrap
@@ -18,21 +17,16 @@ import pytest
 from adaptsky.channels import ChannelModel, ChannelParams
 from adaptsky.channels.checker import check_channel_model, structural_problems
 from adaptsky.channels.registry import discover
-from tests.conftest import ROOT
-from tests.e2e.test_cli import ADAPTSKY, _fake_distribution
-
-
-class Good(ChannelModel):
-    description = "free space at 28 GHz, always LoS"
-
-    def los_probability(self, geometry):
-        return np.ones(geometry.shape)
-
-    def gain_los(self, geometry):
-        return (299_792_458.0 / (4 * np.pi * 28e9 * geometry.distance_m)) ** 2
-
-    def gain_nlos(self, geometry):
-        return 0.1 * self.gain_los(geometry)
+from tests.helpers.cli import ADAPTSKY
+from tests.helpers.plugins import (
+    GUIDE_BLOCKS,
+    MISSING,
+    UNDECLARED,
+    Good,
+    fake_distribution,
+    guide_block,
+    guide_blocks,
+)
 
 
 class MissingMethod(ChannelModel):
@@ -104,17 +98,6 @@ def test_structure_alone_calls_nothing():
         "method: gain_nlos() is not implemented (abstract in ChannelModel)"]
 
 
-MISSING = """\
-    import numpy as np
-    from adaptsky.channels import ChannelModel
-
-    class Model(ChannelModel):
-        description = "forgets gain_nlos"
-        def los_probability(self, geometry):
-            return np.ones(geometry.shape)
-        def gain_los(self, geometry):
-            return 1.0 / geometry.distance_m ** 2
-    """
 WRONG_SHAPE = textwrap.dedent(MISSING) + """\
     def gain_nlos(self, geometry):
         return 0.1 / geometry.distance_m[:, 0] ** 2
@@ -130,7 +113,7 @@ def _run(tmp_path, *args, columns: int = 80, pythonpath: str | None = None):
 def _installed(tmp_path, modules: dict[str, str]) -> dict[str, dict]:
     """Install each module text as a plugin distribution; ``plugins list --json`` by name."""
     for name, text in modules.items():
-        _fake_distribution(tmp_path, name, text)
+        fake_distribution(tmp_path, name, text)
     return {p["name"]: p for p in json.loads(_run(tmp_path, "plugins", "list", "--json").stdout)}
 
 
@@ -154,7 +137,7 @@ def test_installed_plugins_are_checked_at_discovery_and_by_plugins_check(tmp_pat
 
 
 def test_plugins_list_keeps_a_broken_plugins_error_whole_at_80_columns(tmp_path):
-    _fake_distribution(tmp_path, "broken-channel", "import no_such_module_with_a_long_name\n")
+    fake_distribution(tmp_path, "broken-channel", "import no_such_module_with_a_long_name\n")
     shown = _run(tmp_path, "plugins", "list", columns=80)
     assert shown.returncode == 0
     assert ("broken-channel: ModuleNotFoundError: No module named "
@@ -177,41 +160,13 @@ def test_plugins_show_prints_types_and_limits(capsys):
     assert "los_c │ float │ 9.6117 │ > 0, <= 100" in text
 
 
-GUIDE = ROOT / "docs" / "plugins.md"
-
-# every fenced block of docs/plugins.md, by what it is; each is run (or, for the layout, built)
-# by the tests below, and a block that none of these names fails the first test
-GUIDE_BLOCKS = {
-    "entry point": lambda lang, text: lang == "toml" and text.startswith("[project.entry"),
-    "imports": lambda lang, text: lang == "python" and text.startswith("from adaptsky.channels"),
-    "fading": lambda lang, text: lang == "python" and "class FreeSpaceFading" in text,
-    "layout": lambda lang, text: lang == "" and text.startswith("adaptsky-free-space/"),
-    "module": lambda lang, text: lang == "python" and text.startswith('"""Free-space channel'),
-    "pyproject": lambda lang, text: lang == "toml" and "[project]" in text,
-    "scenario": lambda lang, text: lang == "toml" and 'model = "free-space"' in text,
-    "commands": lambda lang, text: lang == "sh" and "adaptsky plugins check" in text,
-    "tests": lambda lang, text: lang == "python" and "def test_matches_friis" in text,
-    "default radio": lambda lang, text: lang == "python" and "default_radio =" in text,
-    # section 9, run by tests/unit/channels/test_subclass_builtin.py
-    "subclass": lambda lang, text: lang == "python" and "class DenseNyc(MmWaveNyc)" in text,
-}
-
-
-def _guide_block(kind: str) -> str:
-    return next(text for lang, text in _guide_blocks() if GUIDE_BLOCKS[kind](lang, text))
-
-
-def _guide_blocks() -> list[tuple[str, str]]:
-    return re.findall(r"^```(\w*)\n(.*?)^```", GUIDE.read_text(), flags=re.DOTALL | re.MULTILINE)
-
-
 def test_every_block_of_the_guide_is_one_the_tests_run():
     kinds = [[kind for kind, is_it in GUIDE_BLOCKS.items() if is_it(lang, text)]
-             for lang, text in _guide_blocks()]
+             for lang, text in guide_blocks()]
     assert all(len(found) == 1 for found in kinds), kinds
     assert sorted(found[0] for found in kinds) == sorted(GUIDE_BLOCKS)
-    assert _guide_block("entry point").strip() in _guide_block("pyproject")
-    exec(_guide_block("imports"), {})  # the contract's names import as the guide lists them
+    assert guide_block("entry point").strip() in guide_block("pyproject")
+    exec(guide_block("imports"), {})  # the contract's names import as the guide lists them
 
 
 def _guide_package(root: Path, imports: str = "adaptsky.channels") -> Path:
@@ -220,7 +175,7 @@ def _guide_package(root: Path, imports: str = "adaptsky.channels") -> Path:
     hatchling), with the fading model of section 3 registered beside it; its code imports the
     contract from ``imports``."""
     def block(kind: str) -> str:
-        return _guide_block(kind).replace("adaptsky.channels", imports)
+        return guide_block(kind).replace("adaptsky.channels", imports)
 
     project = root / "adaptsky-free-space"
     package = project / "adaptsky_free_space"
@@ -275,10 +230,10 @@ def test_the_guides_free_space_plugin_works_as_written(tmp_path):
     assert listed["free-space"]["status"] == "ok", listed["free-space"]
     assert listed["free-space"]["contract_version"] == 2
     scenario = tmp_path / "my_scenario.toml"
-    scenario.write_text(_guide_block("scenario")
+    scenario.write_text(guide_block("scenario")
                         + "[train]\nepisodes = 2\nsteps = 10\neval_every = 0\n")
     ran = []
-    for line in _guide_block("commands").splitlines():
+    for line in guide_block("commands").splitlines():
         command = line.split("#")[0].strip()
         if command.startswith("pip install"):
             continue  # _guide_package installed it
@@ -358,10 +313,6 @@ def test_plugins_show_prints_the_contract_and_markup_free_text(capsys):
                        "path loss"}
 
 
-UNDECLARED = textwrap.dedent(MISSING) + """\
-    def gain_nlos(self, geometry):
-        return 0.1 / geometry.distance_m ** 2
-"""  # complete, written before contract versions
 FUTURE = UNDECLARED + "    contract_version = 3\n"
 
 
@@ -396,7 +347,7 @@ def test_the_guides_default_radio_is_the_built_in_ones():
     from adaptsky.channels.registry import get_model_class
 
     names = {"ChannelModel": ChannelModel}
-    exec(_guide_block("default radio"), names)
+    exec(guide_block("default radio"), names)
     declared = dict(names["Sub6AlHourani"].default_radio)
     assert declared == dict(get_model_class("sub6-al-hourani").default_radio)
     # the paper's Table I, sub-6 column (docs/model.md §2)

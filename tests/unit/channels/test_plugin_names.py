@@ -11,7 +11,7 @@ import pytest
 from adaptsky.channels import registry
 from adaptsky.errors import PluginError
 from adaptsky_cli.cli.main import main
-from tests.e2e.test_usage import one_line
+from tests.helpers.cli import one_line
 
 
 def installed() -> str:

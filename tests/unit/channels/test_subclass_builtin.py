@@ -19,7 +19,7 @@ from adaptsky_builtin_channels.mmwave_nyc import MmWaveNyc, MmWaveNycParams
 
 from adaptsky.channels import LinkGeometry
 from adaptsky.channels.checker import call_problems, check_channel_model, structural_problems
-from tests.unit.channels.test_plugin_check import _guide_block
+from tests.helpers.plugins import guide_block
 
 ROOT = Path(__file__).resolve().parents[3]
 GUIDE = ROOT / "docs" / "plugins.md"
@@ -42,7 +42,7 @@ def installed(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     package = tmp_path / "my_channels"
     package.mkdir()
     (package / "__init__.py").write_text("")
-    (package / "dense.py").write_text(_guide_block("subclass"))
+    (package / "dense.py").write_text(guide_block("subclass"))
     info = tmp_path / "my_channels-0.1.0.dist-info"
     info.mkdir()
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: my-channels\nVersion: 0.1.0\n")

@@ -22,8 +22,7 @@ from adaptsky.errors import ScenarioError
 from adaptsky.scenario import load_scenario, parse_scenario
 from adaptsky_cli.cli.main import main
 from tests.conftest import SCENARIOS
-from tests.e2e.test_cli import _fake_distribution
-from tests.unit.channels.test_plugin_check import UNDECLARED, Good
+from tests.helpers.plugins import UNDECLARED, Good, fake_distribution
 
 HINT = "; give {key} a value it supports, or choose another model (adaptsky plugins list)"
 
@@ -169,8 +168,8 @@ IGNORES_CARRIER = """\
 
 
 def test_plugins_check_reports_declarations_and_models_that_declare_nothing(tmp_path):
-    _fake_distribution(tmp_path, "old-channel", UNDECLARED)
-    _fake_distribution(tmp_path, "fixed-carrier", IGNORES_CARRIER)
+    fake_distribution(tmp_path, "old-channel", UNDECLARED)
+    fake_distribution(tmp_path, "fixed-carrier", IGNORES_CARRIER)
     old = _cli(tmp_path, "plugins", "check", "old-channel")  # contract 1, as before
     assert old.returncode == 0, old.stderr
     assert old.stdout.splitlines() == [

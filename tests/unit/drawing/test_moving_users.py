@@ -14,7 +14,7 @@ from adaptsky.drawing.episode import EpisodeBuffer, EpisodeData
 from adaptsky.drawing.episode_figure import EpisodeFigure, cluster_colours
 from adaptsky.envs.gym_env import NomaUavEnv
 from tests.conftest import make_scenario
-from tests.unit.drawing.test_episode_figure import walk
+from tests.helpers.drawing import walk
 
 DPI = 40
 

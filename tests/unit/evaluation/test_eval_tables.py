@@ -17,7 +17,7 @@ import pytest
 
 from adaptsky.store.eval_file import group_name
 from adaptsky_cli.cli.main import main
-from tests.e2e.test_usage import one_line
+from tests.helpers.cli import one_line
 
 STEPS = 130  # more than the steady state's 100 steps: the first 30 are left out
 METRICS = ("mean_sum_rate_bps", "steady_sum_rate_bps", "fairness", "min_user_se",

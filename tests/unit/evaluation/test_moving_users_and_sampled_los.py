@@ -21,7 +21,7 @@ from adaptsky.scenario.toml_writer import dumps
 from adaptsky.store.eval_file import read_eval_trajectory
 from adaptsky_cli.cli.main import main
 from tests.conftest import SUB6_RADIO, TINY_RUN_ARGS, make_scenario
-from tests.unit.evaluation.test_several_uavs_eval import small
+from tests.helpers.evaluation import small_two_uavs
 
 SPEED_M = 3.0
 STEPS = 40
@@ -84,7 +84,7 @@ def test_soa_follows_walking_users_with_the_policys_draws():
 
 
 def test_every_rollout_of_several_uavs_moves_the_users_alike(tmp_path):
-    scenario = load_scenario(small(tmp_path, users={"speed_m_per_step": 1.0}))
+    scenario = load_scenario(small_two_uavs(tmp_path, users={"speed_m_per_step": 1.0}))
     users_m = eval_layouts(scenario, 2)
     soa = run_baseline(scenario, "soa", 10, users_m).trace
     randomly = run_baseline(scenario, "random", 10, users_m).trace
@@ -119,7 +119,7 @@ def test_the_searches_refuse_walking_users_in_one_line(method, tmp_path, capsys)
 
 
 def test_best_response_under_sampled_los_searches_the_expected_gains(tmp_path):
-    scenario = load_scenario(small(tmp_path, channel={"los": "sampled"}))
+    scenario = load_scenario(small_two_uavs(tmp_path, channel={"los": "sampled"}))
     users_m = eval_layouts(scenario, None)
     expected = searched_scenario(scenario)
     assert expected.channel.los == "expected" and searched_scenario(expected) is expected
@@ -162,7 +162,7 @@ def test_oma_under_sampled_los_takes_its_rates_under_the_draws():
 
 
 def test_baseline_best_response_on_two_uavs_sub6_is_labelled(tmp_path, capsys):
-    path = small(tmp_path, channel={"los": "sampled"})
+    path = small_two_uavs(tmp_path, channel={"los": "sampled"})
     assert main(["baseline", str(path), "--method", "best-response", "--steps", "5"]) == 0
     text = " ".join(capsys.readouterr().out.split())
     assert f"best-response: {SAMPLED_LOS_NOTE}" in text

@@ -16,31 +16,11 @@ from adaptsky.evaluation.api import eval_layouts, run_baseline
 from adaptsky.rollouts import several_uavs
 from adaptsky.rollouts.oracle import oracle
 from adaptsky.scenario import load_scenario
-from adaptsky.scenario.toml_writer import dumps
 from adaptsky.sim.multi_batch import network_batch
 from adaptsky.store.eval_file import read_eval_metrics
 from adaptsky.training import api
 from adaptsky_cli.cli.main import main
-from tests.conftest import SCENARIOS
-
-
-def small(tmp_path: Path, name: str = "two", uavs: int = 2, **sections: dict) -> Path:
-    """two_uavs_mmwave.toml on a 20 m area (heights 10-16 m on a 2 m lattice, alpha grid 0.1
-    ... 0.9), 4 users: every search is a fraction of a second."""
-    data = load_scenario(SCENARIOS / "two_uavs_mmwave.toml").model_dump(mode="json")
-    data["name"] = name
-    data["area"]["side_m"] = 20.0
-    data["users"] |= {"count": 4,
-                      "positions_m": [[-8.0, -6.0], [-3.0, -9.0], [7.0, 8.0], [2.0, 4.0]]}
-    data["uav"] |= {"count": uavs, "start_m": [0.0, 0.0, 12.0], "min_height_m": 10.0,
-                    "max_height_m": 16.0, "step_m": [2.0, 2.0, 2.0], "power_step": 0.1}
-    data["agent"] |= {"hidden_sizes": [16], "batch_size": 8, "memory_size": 200}
-    data["train"] |= {"episodes": 2, "steps": 20}
-    for section, values in sections.items():
-        data[section] |= values
-    path = tmp_path / f"{name}.toml"
-    path.write_text(dumps(data))
-    return path
+from tests.helpers.evaluation import small_two_uavs
 
 
 def _lines(capsys) -> list[str]:
@@ -49,7 +29,7 @@ def _lines(capsys) -> list[str]:
 
 @pytest.mark.parametrize("method", ["soa", "best-response", "oma", "random"])
 def test_baseline_of_two_uavs(method, tmp_path, capsys):
-    path = small(tmp_path)
+    path = small_two_uavs(tmp_path)
     assert main(["baseline", str(path), "--method", method, "--layouts", "2", "--steps", "5",
                  "--json"]) == 0
     results = json.loads(capsys.readouterr().out)
@@ -71,7 +51,7 @@ def test_baseline_of_two_uavs(method, tmp_path, capsys):
 
 
 def test_the_oracle_is_refused_for_two_uavs_in_one_line(tmp_path, capsys):
-    path = small(tmp_path)
+    path = small_two_uavs(tmp_path)
     assert main(["baseline", str(path), "--method", "oracle"]) == 1
     assert _lines(capsys) == ["--method: the oracle is defined for one UAV; use best-response "
                               "(scenario 'two' has 2 UAVs)"]
@@ -80,7 +60,7 @@ def test_the_oracle_is_refused_for_two_uavs_in_one_line(tmp_path, capsys):
 def test_the_oracle_needs_deterministic_gains(tmp_path, capsys):
     # best response and OMA search sampled LoS on its expected gains
     # (test_moving_users_and_sampled_los.py); the oracle, a bound, refuses it
-    path = small(tmp_path, "one", uavs=1, channel={"los": "sampled"})
+    path = small_two_uavs(tmp_path, "one", uavs=1, channel={"los": "sampled"})
     assert main(["baseline", str(path), "--method", "oracle"]) == 1
     assert _lines(capsys) == ["scenario 'one': channel.los is 'sampled'; the oracle needs "
                               "deterministic gains: los = 'always' or 'expected', without "
@@ -88,7 +68,7 @@ def test_the_oracle_needs_deterministic_gains(tmp_path, capsys):
 
 
 def test_soa_per_uav_is_held_with_the_true_interference(tmp_path):
-    scenario = load_scenario(small(tmp_path))
+    scenario = load_scenario(small_two_uavs(tmp_path))
     users_m = eval_layouts(scenario, None)
     uav_m, alpha = several_uavs.soa_per_uav(scenario, users_m)
     result = run_baseline(scenario, "soa", 3, users_m)
@@ -99,7 +79,7 @@ def test_soa_per_uav_is_held_with_the_true_interference(tmp_path):
 
 
 def test_one_uav_best_response_is_the_oracle_and_oma_runs(tmp_path):
-    scenario = load_scenario(small(tmp_path, "one", uavs=1))
+    scenario = load_scenario(small_two_uavs(tmp_path, "one", uavs=1))
     users_m = eval_layouts(scenario, 3)
     best = run_baseline(scenario, "best-response", 5, users_m)
     exact = oracle(scenario, users_m)
@@ -115,7 +95,7 @@ def test_one_uav_best_response_is_the_oracle_and_oma_runs(tmp_path):
 @pytest.fixture(scope="module")
 def two_uav_run(tmp_path_factory) -> Path:
     tmp_path = tmp_path_factory.mktemp("several_uavs_eval")
-    run, _ = api.train(scenario_path=small(tmp_path), out=tmp_path / "two.h5", seeds=[0],
+    run, _ = api.train(scenario_path=small_two_uavs(tmp_path), out=tmp_path / "two.h5", seeds=[0],
                        workers=1, quiet=True)
     return run
 
@@ -159,7 +139,7 @@ def test_eval_refuses_the_oracle_and_one_uav_scenarios(two_uav_run, tmp_path, ca
                  str(tmp_path / "e.h5")]) == 1
     assert _lines(capsys) == ["--compare: the oracle is defined for one UAV; use "
                               "best-response (scenario 'two' has 2 UAVs)"]
-    one = small(tmp_path, "one", uavs=1)
+    one = small_two_uavs(tmp_path, "one", uavs=1)
     assert main(["eval", str(two_uav_run), "--scenario", str(one), "--out",
                  str(tmp_path / "e.h5")]) == 1
     assert _lines(capsys) == [f"{two_uav_run}: the policy was trained for 2 UAVs but the "
@@ -181,7 +161,7 @@ def test_a_damaged_search_is_refused(two_uav_run, tmp_path, capsys):
 
 
 def test_eval_refuses_a_one_uav_policy_on_two_uavs_in_one_line(tiny_run, tmp_path, capsys):
-    two = small(tmp_path)
+    two = small_two_uavs(tmp_path)
     assert main(["eval", "--checkpoint", str(tiny_run), "--scenario", str(two),
                  "--steps", "2", "--out", str(tmp_path / "e.h5")]) == 1
     assert _lines(capsys) == [f"{tiny_run}: the policy was trained for one UAV but the "
@@ -191,7 +171,7 @@ def test_eval_refuses_a_one_uav_policy_on_two_uavs_in_one_line(tiny_run, tmp_pat
 @pytest.mark.parametrize("uavs", [2, 3])
 def test_the_searches_are_held_as_found(uavs, tmp_path):
     users = [[-8.0, -6.0], [-3.0, -9.0], [7.0, 8.0], [2.0, 4.0], [-6.0, 7.0], [8.0, -5.0]]
-    scenario = load_scenario(small(tmp_path, uavs=uavs, area={"side_m": 10.0 * uavs},
+    scenario = load_scenario(small_two_uavs(tmp_path, uavs=uavs, area={"side_m": 10.0 * uavs},
                                    users={"count": 2 * uavs, "positions_m": users[:2 * uavs]}))
     users_m = eval_layouts(scenario, 2)
     best = run_baseline(scenario, "best-response", 7, users_m)

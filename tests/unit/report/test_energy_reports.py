@@ -14,8 +14,8 @@ import pytest
 from adaptsky.store.eval_file import read_eval_metrics
 from adaptsky.store.run_file import RunReader
 from adaptsky_cli.cli.main import main
-from tests.unit.sim.test_energy import scalar_power_w
-from tests.unit.training.test_train import small_scenario
+from tests.helpers.scalar_models import scalar_power_w
+from tests.helpers.training import small_scenario
 
 
 @pytest.fixture(scope="module")

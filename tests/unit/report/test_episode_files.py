@@ -25,7 +25,7 @@ from adaptsky.scenario.toml_writer import dumps
 from adaptsky.scenario.variants import eval_scenario
 from adaptsky.store.eval_file import write_eval
 from adaptsky_cli.cli.main import main
-from tests.unit.evaluation.test_several_uavs_eval import small
+from tests.helpers.evaluation import small_two_uavs
 
 DPI = 40
 WIDTH, HEIGHT = int(BLOCK_IN[0] * DPI), int(BLOCK_IN[1] * DPI)
@@ -192,7 +192,7 @@ def test_bad_choices_name_what_exists(tiny_run, eval_file, tmp_path, capsys):
 def test_an_eval_file_of_two_uavs_draws_both_and_their_users(tmp_path, capsys):
     """An eval file of SoA per UAV alone (written here, no policy): every UAV's position as
     stored (T, L, U, 3), each user's serving UAV from the association on the layout."""
-    scenario = small(tmp_path)
+    scenario = small_two_uavs(tmp_path)
     results, methods = baseline(scenario_path=scenario, method="soa", layouts=2, steps=6)
     evaluated = eval_scenario(load_scenario(scenario), 2, 0)  # as eval stores it
     results["scenario_toml"] = dumps(evaluated.model_dump(mode="json"))
@@ -230,7 +230,7 @@ def test_files_made_before_the_energy_are_shown_without_a_power_panel(eval_file,
                                                                       capsys):
     """A run file of format 2 (tests/data/legacy) and an eval file without the energy (as
     eval files were before it) give every picture; only the power panel is left out."""
-    from tests.unit.store.test_legacy_run_files import LEGACY
+    from tests.helpers.run_files import LEGACY
 
     legacy = tmp_path / "format2.h5"
     legacy.write_bytes((LEGACY / "format2-4b487ea.h5").read_bytes())

@@ -13,7 +13,7 @@ from PIL import Image
 from adaptsky.errors import AdaptskyError
 from adaptsky.report.figure_files import FIGURE_FORMATS, check_format, format_of, save_figure
 from adaptsky.report.figures import Level, learning_curves
-from tests.unit.report.test_figures import two_series
+from tests.helpers.report import two_series
 
 
 def figure():

@@ -20,7 +20,7 @@ from adaptsky.report.figures import (
     min_se_sweep,
     uav_count,
 )
-from tests.unit.report.test_figures import two_series
+from tests.helpers.report import two_series
 
 
 def short_series(episodes: int = 7) -> list[Series]:

@@ -30,6 +30,7 @@ from adaptsky.store.run_file import (
 )
 from adaptsky_cli.cli.main import main
 from tests.conftest import make_scenario
+from tests.helpers.report import two_series
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 GBPS = 1e9
@@ -101,13 +102,6 @@ def assert_png(path: Path, folder: Path) -> None:
     assert pixels.shape[:2] == (675, 1050)  # 4.5 x 7 inches at dpi 150
     assert pixels.std() > 0  # something is drawn
     assert sorted(p.name for p in folder.iterdir()) == [path.name]  # no temporary file left
-
-
-def two_series() -> list[Series]:
-    x = np.arange(10, 101)
-    rising = 30e9 + 10e9 * (1 - np.exp(-x / 30))
-    return [Series("dueling DQN", x, rising, rising - 1e9, rising + 1e9, runs=3),
-            Series("DQN", x, rising - 3e9, rising - 4e9, rising - 2e9, runs=1)]
 
 
 def test_learning_curves_png(tmp_path):

@@ -16,8 +16,8 @@ from adaptsky.report.plot_metrics import METRICS
 from adaptsky.report.plot_runs import runs_figure
 from adaptsky.store.layout import ENERGY_EPISODES, EPISODES
 from adaptsky_cli.cli.main import main
-from tests.e2e.test_usage import one_line
-from tests.unit.report.test_plot_metrics import line_of, make_run, stored
+from tests.helpers.cli import one_line
+from tests.helpers.report import line_of, make_run, stored
 
 SERIES = {"sum-rate": "sum_rate_bps", "fairness": "fairness",
           "energy-efficiency": "energy_efficiency_bpj", "reward": "reward",

@@ -16,7 +16,7 @@ from adaptsky.rollouts.several_uavs import best_oma, best_response, soa_per_uav
 from adaptsky.sim.layout import user_layouts
 from adaptsky.sim.multi_batch import MultiUavBatch, network_batch
 from tests.conftest import make_scenario
-from tests.unit.sim.test_interference import NOISE_W, scalar_gain, scalar_network
+from tests.helpers.scalar_models import NOISE_W, scalar_gain, scalar_network
 
 USERS_M = [[-3.0, 1.0], [-1.0, -3.0], [3.0, 2.0], [1.0, -1.0]]
 START_M = [[-2.0, 0.0, 10.0], [2.0, 0.0, 10.0]]

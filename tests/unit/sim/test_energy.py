@@ -14,21 +14,9 @@ from adaptsky.scenario import load_scenario, parse_scenario
 from adaptsky.sim.energy import ZENG_2019, StepEnergy, propulsion_power_w
 from adaptsky.sim.multi_batch import network_batch
 from tests.conftest import ROOT
+from tests.helpers.scalar_models import scalar_power_w
 
 SCENARIOS = ROOT / "scenarios"
-
-
-def scalar_power_w(v: float) -> float:
-    """P(V) = P0 (1 + 3V^2/U^2) + Pi (sqrt(1 + V^4/(4 v0^4)) - V^2/(2 v0^2))^(1/2)
-    + d0 rho s A V^3 / 2, with W = 20, rho = 1.225, R = 0.4, A = 0.503, Omega = 300,
-    U = 120, s = 0.05, d0 = 0.6, k = 0.1, delta = 0.012."""
-    w, rho, radius, area, omega, tip, s, d0, k, delta = (
-        20.0, 1.225, 0.4, 0.503, 300.0, 120.0, 0.05, 0.6, 0.1, 0.012)
-    p0 = delta / 8 * rho * s * area * omega**3 * radius**3
-    pi = (1 + k) * w**1.5 / math.sqrt(2 * rho * area)
-    v0 = math.sqrt(w / (2 * rho * area))
-    induced = math.sqrt(math.sqrt(1 + v**4 / (4 * v0**4)) - v**2 / (2 * v0**2))
-    return p0 * (1 + 3 * v**2 / tip**2) + pi * induced + 0.5 * d0 * rho * s * area * v**3
 
 
 @pytest.mark.parametrize(("speed", "power"), [(0.0, 168.48), (10.0, 126.02), (20.0, 178.29),

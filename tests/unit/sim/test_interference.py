@@ -22,64 +22,14 @@ from adaptsky.sim.interference import (
 )
 from adaptsky.sim.links import all_links_geometry, link_gains
 from tests.conftest import make_scenario
-
-TX_POWER_W = 0.1          # 20 dBm
-ANTENNA_GAIN = 64         # 8 x 8
-NOISE_W = 10 ** ((-79.0 - 30) / 10)
-BANDWIDTH_HZ = 2e9
-
-
-# ---- the plain formulas, one link and one user at a time ----------------------------------
-
-def scalar_gain(uav, user, los):
-    """mmWave NYC (eq. 4-5): the LoS gain, or the expected one."""
-    d = math.sqrt((uav[0] - user[0]) ** 2 + (uav[1] - user[1]) ** 2 + uav[2] ** 2)
-    g_los, g_nlos = 10 ** -6.4 * d ** -2.0, 10 ** -7.2 * d ** -2.92
-    if los == "always":
-        return g_los
-    theta = math.degrees(math.asin(uav[2] / d))
-    p = 1 / (1 + 9.6117 * math.exp(-0.1581 * (theta - 9.6117)))
-    return p * g_los + (1 - p) * g_nlos
-
-
-def scalar_network(uavs, users, serving, clusters, alpha_first, reuse, los="always"):
-    """Gains, interference, strong flags, SINR and rates of section 8.1 with loops.
-
-    ``clusters[u]`` lists UAV u's clusters as (first, second) user pairs; alpha_first[u][k]
-    is the share of cluster k's first user."""
-    gains = [[scalar_gain(uav, user, los) for user in users] for uav in uavs]
-    cluster_of = {}
-    for u, pairs in enumerate(clusters):
-        for k, (first, second) in enumerate(pairs):
-            cluster_of[first] = (u, k, second, alpha_first[u][k])
-            cluster_of[second] = (u, k, first, 1 - alpha_first[u][k])
-    pg = TX_POWER_W * ANTENNA_GAIN
-    interference, strong, sinr, rate, oma = [], [], [], [], []
-    for i in range(len(users)):
-        u, k, _, _ = cluster_of[i]
-        total = 0.0
-        if reuse == "full":
-            for other in range(len(uavs)):
-                if other != u and k < len(clusters[other]):
-                    total += pg * gains[other][i]
-        interference.append(total)
-    for i in range(len(users)):
-        u, k, partner, alpha = cluster_of[i]
-        c_i = gains[u][i] / (interference[i] + NOISE_W)
-        c_p = gains[u][partner] / (interference[partner] + NOISE_W)
-        is_strong = c_i > c_p
-        strong.append(is_strong)
-        signal = alpha * pg * gains[u][i]
-        if is_strong:
-            value = signal / (interference[i] + NOISE_W)
-        else:
-            alpha_s = 1 - alpha
-            value = signal / (alpha_s * pg * gains[u][i] + interference[i] + NOISE_W)
-        sinr.append(value)
-        rate.append(BANDWIDTH_HZ * math.log2(1 + value))
-        oma.append(BANDWIDTH_HZ / 2 * math.log2(
-            1 + pg * gains[u][i] / (interference[i] + NOISE_W)))
-    return gains, interference, strong, sinr, rate, oma
+from tests.helpers.scalar_models import (
+    ANTENNA_GAIN,
+    BANDWIDTH_HZ,
+    NOISE_W,
+    TX_POWER_W,
+    scalar_gain,
+    scalar_network,
+)
 
 
 # ---- the vectorised functions -------------------------------------------------------------

@@ -22,9 +22,8 @@ import pytest
 
 from adaptsky.store.run_file import RunReader
 from adaptsky_cli.cli.main import main
-from tests.conftest import ROOT
+from tests.helpers.run_files import LEGACY
 
-LEGACY = ROOT / "tests" / "data" / "legacy"
 FILES = {  # file -> (format, the --set options it was trained with)
     "format1-f76bddf.h5": (1, []),
     "format2-4b487ea.h5": (2, ["--set", "train.eval_every=1", "--set", "train.eval_steps=20"]),

@@ -17,7 +17,7 @@ from adaptsky.store import run_file
 from adaptsky.store.lock import lock_path, run_lock, writer_of
 from adaptsky.store.run_file import RunReader
 from adaptsky_cli.cli.main import main
-from tests.unit.store.test_run_file_validation import DAMAGES, _check_all_refuse, _commands
+from tests.helpers.run_files import DAMAGES, check_all_refuse, run_commands
 
 
 def _link(tmp_path: Path, run: Path) -> Path:
@@ -28,13 +28,13 @@ def _link(tmp_path: Path, run: Path) -> Path:
     return link
 
 
-def _sha256(path: Path) -> str:
+def sha256(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 def test_inspect_and_eval_read_a_run_through_a_link(tiny_run, tmp_path, capsys):
     link = _link(tmp_path, tiny_run)
-    commands = _commands(link, tmp_path / "eval.h5")
+    commands = run_commands(link, tmp_path / "eval.h5")
     for name in ("inspect", "eval"):
         assert main(commands[name]) == 0, (name, capsys.readouterr().err)
     assert "nyc" in capsys.readouterr().out
@@ -70,14 +70,14 @@ def test_the_lock_is_on_the_target(tiny_run_copy, tmp_path, capsys):
 
 def test_a_writer_keeps_to_the_file_it_locked_when_the_link_moves(tiny_run_copy, tmp_path):
     other = Path(shutil.copyfile(tiny_run_copy, tmp_path / "other.h5"))
-    before = _sha256(other)
+    before = sha256(other)
     link = _link(tmp_path, tiny_run_copy)
     with run_lock(link):
         link.unlink()
         link.symlink_to(other)  # ln -sf other.h5 latest.h5, while the writer works
         run_file.record_session(link, "resume", ["adaptsky"], "2026-01-01T00:00:00Z", 1.0,
                                 {0: 2, 1: 2})
-    assert _sha256(other) == before
+    assert sha256(other) == before
     with RunReader(tiny_run_copy) as run:
         assert run.sessions[-1]["command_line"] == ["adaptsky"]
 
@@ -85,14 +85,14 @@ def test_a_writer_keeps_to_the_file_it_locked_when_the_link_moves(tiny_run_copy,
 def test_a_link_to_nothing_is_one_line(tmp_path, capsys):
     link = tmp_path / "latest.h5"
     link.symlink_to("run-gone.h5")
-    _check_all_refuse(link, tmp_path, capsys,
+    check_all_refuse(link, tmp_path, capsys,
                       "is a symbolic link to run-gone.h5, which does not exist")
 
 
 def test_a_link_to_a_folder_is_not_a_run_file(tmp_path, capsys):
     link = _link(tmp_path, tmp_path / "folder.h5")
     (tmp_path / "folder.h5").mkdir()
-    _check_all_refuse(link, tmp_path, capsys, "is a directory, not a run file")
+    check_all_refuse(link, tmp_path, capsys, "is a directory, not a run file")
 
 
 @pytest.mark.parametrize("case", ["soft_link", "not_a_run"])
@@ -101,9 +101,9 @@ def test_a_damaged_file_behind_a_link_is_refused(case, tiny_run, tmp_path, capsy
     path = Path(shutil.copyfile(tiny_run, tmp_path / f"{case}.h5"))
     with h5py.File(path, "a") as f:
         damage(f)
-    before = _sha256(path)
-    _check_all_refuse(_link(tmp_path, path), tmp_path, capsys, message)
-    assert _sha256(path) == before, "--resume changed the damaged file"
+    before = sha256(path)
+    check_all_refuse(_link(tmp_path, path), tmp_path, capsys, message)
+    assert sha256(path) == before, "--resume changed the damaged file"
 
 
 def test_an_external_link_inside_the_file_is_refused_through_a_link(tiny_run, tmp_path,
@@ -113,5 +113,5 @@ def test_an_external_link_inside_the_file_is_refused_through_a_link(tiny_run, tm
     with h5py.File(path, "a") as f:
         del f["seeds/0/checkpoint/rng"]
         f["seeds/0/checkpoint/rng"] = h5py.ExternalLink("donor.h5", "/seeds/0/checkpoint/rng")
-    _check_all_refuse(_link(tmp_path, path), tmp_path, capsys,
+    check_all_refuse(_link(tmp_path, path), tmp_path, capsys,
                       "/seeds/0/checkpoint/rng: is an external link")

@@ -5,13 +5,11 @@ sessions and units are recorded."""
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import shutil
 import sys
 import time
-from collections.abc import Callable
 from pathlib import Path
 
 import h5py
@@ -21,9 +19,7 @@ import pytest
 from adaptsky.store import run_file
 from adaptsky.store.run_file import RunFileError, RunReader
 from adaptsky_cli.cli.main import main
-
-POLICY = "seeds/0/checkpoint/agent/policy"
-REPLAY = "seeds/0/checkpoint/replay"
+from tests.helpers.run_files import DAMAGES, POLICY, check_all_refuse
 
 
 @pytest.fixture
@@ -33,142 +29,8 @@ def run(tiny_run: Path) -> Path:
     return tiny_run
 
 
-def _attr(name: str, value: object) -> Callable[[h5py.File], None]:
-    def damage(f: h5py.File) -> None:
-        if value is None:
-            del f.attrs[name]
-        else:
-            f.attrs[name] = value
-    return damage
-
-
-def _delete(name: str) -> Callable[[h5py.File], None]:
-    def damage(f: h5py.File) -> None:
-        del f[name]
-    return damage
-
-
-def _replace(name: str, **dataset: object) -> Callable[[h5py.File], None]:
-    def damage(f: h5py.File) -> None:
-        del f[name]
-        f.create_dataset(name, **dataset)
-    return damage
-
-
-def _config_without_train(f: h5py.File) -> None:
-    config = json.loads(f["config"][()].decode())
-    del config["train"]
-    del f["config"]
-    f.create_dataset("config", data=json.dumps(config), dtype=h5py.string_dtype())
-
-
 def _nan_weight(f: h5py.File) -> None:
     f[f"{POLICY}/advantage.bias"][3] = np.nan
-
-
-def _rng_state_out_of_range(f: h5py.File) -> None:
-    rng = f["seeds/0/checkpoint/rng"]
-    state = json.loads(rng.attrs["numpy_agent_json"])
-    state["state"]["state"] = 2**200
-    rng.attrs["numpy_agent_json"] = json.dumps(state)
-
-
-def _soft_link(f: h5py.File) -> None:
-    del f[f"{POLICY}/torso.0.bias"]
-    f[f"{POLICY}/torso.0.bias"] = h5py.SoftLink("/seeds/1/checkpoint/agent/policy/torso.0.bias")
-
-
-# damage -> what the one line must say; every case is refused by inspect, eval and --resume
-DAMAGES: dict[str, tuple[Callable[[h5py.File], None], str]] = {
-    "version_0": (_attr("format_version", 0), "/@format_version: is 0 (expected 1 or 2 or 3)"),
-    "version_negative": (_attr("format_version", -1),
-                         "/@format_version: is -1 (expected 1 or 2 or 3)"),
-    "version_fraction": (_attr("format_version", 1.5),
-                         "/@format_version: is 1.5 (expected an integer)"),
-    "version_text": (_attr("format_version", "1"),
-                     "/@format_version: is '1' (expected an integer)"),
-    "version_missing": (_attr("format_version", None), "/@format_version: missing"),
-    "version_newer": (_attr("format_version", 99),
-                      "format version 99 is newer than this adaptsky"),
-    "not_a_run": (_attr("kind", "adaptsky-eval"), "not an adaptsky run file"),
-    "seed_group": (_delete("seeds/1"), "/seeds/1: missing (expected a group for every seed"),
-    "episodes_table": (_delete("seeds/0/episodes/fairness"),
-                       "/seeds/0/episodes/fairness: missing"),
-    "short_table": (_replace("seeds/0/episodes/reward", data=np.zeros(1)),
-                    "/seeds/0/episodes/reward: has 1 rows (expected 2 to 2"),
-    "target_network": (_delete("seeds/0/checkpoint/agent/target"),
-                       "/seeds/0/checkpoint/agent/target: missing"),
-    "optimizer": (_delete("seeds/0/checkpoint/agent/optimizer"),
-                  "/seeds/0/checkpoint/agent/optimizer: missing"),
-    "optimizer_moment": (_delete("seeds/1/checkpoint/agent/optimizer/state/3/exp_avg_sq"),
-                         "/seeds/1/checkpoint/agent/optimizer/state/3/exp_avg_sq: missing"),
-    "rng_state": (_delete("seeds/0/checkpoint/rng"), "/seeds/0/checkpoint/rng: missing"),
-    "rng_json": (lambda f: f["seeds/0/checkpoint/rng"].attrs.__setitem__(
-        "numpy_env_json", '{"bit_generator": "PCG64"}'),
-        "/seeds/0/checkpoint/rng/@numpy_env_json: is not valid"),
-    "replay_array": (_delete(f"{REPLAY}/actions"), f"/{REPLAY}/actions: missing"),
-    "policy_weight": (_delete(f"{POLICY}/torso.2.weight"), f"/{POLICY}/torso.2.weight: missing"),
-    "weight_shape": (_replace(f"{POLICY}/torso.0.weight", data=np.zeros((64, 17), np.float32)),
-                     f"/{POLICY}/torso.0.weight: shape (64, 17) (expected (128, 17)"),
-    "weight_dtype": (_replace(f"{POLICY}/value.bias", data=np.zeros(1, np.int64)),
-                     f"/{POLICY}/value.bias: dtype int64 (expected float)"),
-    # declared 2**36 rows: 4.7 TB if read; HDF5 allocates nothing, so the file stays small
-    "replay_terabytes": (_replace(f"{REPLAY}/observations", shape=(2**36, 17), dtype="f4",
-                                  chunks=(1024, 17)),
-                         f"/{REPLAY}/observations: shape (68719476736, 17) (expected (10, 17)"),
-    "replay_position": (lambda f: f[REPLAY].attrs.__setitem__("position", 3),
-                        f"/{REPLAY}/@position: is 3 (expected 10"),
-    "config_without_train": (_config_without_train,
-                             "/config: section 'train' is missing"),
-    "config_invalid": (lambda f: f["config"].parent.__delitem__("config") or f.create_dataset(
-        "config", data="{not json", dtype=h5py.string_dtype()), "/config: is not JSON"),
-    "soft_link": (_soft_link, f"/{POLICY}/torso.0.bias: is a soft link to /seeds/1/"),
-    "checkpoint_of_other_episode": (
-        lambda f: f["seeds/1/checkpoint"].attrs.__setitem__("episode", 1),
-        "/seeds/1/checkpoint/@episode: is 1 (expected 2)"),
-    "no_checkpoint_after_episodes": (_delete("seeds/0/checkpoint"),
-                                     "/seeds/0/checkpoint: missing, but episodes_done is 2"),
-    # found by fuzzing: numpy raised OverflowError on an RNG state out of uint64's range, and
-    # a learning-curve table that cannot grow passed until --resume tried to append to it
-    "rng_state_out_of_range": (_rng_state_out_of_range,
-                               "/seeds/0/checkpoint/rng/@numpy_agent_json: is not valid"),
-    "table_that_cannot_grow": (_replace("seeds/0/episodes/loss", data=np.zeros(2)),
-                               "/seeds/0/episodes/loss: cannot grow"),
-}
-
-
-def _sha256(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
-
-
-def _refused(args: list[str], capsys: pytest.CaptureFixture[str], path: Path,
-             message: str) -> None:
-    assert main(args) == 1, args
-    captured = capsys.readouterr()
-    lines = captured.err.strip().splitlines()
-    assert len(lines) == 1, (args, captured.err)
-    assert lines[0].startswith(f"{path}: ") and message in lines[0], (args, lines[0])
-    assert "Traceback" not in captured.err + captured.out
-
-
-def _commands(path: Path, eval_out: Path) -> dict[str, list[str]]:
-    return {"inspect": ["inspect", str(path)],
-            "eval": ["eval", "--checkpoint", str(path), "--steps", "5", "--compare", "",
-                     "--out", str(eval_out)],
-            "resume": ["train", "--resume", str(path), "--workers", "1", "--quiet"]}
-
-
-def _check_all_refuse(path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str],
-                      message: str, commands: tuple[str, ...] = ("inspect", "eval", "resume")
-                      ) -> None:
-    before = _sha256(path) if path.is_file() and not path.is_symlink() else None
-    eval_out = tmp_path / "eval.h5"
-    for name, args in _commands(path, eval_out).items():
-        if name in commands:
-            _refused(args, capsys, path, message)
-    assert not eval_out.exists(), "eval wrote an eval file from a damaged run"
-    if before is not None:
-        assert _sha256(path) == before, "--resume changed the damaged file"
 
 
 @pytest.mark.parametrize("case", sorted(DAMAGES))
@@ -179,7 +41,7 @@ def test_damaged_copy_is_refused_in_one_line(case, run, tmp_path, capsys):
     with h5py.File(path, "a") as f:
         damage(f)
     start = time.perf_counter()
-    _check_all_refuse(path, tmp_path, capsys, message)
+    check_all_refuse(path, tmp_path, capsys, message)
     assert time.perf_counter() - start < 5, "validation read more than the layout"
 
 
@@ -199,7 +61,7 @@ def test_nan_weight_is_refused_where_the_weights_are_read(run, tmp_path, capsys)
     shutil.copyfile(run, path)
     with h5py.File(path, "a") as f:
         _nan_weight(f)
-    _check_all_refuse(path, tmp_path, capsys,
+    check_all_refuse(path, tmp_path, capsys,
                       f"/{POLICY}/advantage.bias: 1 value is NaN or infinite "
                       "(expected finite numbers)", commands=("eval", "resume"))
     assert main(["inspect", str(path)]) == 0
@@ -210,20 +72,20 @@ def test_nan_in_learning_curve_is_refused_by_inspect(run, tmp_path, capsys):
     shutil.copyfile(run, path)
     with h5py.File(path, "a") as f:
         f["seeds/1/episodes/sum_rate_bps"][0] = np.inf
-    _check_all_refuse(path, tmp_path, capsys, "/seeds/1/episodes/sum_rate_bps: 1 value is "
+    check_all_refuse(path, tmp_path, capsys, "/seeds/1/episodes/sum_rate_bps: 1 value is "
                       "NaN or infinite", commands=("inspect",))
 
 
 def test_file_that_links_to_itself(tmp_path, capsys):
     path = tmp_path / "loop.h5"
     path.symlink_to(path.name)
-    _check_all_refuse(path, tmp_path, capsys, "is a symbolic link that points to itself")
+    check_all_refuse(path, tmp_path, capsys, "is a symbolic link that points to itself")
 
 
 def test_directory_is_not_a_run_file(tmp_path, capsys):
     path = tmp_path / "dir.h5"
     path.mkdir()
-    _check_all_refuse(path, tmp_path, capsys, "not a run file")
+    check_all_refuse(path, tmp_path, capsys, "not a run file")
 
 
 @pytest.mark.skipif(os.geteuid() == 0, reason="root reads files without read permission")
@@ -231,7 +93,7 @@ def test_unreadable_file(run, tmp_path, capsys):
     path = tmp_path / "unreadable.h5"
     shutil.copyfile(run, path)
     path.chmod(0o200)
-    _check_all_refuse(path, tmp_path, capsys, "cannot read run file (Permission denied)")
+    check_all_refuse(path, tmp_path, capsys, "cannot read run file (Permission denied)")
 
 
 def test_unreadable_file_even_as_root(run, tmp_path, capsys, monkeypatch):

@@ -14,10 +14,12 @@ from adaptsky.store.run_file import RunReader
 from adaptsky.training import api
 from adaptsky.training.stack_run import Member, StackRun
 from adaptsky_cli.cli.main import main
-from tests.unit.training.test_stack import assert_same_results, scenario
-from tests.unit.training.test_train import small_scenario
-
-cuda = pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device")
+from tests.helpers.training import (
+    assert_graphs_replay_eager,
+    cuda,
+    small_scenario,
+    stack_scenario,
+)
 
 
 @pytest.mark.skipif(torch.cuda.is_available(), reason="this machine has CUDA")
@@ -44,27 +46,16 @@ def test_unknown_device_is_one_line(tmp_path, capsys):
     assert code == 1 and "Traceback" not in err and "cpu, cuda" in err
 
 
-def assert_graphs_replay_eager(base: object, episodes: int = 3) -> None:
-    """Four seeds of ``base`` on the GPU: the CUDA-graph update equals the eager one."""
-    members = [Member(base, seed) for seed in range(4)]
-    graphed = StackRun(members, "cuda", graphs=True)
-    eager = StackRun(members, "cuda", graphs=False)
-    for _ in range(episodes):
-        for a, b in zip(graphed.run_episode(), eager.run_episode(), strict=True):
-            assert_same_results(a, b)
-    assert torch.equal(graphed.algorithm.agent.params, eager.algorithm.agent.params)
-
-
 @cuda
 def test_graphs_replay_the_eager_update_exactly():
-    assert_graphs_replay_eager(scenario())
+    assert_graphs_replay_eager(stack_scenario())
 
 
 @cuda
 def test_a_gpu_member_starts_as_the_cpu_member():
     """One update on the GPU and on the CPU agree to float32 rounding (not bit for bit:
     cuBLAS and MKL sum in different orders)."""
-    base = scenario()
+    base = stack_scenario()
     gpu = StackRun([Member(base, seed) for seed in range(8)], "cuda")
     cpu = StackRun([Member(base, 3)], "cpu")
     gpu.run_episode()

@@ -12,7 +12,7 @@ import pytest
 from adaptsky.errors import AdaptskyError
 from adaptsky.training.host import Job, ProcessHost
 from adaptsky.training.messages import Done, Failed, WorkerLost
-from tests.e2e.test_reproduce import _episodes, _start, _wait_for, curves_experiment
+from tests.helpers.reproduce import curves_experiment, episodes_trained, start_adaptsky, wait_for
 
 
 def _answer(value: object, emit, stop, orphaned) -> None:
@@ -73,9 +73,9 @@ def test_reproduce_quits_at_once_on_a_second_ctrl_c(tmp_path):
     out = tmp_path / "out"
     runs = [out / "runs" / f"agent-seed{s}.h5" for s in (0, 1)]
     # episodes of seconds: a checkpoint at the end of the current one would take that long
-    process = _start(["reproduce", str(experiment), "--out", str(out), "--episodes", "10",
+    process = start_adaptsky(["reproduce", str(experiment), "--out", str(out), "--episodes", "10",
                       "--steps", "20000", "--workers", "2", "--runs-only"], tmp_path / "log")
-    _wait_for(lambda: all(run.exists() for run in runs))
+    wait_for(lambda: all(run.exists() for run in runs))
     time.sleep(2.0)
     os.killpg(process.pid, signal.SIGINT)
     time.sleep(0.3)
@@ -86,7 +86,7 @@ def test_reproduce_quits_at_once_on_a_second_ctrl_c(tmp_path):
     assert code == 130, log
     assert time.monotonic() - began < 5.0, log
     assert "quit: the run files keep agent-seed0 " in log and "Traceback" not in log, log
-    assert [_episodes(run) for run in runs] == [0, 0]  # no checkpoint was waited for
+    assert [episodes_trained(run) for run in runs] == [0, 0]  # no checkpoint was waited for
 
 
 def test_a_second_ctrl_c_that_python_dropped_is_raised_again():

@@ -19,9 +19,14 @@ from adaptsky.training import api
 from adaptsky.training.evaluation import evaluation_set
 from adaptsky.training.stack_run import Member, StackRun
 from adaptsky_cli.cli.main import main
-from tests.unit.training.test_gpu import assert_graphs_replay_eager, cuda
-from tests.unit.training.test_stack import assert_same_checkpoints, assert_same_results
-from tests.unit.training.test_train import assert_same_curves, curves
+from tests.helpers.training import (
+    assert_graphs_replay_eager,
+    assert_same_checkpoints,
+    assert_same_curves,
+    assert_same_results,
+    cuda,
+    curves,
+)
 
 TWO_UAVS = {
     "name": "two_small",

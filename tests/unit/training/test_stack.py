@@ -15,46 +15,15 @@ from adaptsky.store.run_file import RunReader, SeedCheckpoint
 from adaptsky.training.messages import Checkpoints, Done, Message
 from adaptsky.training.runner import SeedTask, train_stack
 from adaptsky.training.stack_run import Member, StackRun, stack_key
-from tests.conftest import TRAINING_LAYOUT_M, make_scenario
-
-AGENT = {"hidden_sizes": [16, 16], "batch_size": 16, "memory_size": 300,
-         "target_update_episodes": 2}
-
-
-def scenario(**sections):
-    """A fast scenario that draws: sampled LoS and moving users (every member's generator is
-    used every step)."""
-    base = {"agent": AGENT, "train": {"steps": 40, "episodes": 4},
-            "channel": {"los": "sampled"},
-            "users": {"positions_m": [list(p) for p in TRAINING_LAYOUT_M],
-                      "speed_m_per_step": 1.0}}
-    for name, values in sections.items():
-        base[name] = {**base.get(name, {}), **values}
-    return make_scenario(**base)
+from tests.helpers.training import assert_same_checkpoints, assert_same_results, stack_scenario
 
 
 def episodes(run: StackRun, count: int) -> list[list]:
     return [run.run_episode() for _ in range(count)]
 
 
-def assert_same_results(a, b) -> None:
-    for name in a.metrics:
-        assert np.array_equal(a.metrics[name], b.metrics[name], equal_nan=True), name
-    for name in a.trajectory:
-        assert np.array_equal(a.trajectory[name], b.trajectory[name]), name
-
-
-def assert_same_checkpoints(a, b) -> None:
-    if isinstance(a, dict):
-        assert a.keys() == b.keys()
-        for key in a:
-            assert_same_checkpoints(a[key], b[key])
-    else:
-        assert np.array_equal(a, b), (a, b)
-
-
 def test_a_seed_in_a_stack_of_four_equals_the_seed_alone():
-    base = scenario()
+    base = stack_scenario()
     stack = StackRun([Member(base, seed) for seed in (11, 12, 13, 14)])
     alone = StackRun([Member(base, 13)])
     for together, single in zip(episodes(stack, 4), episodes(alone, 4), strict=True):
@@ -65,7 +34,7 @@ def test_a_seed_in_a_stack_of_four_equals_the_seed_alone():
 
 
 def test_exploring_starts_of_one_uav_draw_per_seed_alone_or_in_a_stack():
-    base = scenario(train={"exploring_starts": "shares"})
+    base = stack_scenario(train={"exploring_starts": "shares"})
     stack = StackRun([Member(base, seed) for seed in (11, 12)])
     alone = StackRun([Member(base, 12)])
     for together, single in zip(episodes(stack, 2), episodes(alone, 2), strict=True):
@@ -78,7 +47,7 @@ def test_exploring_starts_of_one_uav_draw_per_seed_alone_or_in_a_stack():
 def test_members_may_differ_in_their_reward():
     weights = [{"min_se": 0.0, "w_rate": 1.0}, {"min_se": 2.0, "w_satisfied": 100.0,
                                                  "w_unsatisfied": 10.0}]
-    members = [Member(scenario(reward=w), seed=5) for w in weights]
+    members = [Member(stack_scenario(reward=w), seed=5) for w in weights]
     stack = StackRun(members)
     alone = StackRun([members[1]])
     together, single = stack.run_episode(), alone.run_episode()
@@ -88,9 +57,10 @@ def test_members_may_differ_in_their_reward():
 
 def test_members_must_share_the_environment_and_network():
     with pytest.raises(ValueError, match="may differ only in"):
-        StackRun([Member(scenario(), 0), Member(scenario(radio={"tx_power_dbm": 10.0}), 1)])
-    assert stack_key(scenario(reward={"w_rate": 3.0})) == stack_key(scenario())
-    assert stack_key(scenario(agent={"dueling": False})) != stack_key(scenario())
+        StackRun([Member(stack_scenario(), 0),
+                  Member(stack_scenario(radio={"tx_power_dbm": 10.0}), 1)])
+    assert stack_key(stack_scenario(reward={"w_rate": 3.0})) == stack_key(stack_scenario())
+    assert stack_key(stack_scenario(agent={"dueling": False})) != stack_key(stack_scenario())
 
 
 class Collect:
@@ -111,7 +81,7 @@ class Collect:
 def test_resumes_from_different_episodes_catch_up_and_merge():
     """Seeds checkpointed at episodes 1 and 3 train to 4 as a stack: the one behind trains
     alone first, then both together; each ends as it would uninterrupted."""
-    base = scenario()
+    base = stack_scenario()
     reference = StackRun([Member(base, 1), Member(base, 2)])
     states = {}
     for episode in range(1, 5):
@@ -128,7 +98,7 @@ def test_resumes_from_different_episodes_catch_up_and_merge():
 
 
 def test_stop_checkpoints_every_member():
-    base = scenario()
+    base = stack_scenario()
     tasks = [SeedTask(base, seed, 4, 10, 0) for seed in (0, 1)]
     collect = Collect()
     train_stack(tasks, collect, lambda: True)

@@ -17,42 +17,13 @@ import h5py
 import numpy as np
 import pytest
 
-from adaptsky.rollouts.rollout import checkpoint_policy, random_policy, rollout
-from adaptsky.scenario import load_scenario
-from adaptsky.scenario.toml_writer import dumps
-from adaptsky.sim.layout import user_layouts
 from adaptsky.store.run_file import RunReader
 from adaptsky.training import api
 from adaptsky_cli.cli.main import main
 from tests.conftest import SCENARIOS
+from tests.helpers.training import assert_same_curves, curves, greedy_over_random, small_scenario
 
 ADAPTSKY = Path(sys.executable).with_name("adaptsky")
-
-
-def small_scenario(tmp_path: Path, name: str = "small", **agent: object) -> Path:
-    """nyc_mmwave with a small, fast agent: the shape of the paper's set-up at a fraction of
-    its cost."""
-    data = load_scenario(SCENARIOS / "nyc_mmwave.toml").model_dump(mode="json")
-    data["name"] = name
-    data["agent"] |= {"hidden_sizes": [32, 32], "batch_size": 32, "memory_size": 2000,
-                      "target_update_episodes": 2, **agent}
-    data["train"] |= {"episodes": 12, "steps": 100, "checkpoint_every": 3}
-    path = tmp_path / f"{name}.toml"
-    path.write_text(dumps(data))
-    return path
-
-
-def curves(path: Path) -> dict[int, dict[str, np.ndarray]]:
-    with RunReader(path) as run:
-        return {seed: run.episodes(seed) for seed in run.seeds}
-
-
-def assert_same_curves(a: dict, b: dict) -> None:
-    assert a.keys() == b.keys()
-    for seed in a:
-        assert a[seed].keys() == b[seed].keys()
-        for name in a[seed]:
-            assert np.array_equal(a[seed][name], b[seed][name], equal_nan=True), (seed, name)
 
 
 def test_paper_scenario_run_file_layout(tmp_path, capsys):
@@ -105,20 +76,6 @@ def test_learning_beats_random_by_a_clear_margin(tmp_path):
     scenario_path = small_scenario(tmp_path, hidden_sizes=[128, 128], batch_size=64,
                                    memory_size=5000, gamma=0.8, lr=3e-4)
     assert greedy_over_random(scenario_path, tmp_path / "learn.h5", episodes=30) > 1.15
-
-
-def greedy_over_random(scenario_path: Path, out: Path, episodes: int) -> float:
-    """Train seed 0 for ``episodes``; its greedy sum rate over a random policy's, 100 steps on
-    the training layout."""
-    run_path, _ = api.train(scenario_path=scenario_path, out=out, seeds=[0],
-                            episodes=episodes, workers=1, quiet=True)
-    scenario = load_scenario(scenario_path)
-    with RunReader(run_path) as run:
-        policy = checkpoint_policy(scenario, run.checkpoint(0))
-    layout = user_layouts(scenario, 1)
-    greedy = rollout(scenario, policy, 100, layout).sum_rate_bps.mean()
-    random = rollout(scenario, random_policy(32, seed=0), 100, layout).sum_rate_bps.mean()
-    return float(greedy / random)
 
 
 def test_same_scenario_and_seed_give_identical_metrics(tmp_path):

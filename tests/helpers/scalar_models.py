@@ -1,0 +1,76 @@
+"""Scalar re-implementations written straight from the paper (docs/model.md): the mmWave
+NYC gain, the NOMA network of several UAVs with loops, the propulsion power."""
+
+from __future__ import annotations
+
+import math
+
+
+def scalar_power_w(v: float) -> float:
+    """P(V) = P0 (1 + 3V^2/U^2) + Pi (sqrt(1 + V^4/(4 v0^4)) - V^2/(2 v0^2))^(1/2)
+    + d0 rho s A V^3 / 2, with W = 20, rho = 1.225, R = 0.4, A = 0.503, Omega = 300,
+    U = 120, s = 0.05, d0 = 0.6, k = 0.1, delta = 0.012."""
+    w, rho, radius, area, omega, tip, s, d0, k, delta = (
+        20.0, 1.225, 0.4, 0.503, 300.0, 120.0, 0.05, 0.6, 0.1, 0.012)
+    p0 = delta / 8 * rho * s * area * omega**3 * radius**3
+    pi = (1 + k) * w**1.5 / math.sqrt(2 * rho * area)
+    v0 = math.sqrt(w / (2 * rho * area))
+    induced = math.sqrt(math.sqrt(1 + v**4 / (4 * v0**4)) - v**2 / (2 * v0**2))
+    return p0 * (1 + 3 * v**2 / tip**2) + pi * induced + 0.5 * d0 * rho * s * area * v**3
+
+
+TX_POWER_W = 0.1          # 20 dBm
+ANTENNA_GAIN = 64         # 8 x 8
+NOISE_W = 10 ** ((-79.0 - 30) / 10)
+BANDWIDTH_HZ = 2e9
+
+
+def scalar_gain(uav, user, los):
+    """mmWave NYC (eq. 4-5): the LoS gain, or the expected one."""
+    d = math.sqrt((uav[0] - user[0]) ** 2 + (uav[1] - user[1]) ** 2 + uav[2] ** 2)
+    g_los, g_nlos = 10 ** -6.4 * d ** -2.0, 10 ** -7.2 * d ** -2.92
+    if los == "always":
+        return g_los
+    theta = math.degrees(math.asin(uav[2] / d))
+    p = 1 / (1 + 9.6117 * math.exp(-0.1581 * (theta - 9.6117)))
+    return p * g_los + (1 - p) * g_nlos
+
+
+def scalar_network(uavs, users, serving, clusters, alpha_first, reuse, los="always"):
+    """Gains, interference, strong flags, SINR and rates of section 8.1 with loops.
+
+    ``clusters[u]`` lists UAV u's clusters as (first, second) user pairs; alpha_first[u][k]
+    is the share of cluster k's first user."""
+    gains = [[scalar_gain(uav, user, los) for user in users] for uav in uavs]
+    cluster_of = {}
+    for u, pairs in enumerate(clusters):
+        for k, (first, second) in enumerate(pairs):
+            cluster_of[first] = (u, k, second, alpha_first[u][k])
+            cluster_of[second] = (u, k, first, 1 - alpha_first[u][k])
+    pg = TX_POWER_W * ANTENNA_GAIN
+    interference, strong, sinr, rate, oma = [], [], [], [], []
+    for i in range(len(users)):
+        u, k, _, _ = cluster_of[i]
+        total = 0.0
+        if reuse == "full":
+            for other in range(len(uavs)):
+                if other != u and k < len(clusters[other]):
+                    total += pg * gains[other][i]
+        interference.append(total)
+    for i in range(len(users)):
+        u, k, partner, alpha = cluster_of[i]
+        c_i = gains[u][i] / (interference[i] + NOISE_W)
+        c_p = gains[u][partner] / (interference[partner] + NOISE_W)
+        is_strong = c_i > c_p
+        strong.append(is_strong)
+        signal = alpha * pg * gains[u][i]
+        if is_strong:
+            value = signal / (interference[i] + NOISE_W)
+        else:
+            alpha_s = 1 - alpha
+            value = signal / (alpha_s * pg * gains[u][i] + interference[i] + NOISE_W)
+        sinr.append(value)
+        rate.append(BANDWIDTH_HZ * math.log2(1 + value))
+        oma.append(BANDWIDTH_HZ / 2 * math.log2(
+            1 + pg * gains[u][i] / (interference[i] + NOISE_W)))
+    return gains, interference, strong, sinr, rate, oma
