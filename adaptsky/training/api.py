@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from dataclasses import replace
@@ -16,6 +17,7 @@ from adaptsky.errors import AdaptskyError
 from adaptsky.progress import LogLines, Reporter
 from adaptsky.scenario import Scenario
 from adaptsky.scenario.loading import parse_with_overrides, read_scenario_text
+from adaptsky.scenario.toml_writer import dumps
 from adaptsky.scenario.variants import with_values
 from adaptsky.store import run_file
 from adaptsky.store.atomic import (
@@ -80,6 +82,15 @@ def load_with_overrides(scenario_path: Path, set_values: list[str] | None = None
     return parse_with_overrides(text, scenario_path, set_values)[0], text
 
 
+def scenario_text(scenario: Scenario | str | os.PathLike[str]) -> tuple[str, str]:
+    """The TOML text of a scenario file, or of a ``Scenario`` in memory (its validated values,
+    written by :func:`adaptsky.scenario.toml_writer.dumps`), and the name its messages give
+    it: the file's path, or ``<scenario NAME>``."""
+    if isinstance(scenario, Scenario):
+        return dumps(scenario.model_dump(mode="json")), f"<scenario {scenario.name}>"
+    return read_scenario_text(scenario), str(scenario)
+
+
 def prepare_output(path: Path) -> None:
     """Make ``path``'s folder; refuse a folder or an existing file at ``path`` (call it again
     under the run's lock: another writer may have made it meanwhile)."""
@@ -107,26 +118,35 @@ def create_run_file(path: Path, scenario: Scenario, text: str,
     return evaluation
 
 
-def train(*, scenario_path: Path, out: Path | None = None, seeds: list[int] | None = None,
-          episodes: int | None = None, steps: int | None = None, workers: int | None = None,
+def train(*, scenario: Scenario | str | os.PathLike[str] | None = None,
+          scenario_path: str | os.PathLike[str] | None = None,
+          out: str | os.PathLike[str] | None = None,
+          seeds: list[int] | None = None, episodes: int | None = None,
+          steps: int | None = None, workers: int | None = None,
           checkpoint_every: int | None = None, set_values: list[str] | None = None,
           device: str = "cpu", quiet: bool = False, progress: Reporter | None = None
           ) -> tuple[Path, RunOutcome]:
     """Train every seed of the scenario into a new run file; returns its path.
 
-    ``set_values`` are ``section.key=value`` overrides, applied before the options above and
-    recorded in the run file. ``device``: cpu, cuda or auto (cuda when available).
-    ``progress`` hears of the training (default: timestamped lines on standard error, only
-    warnings and interrupts with ``quiet``).
+    ``scenario``: a ``Scenario`` in memory or the path of a scenario file (``scenario_path``
+    is the same as a path). The run file keeps the scenario's TOML text (a ``Scenario``'s is
+    written from its values), so ``resume``, ``inspect`` and ``eval`` treat both alike, and
+    both train the same numbers. ``set_values`` are ``section.key=value`` overrides, applied
+    before the options below and recorded in the run file. ``device``: cpu, cuda or auto
+    (cuda when available). ``progress`` hears of the training (default: timestamped lines on
+    standard error, only warnings and interrupts with ``quiet``).
     """
+    if (scenario is None) == (scenario_path is None):
+        raise TypeError("train() takes one of scenario= and scenario_path=")
     progress = progress or LogLines(quiet=quiet)
     started_utc, start_s = utc_timestamp(), time.monotonic()
     torch_device = training_device(device)
-    scenario, text = load_with_overrides(scenario_path, set_values)
-    scenario = _with_train(scenario, seeds=seeds, episodes=episodes, steps=steps,
+    text, source = scenario_text(scenario if scenario is not None else scenario_path)
+    loaded = parse_with_overrides(text, source, set_values)[0]
+    scenario = _with_train(loaded, seeds=seeds, episodes=episodes, steps=steps,
                            checkpoint_every=checkpoint_every)
-    check_fits(scenario, str(scenario_path), workers=workers)
-    path = out if out is not None else default_output(scenario)
+    check_fits(scenario, source, workers=workers)
+    path = Path(out) if out is not None else default_output(scenario)
     prepare_output(path)
     with run_lock(path):
         evaluation = create_run_file(path, scenario, text, set_values, progress)
