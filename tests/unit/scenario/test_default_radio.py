@@ -1,7 +1,7 @@
 """Issue 35, item 7: a scenario takes the radio of its channel model's paper table for every
 ``[radio]`` key it does not give (the model's ``default_radio``); a model without one gets
 adaptsky's defaults (the mmWave Table I), as before. The values below are the paper's Table I
-(SPEC section 2), written here rather than read from the code."""
+(docs/model.md §2), written here rather than read from the code."""
 
 from __future__ import annotations
 
@@ -67,8 +67,8 @@ def test_the_carrier_of_the_table_yields_to_the_models_carrier_parameter():
     assert scenario.radio.bandwidth_hz == 50e6
 
 
-def test_the_sub6_default_radio_gives_the_reference_rates_of_spec_section_2():
-    """SPEC §2: sub-6 with -88 dBm, UAV at (0, 0, 50), alpha 0.5: 13.667, 1.000, 13.553,
+def test_the_sub6_default_radio_gives_the_reference_rates_of_model_section_8():
+    """docs/model.md §8: sub-6 with -88 dBm, UAV at (0, 0, 50), alpha 0.5: 13.667, 1.000, 13.553,
     1.000 bit/s/Hz -- from a file that names only the channel model."""
     from adaptsky.sim.batch import NomaUavBatch
     scenario = parse_scenario({"name": "r", "channel": {"model": "sub6-al-hourani"}}, "r")
