@@ -3,6 +3,7 @@ response and OMA."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -31,6 +32,36 @@ def _search_summary(metrics: Metrics) -> str:
                    else "")
 
 
+@dataclass
+class _Lines:
+    """The figure's lines: per method label and metric, a (mean, low, high, runs) point at
+    each number of UAVs (``xs``), and the CSV row of each point; ``bands``: the figure's
+    spread over runs."""
+
+    bands: str
+    points: dict[str, dict[str, list[tuple[float, float, float, int]]]] = field(
+        default_factory=dict)
+    xs: dict[str, list[float]] = field(default_factory=dict)
+    csv_rows: list[list[Any]] = field(default_factory=list)
+
+    def add(self, label: str, count: int, metric: str, values: list[float]) -> None:
+        """``values`` (one per run) of ``metric`` for ``label`` at ``count`` UAVs."""
+        mean, low, high = band(np.array([[v] for v in values]), self.bands)
+        self.points.setdefault(label, {}).setdefault(metric, []).append(
+            (float(mean[0]), float(low[0]), float(high[0]), len(values)))
+        if metric == "sum_rate_bps":
+            self.xs.setdefault(label, []).append(float(count))
+        self.csv_rows.append([count, label, metric, float(mean[0]), float(low[0]),
+                              float(high[0]), len(values)])
+
+    def series(self, metric: str) -> list[figures.Series]:
+        """A line per label of ``metric`` against the number of UAVs."""
+        return [figures.Series(label, np.array(self.xs[label]),
+                               *(np.array([p[i] for p in values[metric]]) for i in range(3)),
+                               min(p[3] for p in values[metric]))
+                for label, values in self.points.items()]
+
+
 def uav_count(plan: Plan, evaluations: Evaluations, out: Outputs) -> Analysis:
     """E4: the greedy steady state of each group's policies (last, best; one group per number
     of UAVs U, on its own training layout) against SoA per UAV, best response and OMA, sum
@@ -44,20 +75,7 @@ def uav_count(plan: Plan, evaluations: Evaluations, out: Outputs) -> Analysis:
         if runs:
             points.append((int(runs[0].config["uav"]["count"]), group))
     points.sort()
-    bands = experiment.figure.band
-    lines: dict[str, dict[str, list[tuple[float, float, float, int]]]] = {}
-    xs: dict[str, list[float]] = {}
-    csv_rows: list[list[Any]] = []
-
-    def point(label: str, count: int, metric: str, values: list[float]) -> None:
-        mean, low, high = band(np.array([[v] for v in values]), bands)
-        lines.setdefault(label, {}).setdefault(metric, []).append(
-            (float(mean[0]), float(low[0]), float(high[0]), len(values)))
-        if metric == "sum_rate_bps":
-            xs.setdefault(label, []).append(float(count))
-        csv_rows.append([count, label, metric, float(mean[0]), float(low[0]), float(high[0]),
-                         len(values)])
-
+    lines = _Lines(experiment.figure.band)
     for count, group in points:
         base = {name: evaluations.baselines.get((name, group)) for name, _ in UAV_COUNT_METHODS}
         reference = base["best-response"]
@@ -68,14 +86,14 @@ def uav_count(plan: Plan, evaluations: Evaluations, out: Outputs) -> Analysis:
                                               policy, best_bps, soa_bps)
             if rates:
                 label = f"{experiment.group(spec.policy).title.split(',')[0]}, {policy} policy"
-                point(label, count, "sum_rate_bps", rates)
-                point(label, count, "fairness", fairness)
+                lines.add(label, count, "sum_rate_bps", rates)
+                lines.add(label, count, "fairness", fairness)
         for name, label in UAV_COUNT_METHODS:
             metrics = base[name]
             if metrics is None:
                 continue
-            point(label, count, "sum_rate_bps", [float(np.mean(metrics["mean_sum_rate_bps"]))])
-            point(label, count, "fairness", [float(np.mean(metrics["fairness"]))])
+            lines.add(label, count, "sum_rate_bps", [float(np.mean(metrics["mean_sum_rate_bps"]))])
+            lines.add(label, count, "fairness", [float(np.mean(metrics["fairness"]))])
         oma = base["oma"]
         if best_bps and oma is not None:
             oma_bps = float(np.mean(oma["mean_sum_rate_bps"]))
@@ -86,15 +104,16 @@ def uav_count(plan: Plan, evaluations: Evaluations, out: Outputs) -> Analysis:
                     for name, label in UAV_COUNT_METHODS[1:] if base[name] is not None]
         if searches:
             analysis.notes.append(f"{plural(count, 'UAV')}: " + "; ".join(searches))
-    if not lines:
+    if not lines.points:
         analysis.notes.append("nothing has been evaluated: nothing to draw")
         return analysis
-    series = {metric: _series(lines, xs, metric) for metric in ("sum_rate_bps", "fairness")}
+    series = {metric: lines.series(metric) for metric in ("sum_rate_bps", "fairness")}
     scale, unit = rate_unit([float(np.max(line.high)) for line in series["sum_rate_bps"]])
-    figure = figures.uav_count(series["sum_rate_bps"], series["fairness"], title=figure_title(plan),
-                               ylabel=f"sum rate ({unit})", scale=scale)
-    write_csv(out.csv,
-              ["uavs", "method", "metric", "mean", "low", "high", "runs"], csv_rows)
+    figure = figures.uav_count(series["sum_rate_bps"], series["fairness"],
+                               title=figure_title(plan), ylabel=f"sum rate ({unit})",
+                               scale=scale)
+    write_csv(out.csv, ["uavs", "method", "metric", "mean", "low", "high", "runs"],
+              lines.csv_rows)
     analysis.notes.append(
         f"each group is one number of UAVs on its own training layout; a policy's value is the "
         f"mean of the last {min(100, spec.steps)} of {spec.steps} greedy steps (mean ± "
@@ -131,13 +150,3 @@ def _measure_policy(plan: Plan, measured: Evaluations, analysis: Analysis, group
             analysis.add(row, "gain_vs_soa_pct", 100 * (steady - soa_bps) / soa_bps,
                          100 * (best_bps - soa_bps) / soa_bps if best_bps else None)
     return rates, fairness
-
-
-def _series(lines: dict[str, dict[str, list[tuple[float, float, float, int]]]],
-            xs: dict[str, list[float]], metric: str) -> list[figures.Series]:
-    """A line per method of ``metric`` against the number of UAVs: (mean, low, high, runs)
-    at each number."""
-    return [figures.Series(label, np.array(xs[label]),
-                           *(np.array([p[i] for p in values[metric]]) for i in range(3)),
-                           min(p[3] for p in values[metric]))
-            for label, values in lines.items()]
