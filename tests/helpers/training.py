@@ -6,8 +6,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import pytest
-import torch
 
 from adaptsky.rollouts.rollout import checkpoint_policy, random_policy, rollout
 from adaptsky.scenario import load_scenario
@@ -15,7 +13,6 @@ from adaptsky.scenario.toml_writer import dumps
 from adaptsky.sim.layout import user_layouts
 from adaptsky.store.run_file import RunReader
 from adaptsky.training import api
-from adaptsky.training.stack_run import Member, StackRun
 from tests.conftest import SCENARIOS, TRAINING_LAYOUT_M, make_scenario
 
 
@@ -89,17 +86,3 @@ def assert_same_checkpoints(a, b) -> None:
             assert_same_checkpoints(a[key], b[key])
     else:
         assert np.array_equal(a, b), (a, b)
-
-
-cuda = pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device")
-
-
-def assert_graphs_replay_eager(base: object, episodes: int = 3) -> None:
-    """Four seeds of ``base`` on the GPU: the CUDA-graph update equals the eager one."""
-    members = [Member(base, seed) for seed in range(4)]
-    graphed = StackRun(members, "cuda", graphs=True)
-    eager = StackRun(members, "cuda", graphs=False)
-    for _ in range(episodes):
-        for a, b in zip(graphed.run_episode(), eager.run_episode(), strict=True):
-            assert_same_results(a, b)
-    assert torch.equal(graphed.algorithm.agent.params, eager.algorithm.agent.params)

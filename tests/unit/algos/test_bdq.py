@@ -28,8 +28,8 @@ from adaptsky.store.run_file import RunReader
 from adaptsky.training import api
 from adaptsky.training.stack_run import Member, StackRun
 from adaptsky_cli.cli.main import main
+from tests.helpers.gpu import assert_graphs_replay_eager
 from tests.helpers.training import (
-    assert_graphs_replay_eager,
     assert_same_checkpoints,
     assert_same_curves,
     assert_same_results,

@@ -31,7 +31,6 @@ from tests.helpers.scalar_models import (
     scalar_network,
 )
 
-
 # ---- the vectorised functions -------------------------------------------------------------
 
 def _vectorised(uav_m, users_m, association, alpha_first, reuse, los="always"):

@@ -14,12 +14,8 @@ from adaptsky.store.run_file import RunReader
 from adaptsky.training import api
 from adaptsky.training.stack_run import Member, StackRun
 from adaptsky_cli.cli.main import main
-from tests.helpers.training import (
-    assert_graphs_replay_eager,
-    cuda,
-    small_scenario,
-    stack_scenario,
-)
+from tests.helpers.gpu import assert_graphs_replay_eager, cuda
+from tests.helpers.training import small_scenario, stack_scenario
 
 
 @pytest.mark.skipif(torch.cuda.is_available(), reason="this machine has CUDA")
