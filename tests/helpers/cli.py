@@ -7,6 +7,8 @@ from pathlib import Path
 
 import pytest
 
+ADAPTSKY = Path(sys.executable).with_name("adaptsky")  # the installed command
+
 
 def one_line(capsys: pytest.CaptureFixture[str]) -> str:
     """The one line on stderr (nothing on stdout, no traceback)."""
@@ -16,5 +18,3 @@ def one_line(capsys: pytest.CaptureFixture[str]) -> str:
     assert captured.out == "" and "Traceback" not in captured.err
     return lines[0]
 
-
-ADAPTSKY = Path(sys.executable).with_name("adaptsky")

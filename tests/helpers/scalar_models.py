@@ -37,7 +37,7 @@ def scalar_gain(uav, user, los):
 
 
 def scalar_network(uavs, users, serving, clusters, alpha_first, reuse, los="always"):
-    """Gains, interference, strong flags, SINR and rates of section 8.1 with loops.
+    """Gains, interference, strong flags, SINR and rates of docs/model.md §9 with loops.
 
     ``clusters[u]`` lists UAV u's clusters as (first, second) user pairs; alpha_first[u][k]
     is the share of cluster k's first user."""
