@@ -12,8 +12,8 @@ side by side in one run, with PASS / FAIL against the issue's thresholds.
     (scenarios/one_uav_200m_mmwave.toml), both on the new code; the old code's are printed
     beside (a revision that refuses eight UAVs says so in its column).
 
-    .venv/bin/python benchmarks/one_simulator.py [REV] [--seconds 2] [--seeds 4]
-        [--skip-training]
+    .venv/bin/python benchmarks/one_simulator.py [REV] [--seconds 2] [--rounds 3]
+        [--seeds 4] [--steps 300] [--items a,b,c]
 
 REV (default HEAD) is checked out into a temporary git worktree. Each side runs in a process
 of its own, this file with ``--serve`` and its tree first on PYTHONPATH (with its built-in
@@ -21,11 +21,11 @@ channel models), as scripts/same_numbers.py runs a revision; both read the worki
 scenario files, which REV may lack. The environments are built through
 ``adaptsky.sim.multi_batch.network_batch`` and the stacks through
 ``adaptsky.training.stack_run.StackRun``, which both revisions have. The two sides' timed
-blocks alternate (old, new, old, ...), so that drift in the machine's speed (it may be
-shared) hits both alike; every figure is the best of ``--rounds`` blocks (3) of this process's
-CPU time (``time.process_time``, one torch and BLAS thread). Prints the table and the load
-average before and after; exits 1 where a verdict is FAIL. A script, not a test: no time is
-asserted anywhere.
+blocks alternate (old, new, new, old, ...), so that drift in the machine's speed (it may be
+shared) and going first hit both alike; every figure is the best of ``--rounds`` blocks (3)
+of the side's CPU time (``time.process_time``, one torch and BLAS thread). Prints the table
+and the load average before and after; exits 1 where a verdict is FAIL. A script, not a
+test: no time is asserted anywhere.
 """
 
 from __future__ import annotations
@@ -241,12 +241,14 @@ class Figure:
 
 
 def alternated(sides: list[Remote], request: dict[str, Any], rounds: int) -> list[Figure]:
-    """The best of ``rounds`` blocks of ``request`` per side, the sides alternated."""
+    """The best of ``rounds`` blocks of ``request`` per side, the sides alternated and each
+    round in the other order (old, new, new, old, ...)."""
     figures = [Figure() for _ in sides]
-    for _ in range(rounds):
-        for side, figure in zip(sides, figures, strict=True):
-            if not figure.error:
-                figure.add(side.block(request))
+    for round_index in range(rounds):
+        order = range(len(sides)) if round_index % 2 == 0 else reversed(range(len(sides)))
+        for index in order:
+            if not figures[index].error:
+                figures[index].add(sides[index].block(request))
     return figures
 
 
@@ -258,6 +260,10 @@ def quotient(new: float | None, old: float | None) -> float | None:
     return None if new is None or old is None else new / old
 
 
+Row = tuple[str, str, str, str, str, str, str]
+"""A row of the table: item, measure, old, new, new/old, threshold, verdict."""
+
+
 def shown(value: float | None, error: str = "") -> str:
     """A figure with thousands separators, or why there is none."""
     if value is None:
@@ -266,25 +272,49 @@ def shown(value: float | None, error: str = "") -> str:
 
 
 def measure(sides: list[Remote], seconds: float, seeds: int, steps: int, rounds: int,
-            skip_training: bool) -> list[tuple[str, str, str, str, str, str, str]]:
-    """The table's rows: item, measure, old, new, new/old, threshold, verdict."""
-    rows = []
+            items: str = "abc") -> list[Row]:
+    """The table's rows for ``items`` (of "a", "b", "c"): item, measure, old, new, new/old,
+    threshold, verdict."""
+    rows: list[Row] = []
     env = {"kind": "env", "seconds": seconds}
+    if "a" in items:
+        rows.append(speed_row(sides, env, rounds))
+    if "b" in items:
+        rows.append(training_row(sides, seeds, steps, rounds))
+    if "c" in items:
+        rows.extend(link_rows(sides, env, rounds))
+    return rows
+
+
+def speed_row(sides: list[Remote], env: dict[str, Any], rounds: int
+              ) -> Row:
+    """(a): environment steps per second of one UAV at B = ENV_ENVS."""
     old, new = alternated(sides, {**env, "scenario": str(ONE_UAV), "num_envs": ENV_ENVS}, rounds)
     steps_old, steps_new = (None if f.rate is None else f.rate * ENV_ENVS for f in (old, new))
     ratio = quotient(steps_new, steps_old)
-    rows.append(("(a)", f"env steps/s, {ONE_UAV.name}, B = {ENV_ENVS}",
-                 shown(steps_old, old.error), shown(steps_new, new.error),
-                 "-" if ratio is None else f"{ratio:.3f}", f">= {SPEED_THRESHOLD:g}",
-                 verdict(ratio, SPEED_THRESHOLD)))
-    if not skip_training:
-        request = {"kind": "train", "scenario": str(ONE_UAV), "seeds": seeds, "steps": steps}
-        old, new = alternated(sides, request, rounds)
-        ratio = quotient(new.rate, old.rate)
-        rows.append(("(b)", f"seed-steps/s, {seeds} seeds x {steps} steps, {ONE_UAV.name}",
-                     shown(old.rate, old.error), shown(new.rate, new.error),
-                     "-" if ratio is None else f"{ratio:.3f}", f">= {SPEED_THRESHOLD:g}",
-                     verdict(ratio, SPEED_THRESHOLD)))
+    return ("(a)", f"env steps/s, {ONE_UAV.name}, B = {ENV_ENVS}",
+            shown(steps_old, old.error), shown(steps_new, new.error),
+            "-" if ratio is None else f"{ratio:.3f}", f">= {SPEED_THRESHOLD:g}",
+            verdict(ratio, SPEED_THRESHOLD))
+
+
+def training_row(sides: list[Remote], seeds: int, steps: int, rounds: int) -> Row:
+    """(b): seed-steps per second of a stack of ``seeds`` seeds of one UAV, whole episodes
+    of ``steps`` steps."""
+    request = {"kind": "train", "scenario": str(ONE_UAV), "seeds": seeds, "steps": steps}
+    old, new = alternated(sides, request, rounds)
+    ratio = quotient(new.rate, old.rate)
+    return ("(b)", f"seed-steps/s, {seeds} seeds x {steps} steps, {ONE_UAV.name}",
+            shown(old.rate, old.error), shown(new.rate, new.error),
+            "-" if ratio is None else f"{ratio:.3f}", f">= {SPEED_THRESHOLD:g}",
+            verdict(ratio, SPEED_THRESHOLD))
+
+
+def link_rows(sides: list[Remote], env: dict[str, Any], rounds: int
+              ) -> list[Row]:
+    """(c): links per second of FEW_LINKS and MANY_LINKS at B = LINK_ENVS on both sides,
+    and the verdict on the new side's quotient."""
+    rows = []
     links: list[list[float | None]] = []
     for path in (FEW_LINKS, MANY_LINKS):
         figures = alternated(sides, {**env, "scenario": str(path), "num_envs": LINK_ENVS},
@@ -331,7 +361,7 @@ def main() -> int:
     parser.add_argument("--rounds", type=int, default=3, help="timed blocks per side, best kept")
     parser.add_argument("--seeds", type=int, default=4, help="seeds in the stack of (b)")
     parser.add_argument("--steps", type=int, default=300, help="steps per episode of (b)")
-    parser.add_argument("--skip-training", action="store_true", help="leave (b) out")
+    parser.add_argument("--items", default="a,b,c", help="which of a, b, c to measure")
     parser.add_argument("--serve", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.serve:
@@ -356,7 +386,7 @@ def main() -> int:
             sides.append(Remote(tree))
             sides.append(Remote(ROOT))
             rows = measure(sides, args.seconds, args.seeds, args.steps, args.rounds,
-                           args.skip_training)
+                           args.items)
         finally:
             for side in sides:
                 side.close()

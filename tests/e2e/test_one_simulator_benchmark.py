@@ -80,11 +80,11 @@ def test_the_verdicts_compare_new_with_old_and_eight_uavs_with_one():
                     "eight_uavs_mmwave.toml": "ScenarioError: users: 64 users and 8 UAVs"})
     new = FakeSide({"nyc_mmwave.toml": 949.0, "train nyc_mmwave.toml": 1900.0,
                     "one_uav_200m_mmwave.toml": 4000.0, "eight_uavs_mmwave.toml": 32.0})
-    rows = bench.measure([old, new], seconds=0.01, seeds=2, steps=5, rounds=2,
-                         skip_training=False)
+    rows = bench.measure([old, new], seconds=0.01, seeds=2, steps=5, rounds=2)
     assert [(row[0], row[-1]) for row in rows] == [
         ("(a)", "FAIL"), ("(b)", "PASS"), ("(c)", ""), ("(c)", ""), ("(c)", "PASS")]
     assert rows[0][2:5] == ("1,024,000", "971,776", "0.949")
     assert rows[3][2].startswith("n/a (ScenarioError: users: 64 users")
     assert rows[3][3] == f"{32 * 256 * 512:,}"  # B x U x N per batched step
     assert rows[4][2:4] == ("-", "1.02")
+    assert [row[0] for row in bench.measure([old, new], 0.01, 2, 5, 1, items="c")] == ["(c)"] * 3
