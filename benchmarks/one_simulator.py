@@ -51,6 +51,7 @@ ENV_ENVS = 1024      # B of (a)
 LINK_ENVS = 256      # B of (c)
 SPEED_THRESHOLD = 0.95   # (a) and (b): new over old
 LINK_THRESHOLD = 1.0     # (c): links/s of 8 x 64 over those of 1 x 4, new code
+ERROR_WIDTH = 64         # characters of a side's error shown in the table
 CALIBRATION_S = 0.2      # CPU seconds of stepping that size a timed block
 ONE_THREAD = {var: "1" for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}
 
@@ -179,11 +180,13 @@ def serve(requests: IO[str], replies: IO[str]) -> None:
     replies.flush()
     side = Side()
     for line in requests:
+        request = json.loads(line)
         try:
-            reply = side.block(json.loads(line))
+            reply = side.block(request)
         except Exception as error:
             text = (str(error).strip().splitlines() or [""])[0]
-            reply = {"error": f"{type(error).__name__}: {text}"[:160]}
+            text = text.replace(request["scenario"], Path(request["scenario"]).name)
+            reply = {"error": f"{type(error).__name__}: {text}"}
         replies.write(json.dumps(reply) + "\n")
         replies.flush()
 
@@ -267,7 +270,8 @@ Row = tuple[str, str, str, str, str, str, str]
 def shown(value: float | None, error: str = "") -> str:
     """A figure with thousands separators, or why there is none."""
     if value is None:
-        return f"n/a ({error})" if error else "n/a"
+        short = error if len(error) <= ERROR_WIDTH else error[:ERROR_WIDTH - 3] + "..."
+        return f"n/a ({short})" if error else "n/a"
     return f"{value:,.0f}"
 
 

@@ -56,6 +56,7 @@ def test_a_side_process_says_where_adaptsky_came_from_and_answers_every_request(
     assert Path(hello["adaptsky"]) == ROOT / "adaptsky" and hello["threads"] == 1
     assert measured["rate"] > 0 and measured["links_per_env"] == 4
     assert "missing.toml" in refused["error"] and "\n" not in refused["error"]
+    assert str(tmp_path) not in refused["error"]  # the file's name, not its path
 
 
 class FakeSide:
