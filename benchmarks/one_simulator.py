@@ -37,6 +37,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -95,8 +96,10 @@ def stepping(path: str | Path, num_envs: int) -> Stepping:
     from adaptsky.sim.multi_batch import network_batch
 
     scenario = endless(path)
-    env = network_batch(scenario, num_envs,
-                        seed=[np.random.SeedSequence([s, 0]) for s in range(num_envs)])
+    with warnings.catch_warnings():  # network_batch is a deprecated alias once merged
+        warnings.simplefilter("ignore", DeprecationWarning)
+        env = network_batch(scenario, num_envs,
+                            seed=[np.random.SeedSequence([s, 0]) for s in range(num_envs)])
     env.reset()
     actions = np.random.default_rng(0).integers(0, env.actions.count, size=(64, num_envs))
 
