@@ -401,9 +401,10 @@ def main() -> int:
                            check=True)
     new_label = "working tree" + (" (uncommitted changes)" if dirty else "")
     hello = sides[1].hello
-    table = Table("item", "measure", f"old: {rev}", f"new: {new_label}", "new/old",
+    old_label = rev if args.rev.startswith(rev) else f"{args.rev} ({rev})"
+    table = Table("item", "measure", f"old: {old_label}", f"new: {new_label}", "new/old",
                   "threshold", "verdict",
-                  title=f"one simulator: {rev} against the working tree; best of "
+                  title=f"one simulator: {old_label} against the working tree; best of "
                         f"{args.rounds} alternated blocks, CPU time, torch {hello['torch']}, "
                         f"{hello['threads']} thread")
     for row in rows:
