@@ -23,8 +23,10 @@ scenario files, which REV may lack. The environments are built through
 ``adaptsky.training.stack_run.StackRun``, which both revisions have. The two sides' timed
 blocks alternate (old, new, new, old, ...), so that drift in the machine's speed (it may be
 shared) and going first hit both alike; every figure is the best of ``--rounds`` blocks (3)
-of the side's CPU time (``time.process_time``, one torch and BLAS thread). Prints the table
-and the load average before and after; exits 1 where a verdict is FAIL. A script, not a
+of the side's CPU time (``time.process_time``, one torch and BLAS thread). Beside each
+new/old it prints the spread of the blocks (1 - slowest / fastest, the larger side's): a
+quotient off 1 by about that much may be the machine, not the code. Prints the load average
+before and after; exits 1 where a verdict is FAIL. A script, not a
 test: no time is asserted anywhere.
 """
 
@@ -39,7 +41,7 @@ import tempfile
 import time
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
@@ -233,17 +235,25 @@ class Remote:
 @dataclass
 class Figure:
     """The best of a side's blocks of one item (``rate`` None with ``error`` where the side
-    could not run it)."""
+    could not run it), and every block's rate."""
 
     rate: float | None = None
     links_per_env: int = 0
     error: str = ""
+    rates: list[float] = field(default_factory=list)
 
     def add(self, reply: dict[str, Any]) -> None:
         if "error" in reply:
             self.error = reply["error"]
-        elif self.rate is None or reply["rate"] > self.rate:
+            return
+        self.rates.append(reply["rate"])
+        if self.rate is None or reply["rate"] > self.rate:
             self.rate, self.links_per_env = reply["rate"], reply.get("links_per_env", 0)
+
+    @property
+    def spread(self) -> float:
+        """1 - slowest / fastest block: how much the machine's speed moved meanwhile."""
+        return 1.0 - min(self.rates) / max(self.rates) if self.rates else 0.0
 
 
 def alternated(sides: list[Remote], request: dict[str, Any], rounds: int) -> list[Figure]:
@@ -256,6 +266,13 @@ def alternated(sides: list[Remote], request: dict[str, Any], rounds: int) -> lis
             if not figures[index].error:
                 figures[index].add(sides[index].block(request))
     return figures
+
+
+def ratio_cell(ratio: float | None, figures: list[Figure]) -> str:
+    """new/old, with the larger of the two sides' block spreads beside it."""
+    if ratio is None:
+        return "-"
+    return f"{ratio:.3f} (spread {max(f.spread for f in figures):.0%})"
 
 
 def verdict(ratio: float | None, threshold: float) -> str:
@@ -301,7 +318,7 @@ def speed_row(sides: list[Remote], env: dict[str, Any], rounds: int
     ratio = quotient(steps_new, steps_old)
     return ("(a)", f"env steps/s, {ONE_UAV.name}, B = {ENV_ENVS}",
             shown(steps_old, old.error), shown(steps_new, new.error),
-            "-" if ratio is None else f"{ratio:.3f}", f">= {SPEED_THRESHOLD:g}",
+            ratio_cell(ratio, [old, new]), f">= {SPEED_THRESHOLD:g}",
             verdict(ratio, SPEED_THRESHOLD))
 
 
@@ -313,7 +330,7 @@ def training_row(sides: list[Remote], seeds: int, steps: int, rounds: int) -> Ro
     ratio = quotient(new.rate, old.rate)
     return ("(b)", f"seed-steps/s, {seeds} seeds x {steps} steps, {ONE_UAV.name}",
             shown(old.rate, old.error), shown(new.rate, new.error),
-            "-" if ratio is None else f"{ratio:.3f}", f">= {SPEED_THRESHOLD:g}",
+            ratio_cell(ratio, [old, new]), f">= {SPEED_THRESHOLD:g}",
             verdict(ratio, SPEED_THRESHOLD))
 
 
@@ -333,7 +350,7 @@ def link_rows(sides: list[Remote], env: dict[str, Any], rounds: int
         ratio = quotient(per_side[1], per_side[0])
         rows.append(("(c)", f"links/s, {uavs} x {users} (U x N), {path.name}, B = {LINK_ENVS}",
                      shown(per_side[0], figures[0].error), shown(per_side[1], figures[1].error),
-                     "-" if ratio is None else f"{ratio:.3f}", "", ""))
+                     ratio_cell(ratio, figures), "", ""))
     scale = [quotient(links[1][side], links[0][side]) for side in (0, 1)]
     (few_u, few_n), (many_u, many_n) = size(FEW_LINKS), size(MANY_LINKS)
     rows.append(("(c)", f"links/s of {many_u} x {many_n} over {few_u} x {few_n}, each side's "
@@ -402,7 +419,8 @@ def main() -> int:
     new_label = "working tree" + (" (uncommitted changes)" if dirty else "")
     hello = sides[1].hello
     old_label = rev if args.rev.startswith(rev) else f"{args.rev} ({rev})"
-    table = Table("item", "measure", f"old: {old_label}", f"new: {new_label}", "new/old",
+    table = Table("item", "measure", f"old: {old_label}", f"new: {new_label}",
+                  "new/old (spread of blocks)",
                   "threshold", "verdict",
                   title=f"one simulator: {old_label} against the working tree; best of "
                         f"{args.rounds} alternated blocks, CPU time, torch {hello['torch']}, "

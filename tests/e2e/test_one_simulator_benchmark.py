@@ -84,8 +84,16 @@ def test_the_verdicts_compare_new_with_old_and_eight_uavs_with_one():
     rows = bench.measure([old, new], seconds=0.01, seeds=2, steps=5, rounds=2)
     assert [(row[0], row[-1]) for row in rows] == [
         ("(a)", "FAIL"), ("(b)", "PASS"), ("(c)", ""), ("(c)", ""), ("(c)", "PASS")]
-    assert rows[0][2:5] == ("1,024,000", "971,776", "0.949")
+    assert rows[0][2:5] == ("1,024,000", "971,776", "0.949 (spread 0%)")
     assert rows[3][2].startswith("n/a (ScenarioError: users: 64 users")
     assert rows[3][3] == f"{32 * 256 * 512:,}"  # B x U x N per batched step
     assert rows[4][2:4] == ("-", "1.02")
     assert [row[0] for row in bench.measure([old, new], 0.01, 2, 5, 1, items="c")] == ["(c)"] * 3
+
+
+def test_a_figure_keeps_its_best_block_and_the_spread_of_all():
+    figure = bench.Figure()
+    for rate in (90.0, 100.0, 95.0):
+        figure.add({"rate": rate, "links_per_env": 4})
+    assert (figure.rate, round(figure.spread, 12)) == (100.0, 0.1)
+    assert bench.ratio_cell(0.9, [figure, bench.Figure()]) == "0.900 (spread 10%)"
