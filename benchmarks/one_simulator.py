@@ -348,7 +348,7 @@ def link_rows(sides: list[Remote], env: dict[str, Any], rounds: int
         links.append(per_side)
         uavs, users = size(path)
         ratio = quotient(per_side[1], per_side[0])
-        rows.append(("(c)", f"links/s, {uavs} x {users} (U x N), {path.name}, B = {LINK_ENVS}",
+        rows.append(("(c)", f"links/s, U x N = {uavs} x {users}, {path.stem}, B = {LINK_ENVS}",
                      shown(per_side[0], figures[0].error), shown(per_side[1], figures[1].error),
                      ratio_cell(ratio, figures), "", ""))
     scale = [quotient(links[1][side], links[0][side]) for side in (0, 1)]
