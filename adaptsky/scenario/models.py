@@ -20,6 +20,7 @@ from adaptsky.scenario.sections import (  # noqa: F401 (names of the scenario mo
     MAX_DENSE_ACTIONS,
     MAX_GAIN_WEIGHT,
     MAX_HEIGHT_M,
+    MAX_INDEX_ACTIONS,
     MAX_MEMORY,
     MAX_REWARD_WEIGHT,
     MAX_SEED,
@@ -289,18 +290,25 @@ class Scenario(Section):
 
     @model_validator(mode="after")
     def _dense_actions(self) -> Scenario:
-        """The users' action space must fit MAX_DENSE_ACTIONS (checked without computing it)."""
-        count = self.uav.count
-        limit, users = max_users(self.uav.actions, count), self.num_users
+        """The users' action space must fit MAX_DENSE_ACTIONS for the DQN (its replay stores
+        the dense index as float32), MAX_INDEX_ACTIONS for an agent that acts per component
+        (the BDQ: the environment's index is an int64); checked without computing it."""
+        count, dense = self.uav.count, self.agent.algorithm == "dqn"
+        actions = MAX_DENSE_ACTIONS if dense else MAX_INDEX_ACTIONS
+        limit, users = max_users(self.uav.actions, count, actions), self.num_users
         if users > limit:
             base = 2 if self.uav.actions == "paper" else 3
             other = "with-hover" if self.uav.actions == "paper" else "paper"
             uavs = f" and {count} UAVs" if count > 1 else ""
+            held = ("the dense action space holds at most 2^24" if dense else
+                    f"an action index of agent '{self.agent.algorithm}' holds at most 2^62")
+            branching = ("; agent.algorithm = 'bdq' acts per component and allows 2^62"
+                         if dense and count > 1 else "")
             raise ValueError(
-                f"users: {users} users{uavs} give {base}^{3 * count + users // 2} actions; the "
-                f"dense action space holds at most 2^24, so at most {max(limit, 0)} users with "
-                f"uav.actions = '{self.uav.actions}' ({max(max_users(other, count), 0)} with "
-                f"'{other}')")
+                f"users: {users} users{uavs} give {base}^{3 * count + users // 2} actions; "
+                f"{held}, so at most {max(limit, 0)} users with uav.actions = "
+                f"'{self.uav.actions}' ({max(max_users(other, count, actions), 0)} with "
+                f"'{other}'){branching}")
         return self
 
     @model_validator(mode="after")

@@ -14,9 +14,12 @@ PAPER_TRAINING_LAYOUT_M = [[4.0, 15.0], [-44.0, -49.0], [-5.0, 21.0], [47.0, 49.
 NAME_MAX_LENGTH = 64          # characters
 NAME_MAX_BYTES = 128          # in UTF-8: with the longest suffix, well inside 255-byte names
 NAME_PUNCTUATION = "-_."
-# the replay memory stores an action index as float32, exact up to 2^24: the dense action space
-# (2^(3+K) or 3^(3+K) actions) may not be larger
+# the DQN's replay memory stores an action index as float32, exact up to 2^24: its dense action
+# space (2^(3+K) or 3^(3+K) actions per UAV) may not be larger
 MAX_DENSE_ACTIONS = 2**24
+# an agent that acts per component (the BDQ stores a sub-action per branch) still steps the
+# environment by a dense index, an int64: base^D <= 2^62 keeps it, and every draw below it, exact
+MAX_INDEX_ACTIONS = 2**62
 MAX_SEED = 2**63 - 1          # seeds are stored as int64
 MAX_COUNT = 10**9             # episodes, steps, periods
 MAX_MEMORY = 2**53            # replay rows are drawn as floor(u * size), u a float64
@@ -34,12 +37,13 @@ StepM = Annotated[float, Field(ge=0.01, le=1000.0)]
 CoordinateM = Annotated[float, Field(ge=-AREA_MAX_SIDE_M, le=AREA_MAX_SIDE_M)]
 
 
-def max_users(mode: str, num_uavs: int = 1) -> int:
+def max_users(mode: str, num_uavs: int = 1, limit: int = MAX_DENSE_ACTIONS) -> int:
     """The most users whose dense action space (``uav.actions = mode``, ``num_uavs`` UAVs:
-    3 U + N/2 components) has at most ``MAX_DENSE_ACTIONS`` actions: for one UAV 42 for
-    ``paper``, 24 for ``with-hover``."""
+    3 U + N/2 components) has at most ``limit`` actions: for one UAV and
+    ``MAX_DENSE_ACTIONS`` 42 for ``paper``, 24 for ``with-hover``; 0 where the UAVs' moves
+    leave no room (eight UAVs under ``MAX_DENSE_ACTIONS``)."""
     base, components = (2 if mode == "paper" else 3), 3 * num_uavs
-    while base ** (components + 1) <= MAX_DENSE_ACTIONS:
+    while base ** (components + 1) <= limit:
         components += 1
     return 2 * (components - 3 * num_uavs)
 

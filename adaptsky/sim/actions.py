@@ -21,7 +21,9 @@ if TYPE_CHECKING:
 
 ActionMode = Literal["paper", "with-hover"]
 
-MAX_ACTIONS = 2**31 - 1
+# an action index is an int64: base^D <= 2^62 keeps every index, digit and draw exact
+# (docs/scenario-format.md, "Machine limits")
+MAX_ACTIONS = 2**62
 TABLE_MAX_ACTIONS = 4096  # action sets up to this size are looked up in a table, not decoded
 
 
@@ -61,8 +63,9 @@ class ActionSet:
 
     def __post_init__(self) -> None:
         if self.count > MAX_ACTIONS:
-            raise ValueError(f"{self.count} actions for {self.num_clusters} clusters is more "
-                             f"than a discrete action space can index")
+            raise ValueError(f"{self.base}^{self.num_components} actions of {self.num_uavs} "
+                             f"UAVs of {self.num_clusters} clusters are more than an int64 "
+                             f"action index holds (2^62)")
 
     def decode(self, actions: NDArray[np.integer]) -> NDArray[np.int64]:
         """Directions d in {-1, 0, +1} of shape (*actions.shape, 3 + K)."""

@@ -204,6 +204,31 @@ def test_users_beyond_the_dense_action_space_name_the_limit(count, tmp_path, cap
     assert (max_users("paper"), max_users("with-hover")) == (42, 24)
 
 
+def test_a_branching_agent_takes_dense_action_sets_up_to_an_int64_index(tmp_path, capsys):
+    """The DQN's float32 replay index caps the dense set at 2^24 (no users at all for eight
+    UAVs); the BDQ stores a sub-action per branch, so only the environment's int64 index
+    caps it, at 2^62."""
+    users = {"count": 64, "placement": "uniform"}
+    eight = {"name": "e", "area": {"side_m": 400.0}, "users": users, "uav": {"count": 8}}
+    assert parse_scenario({**eight, "agent": {"algorithm": "bdq"}}, "e").uav.count == 8
+    assert (max_users("paper", 8), max_users("paper", 8, 2**62)) == (0, 76)
+    file = tmp_path / "eight.toml"
+    file.write_text(dumps(eight))
+    code, lines = validate(file, capsys)
+    assert code == 1 and len(lines) == 1
+    assert lines[0] == (f"{file}: users: 64 users and 8 UAVs give 2^56 actions; the dense "
+                        "action space holds at most 2^24, so at most 0 users with "
+                        "uav.actions = 'paper' (0 with 'with-hover'); agent.algorithm = "
+                        "'bdq' acts per component and allows 2^62")
+    file.write_text(dumps({**eight, "users": {**users, "count": 80},
+                           "agent": {"algorithm": "bdq"}}))
+    code, lines = validate(file, capsys)
+    assert code == 1 and len(lines) == 1
+    assert lines[0] == (f"{file}: users: 80 users and 8 UAVs give 2^64 actions; an action "
+                        "index of agent 'bdq' holds at most 2^62, so at most 76 users with "
+                        "uav.actions = 'paper' (30 with 'with-hover')")
+
+
 def test_memory_size_beyond_exact_sampling_and_float_layer_sizes_are_one_line(tmp_path, capsys):
     for text, message in (("[agent]\nmemory_size = 4611686018427387904", "agent.memory_size: "
                            "Input should be less than or equal to 9007199254740992"),

@@ -41,3 +41,19 @@ def test_with_hover_contains_staying_put():
     actions = ActionSet(2, "with-hover")
     stay = actions.encode(np.zeros(5, dtype=int))
     assert actions.decode(np.array([stay]))[0].tolist() == [0, 0, 0, 0, 0]
+
+
+def test_eight_uavs_of_four_clusters_index_2_to_the_56_actions_exactly():
+    """The dense index of eight UAVs (56 components) is an int64: every digit survives."""
+    actions = ActionSet(4, "paper", 8)
+    assert (actions.num_components, actions.count) == (56, 2**56)
+    directions = np.random.default_rng(0).choice([-1, 1], size=(5, 56))
+    indices = actions.encode(directions)
+    assert np.array_equal(actions.decode(indices), directions)
+    assert actions.decode(np.array([actions.count - 1]))[0].tolist() == [1] * 56
+
+
+def test_an_action_set_beyond_an_int64_index_is_refused():
+    with pytest.raises(ValueError, match=r"^2\^63 actions of 9 UAVs of 4 clusters are more "
+                                         r"than an int64 action index holds \(2\^62\)$"):
+        ActionSet(4, "paper", 9)

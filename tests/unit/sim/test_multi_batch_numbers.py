@@ -177,7 +177,7 @@ def same(a: np.ndarray, b: np.ndarray) -> bool:
 
 @pytest.mark.parametrize("kind", ["shipped", "sampled-moving-raw", "expected-orthogonal-raised",
                                   "close"])
-@pytest.mark.parametrize("name", ["two_uavs_mmwave", "four_uavs_mmwave"])
+@pytest.mark.parametrize("name", ["two_uavs_mmwave", "four_uavs_mmwave", "eight_uavs_mmwave"])
 def test_step_equals_the_plain_computation(name: str, kind: str) -> None:
     scenario = variant(name, kind)
     seeds = [np.random.SeedSequence([s, 0]) for s in range(NUM_ENVS)]

@@ -139,3 +139,23 @@ def test_exploring_starts_draw_every_share_per_seed_and_evaluations_start_at_sta
 @cuda
 def test_a_reward_per_uav_replays_as_cuda_graphs_as_it_runs_eagerly():
     assert_graphs_replay_eager(parse_scenario(_with_split("per-uav"), "two"))
+
+
+def test_eight_uavs_train_on_dense_indices_beyond_2_to_the_31():
+    """Eight UAVs of one cluster each: 2^32 dense actions, more than an int32 holds (refused
+    before the BDQ's limit became the int64 index). The environment steps the dense index of
+    every branch's sub-action, and the replay keeps those sub-actions."""
+    users = [[float(x), float(y)] for x in (-40, -20, 20, 40) for y in (-40, 40)]
+    eight = {**TWO_UAVS, "name": "eight_small", "area": {"side_m": 100.0},
+             "users": {"positions_m": [p for q in users for p in (q, [q[0] + 3, q[1] - 3])],
+                       "pairing": "near-far"},
+             "uav": {**TWO_UAVS["uav"], "count": 8},
+             "train": {"steps": 20, "eval_every": 0}}
+    scenario = parse_scenario(eight, "eight")
+    run = StackRun([Member(scenario, 0)])
+    assert run.env.actions.count == 2**32
+    trajectory = run.run_episode()[0].trajectory
+    actions = trajectory["action"]
+    assert actions.dtype == np.int64 and actions.max() >= 2**31
+    stored = run.algorithm.memory.arrays(0)["actions"][:len(actions)]
+    assert np.array_equal(stored, (actions[:, None] // 2 ** np.arange(32)) % 2)
