@@ -32,8 +32,9 @@ from numpy.typing import NDArray
 from adaptsky.errors import AdaptskyError
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim import noma
-from adaptsky.sim.batch import NomaUavBatch, build_channel, deterministic_gain, fading_active
 from adaptsky.sim.lattice import axis_lattice, share_lattice
+from adaptsky.sim.links import build_channel, deterministic_gain, fading_active
+from adaptsky.sim.network import NetworkBatch
 from adaptsky.sim.state import users_move
 
 FloatArray = NDArray[np.float64]
@@ -138,7 +139,9 @@ def oracle(scenario: Scenario, users_m: FloatArray,
     some of a layout's lattice to search."""
     require_deterministic_gains(scenario)
     num_layouts = len(users_m)
-    env = NomaUavBatch(scenario, num_envs=num_layouts, users_m=users_m)
+    env = NetworkBatch(scenario, num_envs=num_layouts, users_m=users_m)
+    radio = scenario.radio
+    snr_scale = radio.tx_power_w * radio.antenna_gain / radio.noise_w   # P_T G / sigma^2
     channel = env.channel
     xs, ys, hs, alphas = lattice(scenario)
     grid = np.stack(np.meshgrid(xs, ys, hs, indexing="ij"), axis=-1).reshape(-1, 3)
@@ -155,7 +158,7 @@ def oracle(scenario: Scenario, users_m: FloatArray,
             gain_first = gain[:, env.first_user[layout]]
             gain_second = gain[:, env.second_user[layout]]
             alpha, rate = _best_alpha_first(gain_first, gain_second, alphas, scenario,
-                                            env.snr_scale)
+                                            snr_scale)
             total = rate.sum(axis=1)
             best = int(np.argmax(total))
             if total[best] > objective[layout]:

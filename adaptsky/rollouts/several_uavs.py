@@ -30,11 +30,10 @@ from adaptsky.rollouts.oracle import (
 )
 from adaptsky.rollouts.soa import soa_shares
 from adaptsky.scenario.models import Scenario
-from adaptsky.sim import noma
-from adaptsky.sim.batch import deterministic_gain, scenario_geometry
-from adaptsky.sim.interference import oma_rates_bps
+from adaptsky.sim.interference import interference_sum_w, interferers, oma_rates_bps, sic_rates
 from adaptsky.sim.lattice import axis_lattice, share_lattice
-from adaptsky.sim.multi_batch import MultiUavBatch
+from adaptsky.sim.links import deterministic_gain, scenario_geometry
+from adaptsky.sim.network import NetworkBatch
 
 FloatArray = NDArray[np.float64]
 DEFAULT_ROUNDS = 10
@@ -71,11 +70,11 @@ def soa_per_uav(scenario: Scenario, users_m: FloatArray) -> tuple[FloatArray, Fl
     layouts ``users_m`` (L, N, 2): each UAV at its group's 2D centroid at its start height,
     each cluster's split of docs/model.md §6 planned from the LoS gains without
     interference."""
-    env = MultiUavBatch(scenario, num_envs=len(users_m), users_m=users_m)
+    env = NetworkBatch(scenario, num_envs=len(users_m), users_m=users_m)
     return _soa(env)
 
 
-def _soa(env: MultiUavBatch) -> tuple[FloatArray, FloatArray]:
+def _soa(env: NetworkBatch) -> tuple[FloatArray, FloatArray]:
     scenario, association = env.scenario, env.association
     layouts = env.layouts_m
     members = association.serving_uav[:, None, :] == np.arange(env.num_uavs)[None, :, None]
@@ -96,7 +95,7 @@ class _Search:
     """Best responses of one layout (module doc): the lattice of every UAV, the fixed
     association, and the constants of the rates."""
 
-    def __init__(self, env: MultiUavBatch, layout: int, oma: bool) -> None:
+    def __init__(self, env: NetworkBatch, layout: int, oma: bool) -> None:
         scenario = env.scenario
         self.env, self.scenario, self.oma = env, scenario, oma
         self.association = a = env.association
@@ -111,6 +110,7 @@ class _Search:
         self.partner[self.second.ravel()] = self.first.ravel()
         self.is_first = np.zeros(len(self.serving), dtype=bool)
         self.is_first[self.first.ravel()] = True
+        self.interferer = interferers(a)[layout]      # (U, N)
         radio = scenario.radio
         self.tx_power_w, self.antenna_gain = radio.tx_power_w, radio.antenna_gain
         self.power = radio.tx_power_w * radio.antenna_gain       # P_T G
@@ -144,26 +144,20 @@ class _Search:
             return oma_rates_bps(serving_gain, interference, tx_power_w=self.tx_power_w,
                                  antenna_gain=self.antenna_gain, noise_w=self.noise_w,
                                  bandwidth_hz=self.bandwidth_hz)
-        scale = self.power / (interference + self.noise_w)
-        alpha_k = alpha_first[..., self.serving, self.cluster]
-        effective = scale * serving_gain
-        partner, is_first = self.partner, self.is_first
-        alpha = np.where(is_first, alpha_k, 1.0 - alpha_k)
-        alpha_partner = 1.0 - alpha
-        other = effective[..., partner]
-        strong = (effective > other) | ((effective == other) & is_first)
-        sinr = noma.user_sinr(alpha, alpha_partner, effective, strong, np.array(1.0))
-        return noma.rate_bps(sinr, self.bandwidth_hz)
+        partner = self.partner
+        return sic_rates(serving_gain, interference, alpha_first[..., self.serving, self.cluster],
+                         self.is_first, lambda values: values[..., partner],
+                         power_w=self.power, noise_w=self.noise_w,
+                         bandwidth_hz=self.bandwidth_hz)[0]
 
     def _serving(self, gain: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Each user's serving gain (..., N) and interference I_i (..., N), W: under full
-        reuse P_T G times the gains of the other UAVs (every UAV has a cluster on every
-        subchannel: equal groups)."""
+        """Each user's serving gain (..., N) and interference I_i (..., N), W
+        (:func:`~adaptsky.sim.interference.interference_sum_w`, 0 under orthogonal reuse)."""
         users = np.arange(len(self.serving))
         serving_gain = gain[..., self.serving, users]
         if not self.full_reuse:
             return serving_gain, np.zeros(serving_gain.shape)
-        return serving_gain, self.power * (gain.sum(axis=-2) - serving_gain)
+        return serving_gain, interference_sum_w(gain, self.interferer, self.power)
 
     def objective(self, uav_m: FloatArray, alpha_first: FloatArray) -> float:
         gain = self.gains(uav_m).reshape(len(uav_m), -1)                  # (U, N)
@@ -232,7 +226,7 @@ def _search(scenario: Scenario, users_m: FloatArray, rounds: int, oma: bool,
     if rounds < 1:
         raise ValueError(f"rounds must be >= 1, got {rounds}")
     started = time.process_time()
-    env = MultiUavBatch(scenario, num_envs=len(users_m), users_m=users_m)
+    env = NetworkBatch(scenario, num_envs=len(users_m), users_m=users_m)
     start_uav, start_alpha = _soa(env)
     num_layouts = len(users_m)
     objective = np.zeros(num_layouts)

@@ -15,13 +15,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from adaptsky.scenario.models import Scenario
-from adaptsky.sim.batch import NomaUavBatch
+from adaptsky.sim import noma
+from adaptsky.sim.network import NetworkBatch
 
 FloatArray = NDArray[np.float64]
 
 
-def soa_configuration(env: NomaUavBatch) -> tuple[FloatArray, FloatArray]:
-    """UAV position (B, 3) and first users' power shares (B, K) for the env's B layouts."""
+def soa_configuration(env: NetworkBatch) -> tuple[FloatArray, FloatArray]:
+    """UAV position (B, 3) and first users' power shares (B, K) for the env's B layouts of
+    one UAV."""
     scenario = env.scenario
     centroid = env.layouts_m.mean(axis=1)
     height = np.full((env.num_envs, 1), scenario.uav.start_m[2])
@@ -41,5 +43,5 @@ def soa_shares(scenario: Scenario, gain_first: FloatArray, gain_second: FloatArr
     weak_gain = np.minimum(gain_first, gain_second)
     alpha_weak = np.minimum(1.0, (threshold - 1) / threshold * (
         1 + radio.noise_w / (radio.tx_power_w * radio.antenna_gain * weak_gain)))
-    first_strong = gain_first >= gain_second
+    first_strong = noma.is_strong(gain_first, gain_second, gain_first, gain_second, True)
     return np.where(first_strong, 1.0 - alpha_weak, alpha_weak)

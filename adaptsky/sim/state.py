@@ -1,14 +1,13 @@
-"""The simulation's explicit state and its step (docs/model.md §3), in the style of gymnax:
-:func:`step` is a pure function ``(state, actions, dynamics, headings) -> state'``.
+"""The simulation's explicit state and the first stages of its step (docs/model.md §3 and
+§9), in the style of gymnax: :func:`step` is a pure function
+``(state, actions, dynamics, headings) -> state'`` (the users' mobility, then the controls).
 
 Several UAVs are an axis, not a loop: every UAV array has the UAV axis U after the
-environments' axis B. Today U = 1 (several UAVs, SPEC section 8.1, are future work). Code that
-knows one UAV per environment (training, rollouts, environments, baselines) sees positions
-(B, 3) and shares (B, K) through :func:`one_uav`, the one place where the UAV axis is dropped.
+environments' axis B, for one UAV (U = 1) as for several.
 
 A step's randomness (the users' headings) is drawn by the caller, which owns the generators,
-and handed to :func:`step`; the channel, rates and reward of the new state are evaluated by
-:class:`adaptsky.sim.batch.NomaUavBatch`.
+and handed to :func:`step`; the geometry, channel, rates, reward and observation of the new
+state are the later stages, called by :class:`adaptsky.sim.network.NetworkBatch`.
 """
 
 from __future__ import annotations
@@ -76,16 +75,6 @@ class SimState:
     def num_uavs(self) -> int:
         """U."""
         return self.config.shape[1]
-
-
-def one_uav(values: FloatArray) -> FloatArray:
-    """``values`` (B, U, ...) of the only UAV (U = 1), (B, ...): a view.
-
-    The one place where the UAV axis meets code that knows one UAV per environment
-    (``NomaUavBatch.uav_m`` and ``alpha_first``, ``NetworkState.uav_m``, the geometry the
-    channel plugins see, the observation's height).
-    """
-    return values[:, 0]
 
 
 def user_positions(users_m: FloatArray) -> FloatArray:

@@ -1,7 +1,7 @@
 """Several UAVs' physics (docs/model.md §9) against plain scalar formulas written from the
 model, for U = 2 and 4: link gains, interference, SINR, SIC order, NOMA and OMA rates; a
 layout where the interference flips the SIC order; and U = 1 against today's single-UAV
-computation (``NomaUavBatch``), bit for bit."""
+computation (``NetworkBatch``), bit for bit."""
 
 from __future__ import annotations
 
@@ -11,16 +11,16 @@ import numpy as np
 import pytest
 
 from adaptsky.channels.contract import LinkGeometry
+from adaptsky.sim import noma
 from adaptsky.sim.association import associate, serving_groups
-from adaptsky.sim.batch import NomaUavBatch, build_channel
 from adaptsky.sim.interference import (
     interference_w,
     noma_rates,
     oma_rates_bps,
     serving_gain,
-    strong_users,
 )
-from adaptsky.sim.links import all_links_geometry, link_gains
+from adaptsky.sim.links import all_links_geometry, build_channel, link_gains
+from adaptsky.sim.network import NetworkBatch
 from tests.conftest import make_scenario
 
 TX_POWER_W = 0.1          # 20 dBm
@@ -168,14 +168,21 @@ def test_interference_flips_the_sic_order_the_plain_gains_give():
     assert full.rate_bps[0] == pytest.approx(rate, rel=1e-12)
 
 
-def test_the_order_ties_go_to_the_larger_plain_gain_then_to_the_first_user():
+def _strong(gains: np.ndarray, interference_w: np.ndarray, noise_w: float) -> np.ndarray:
+    """The SIC order (noma.is_strong) of users 0-3 in clusters (0, 1) and (2, 3)."""
     association = associate(np.zeros((1, 4), dtype=np.intp), np.zeros((1, 4)), "listed", 1)
+    partner = association.partner
+    effective = gains / (interference_w + noise_w)
+    return noma.is_strong(effective, np.take_along_axis(effective, partner, axis=1), gains,
+                          np.take_along_axis(gains, partner, axis=1), association.is_first)
+
+
+def test_the_order_ties_go_to_the_larger_plain_gain_then_to_the_first_user():
     gains = np.array([[2.0, 1.0, 1.0, 1.0]])
     # equal effective gains for users 0 and 1 (twice the gain, twice the interference + noise)
-    strong = strong_users(gains, np.array([[1.0, 0.0, 0.0, 0.0]]), 1.0, association)
+    strong = _strong(gains, np.array([[1.0, 0.0, 0.0, 0.0]]), 1.0)
     assert strong.tolist() == [[True, False, True, False]]
-    strong = strong_users(gains[:, ::-1].copy(), np.array([[0.0, 0.0, 0.0, 1.0]]), 1.0,
-                          association)
+    strong = _strong(gains[:, ::-1].copy(), np.array([[0.0, 0.0, 0.0, 1.0]]), 1.0)
     assert strong.tolist() == [[True, False, False, True]]
 
 
@@ -183,12 +190,12 @@ def test_the_order_ties_go_to_the_larger_plain_gain_then_to_the_first_user():
 @pytest.mark.parametrize("pairing", ["near-far", "listed"])
 def test_one_uav_gives_todays_numbers_bit_for_bit(los, pairing):
     """No ulp of difference: the same geometry, the same generator draws, the same SIC order
-    and the same floating-point operations as ``NomaUavBatch``'s step."""
+    and the same floating-point operations as ``NetworkBatch``'s step."""
     scenario = make_scenario(users={"count": 8, "placement": "uniform", "layout_seed": 3,
                                     "pairing": pairing},
                              channel={"los": los}, radio={"noise_figure_db": 5.0})
     num_envs = 32
-    batch = NomaUavBatch(scenario, num_envs=num_envs, seed=11)
+    batch = NetworkBatch(scenario, num_envs=num_envs, seed=11)
     rng = np.random.default_rng(5)
     uav_m = np.concatenate([rng.uniform(-50, 50, (num_envs, 2)),
                             rng.uniform(10, 200, (num_envs, 1))], axis=1)
@@ -228,7 +235,7 @@ def test_one_uav_draws_as_todays_batch_with_a_generator_per_environment():
     scenario = make_scenario(users={"count": 4, "placement": "uniform"},
                              channel={"los": "sampled"})
     seeds = [np.random.SeedSequence(s) for s in (3, 4, 5)]
-    batch = NomaUavBatch(scenario, num_envs=3, seed=seeds)
+    batch = NetworkBatch(scenario, num_envs=3, seed=seeds)
     uav_m = np.array([[0.0, 0.0, 50.0], [10.0, -5.0, 20.0], [-30.0, 40.0, 120.0]])
     state = batch.evaluate_at(uav_m, np.full((3, 2), 0.5))
     geometry = all_links_geometry(uav_m[:, None, :], batch.layouts_m, user_height_m=0.0,
