@@ -84,13 +84,6 @@ def links_geometry(uav_m: FloatArray, users_m: FloatArray, *,
         bandwidth_hz, height_m - user_height if user_height.any() else height_m)
 
 
-def all_links_geometry(uav_m: FloatArray, users_m: FloatArray, *, user_height_m: float,
-                       carrier_hz: float, bandwidth_hz: float) -> LinkGeometry:
-    """:func:`links_geometry` (kept for its callers)."""
-    return links_geometry(uav_m, users_m, user_height_m=user_height_m, carrier_hz=carrier_hz,
-                          bandwidth_hz=bandwidth_hz)
-
-
 def scenario_geometry(scenario: Scenario, uav_m: FloatArray, users_m: FloatArray
                       ) -> LinkGeometry:
     """The links between UAVs ``uav_m`` (B', 3) and users ``users_m`` (B', N, 2) in
@@ -110,7 +103,7 @@ def link_gains(channel: ChannelModel, los_mode: str, geometry: LinkGeometry,
                rng: Generators = None, *, num_uavs: int = 1, fading: bool | None = None
                ) -> tuple[FloatArray, BoolArray, FloatArray]:
     """Linear gain of one antenna pair, LoS state and LoS probability of every link, each
-    (B, U, N), from a (B*U, N) ``geometry`` (:func:`all_links_geometry`).
+    (B, U, N), from a (B*U, N) ``geometry`` (:func:`links_geometry`).
 
     ``los_mode`` (docs/model.md §2): ``"always"`` the LoS gain; ``"sampled"`` LoS drawn per
     link (the plugin's ``sample_los``), the LoS or NLoS gain; ``"expected"``

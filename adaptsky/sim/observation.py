@@ -48,25 +48,9 @@ def observation_size_of(scenario: Scenario) -> int:
     return observation_size(scenario.num_users, scenario.uav.count)
 
 
-def observe(scenario: Scenario, uav_m: NDArray[np.float64], users_m: NDArray[np.float64],
-            alpha: NDArray[np.float64], gain: NDArray[np.float64],
-            order: NDArray[np.intp] | None = None) -> NDArray[np.float32]:
-    """Observations (B, 4 N + 1), float32.
-
-    From UAV (B, 3), users (B, N, 2), alpha and gain (B, N); ``order`` (B, N) lists the users
-    in observation order (``user_order = "clusters"``; None: as listed).
-    """
-    features = np.empty((FEATURES_PER_USER, *gain.shape))
-    features[:2] = np.moveaxis(uav_m[:, None, :2] - users_m, -1, 0)
-    features[2] = alpha
-    flat = None if order is None else (np.arange(len(order))[:, None] * order.shape[1]
-                                       + order).ravel()
-    return Observer(scenario, gain.shape)(features, gain, uav_m[:, 2], flat)
-
-
 class Observer:
-    """:func:`observe` for one scenario and B environments of N users, with its constants
-    prepared once."""
+    """Observations (B, 4 N + 1), float32, of one UAV (the paper's layout), for one scenario
+    and B environments of N users, with its constants prepared once."""
 
     def __init__(self, scenario: Scenario, shape: tuple[int, int]) -> None:
         self.scaled = scenario.agent.observation == "scaled"

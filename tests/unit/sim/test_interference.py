@@ -13,15 +13,11 @@ import pytest
 from adaptsky.channels.contract import LinkGeometry
 from adaptsky.sim import noma
 from adaptsky.sim.association import associate, serving_groups
-from adaptsky.sim.interference import (
-    interference_w,
-    noma_rates,
-    oma_rates_bps,
-    serving_gain,
-)
-from adaptsky.sim.links import all_links_geometry, build_channel, link_gains
+from adaptsky.sim.interference import oma_rates_bps, serving_gain
+from adaptsky.sim.links import build_channel, link_gains, links_geometry
 from adaptsky.sim.network import NetworkBatch
 from tests.conftest import make_scenario
+from tests.unit.sim.rates_reference import interference_w, noma_rates
 
 TX_POWER_W = 0.1          # 20 dBm
 ANTENNA_GAIN = 64         # 8 x 8
@@ -86,7 +82,7 @@ def scalar_network(uavs, users, serving, clusters, alpha_first, reuse, los="alwa
 
 def _vectorised(uav_m, users_m, association, alpha_first, reuse, los="always"):
     scenario = make_scenario(channel={"los": los})
-    geometry = all_links_geometry(uav_m, users_m, user_height_m=0.0, carrier_hz=28e9,
+    geometry = links_geometry(uav_m, users_m, user_height_m=0.0, carrier_hz=28e9,
                                   bandwidth_hz=BANDWIDTH_HZ)
     gain, _, _ = link_gains(build_channel(scenario), los, geometry,
                             num_uavs=uav_m.shape[1])
@@ -205,7 +201,7 @@ def test_one_uav_gives_todays_numbers_bit_for_bit(los, pairing):
     radio = scenario.radio
     users_m = batch.layouts_m
     start = np.broadcast_to(scenario.uav_start_positions_m, (num_envs, 1, 3))
-    start_geometry = all_links_geometry(start, users_m, user_height_m=0.0,
+    start_geometry = links_geometry(start, users_m, user_height_m=0.0,
                                         carrier_hz=radio.carrier_hz,
                                         bandwidth_hz=radio.bandwidth_hz)
     deterministic = "always" if los == "always" else "expected"
@@ -216,7 +212,7 @@ def test_one_uav_gives_todays_numbers_bit_for_bit(los, pairing):
     assert np.array_equal(association.first_user[:, 0], batch.first_user)
     assert np.array_equal(association.second_user[:, 0], batch.second_user)
 
-    geometry = all_links_geometry(uav_m[:, None, :], users_m, user_height_m=0.0,
+    geometry = links_geometry(uav_m[:, None, :], users_m, user_height_m=0.0,
                                   carrier_hz=radio.carrier_hz, bandwidth_hz=radio.bandwidth_hz)
     gain, los_state, p_los = link_gains(batch.channel, los, geometry, np.random.default_rng(11))
     assert np.array_equal(gain[:, 0], state.gain)
@@ -238,7 +234,7 @@ def test_one_uav_draws_as_todays_batch_with_a_generator_per_environment():
     batch = NetworkBatch(scenario, num_envs=3, seed=seeds)
     uav_m = np.array([[0.0, 0.0, 50.0], [10.0, -5.0, 20.0], [-30.0, 40.0, 120.0]])
     state = batch.evaluate_at(uav_m, np.full((3, 2), 0.5))
-    geometry = all_links_geometry(uav_m[:, None, :], batch.layouts_m, user_height_m=0.0,
+    geometry = links_geometry(uav_m[:, None, :], batch.layouts_m, user_height_m=0.0,
                                   carrier_hz=28e9, bandwidth_hz=2e9)
     rngs = [np.random.default_rng(s) for s in (3, 4, 5)]
     gain, los, _ = link_gains(batch.channel, "sampled", geometry, rngs)
@@ -251,11 +247,11 @@ def test_with_a_generator_per_environment_each_draws_its_own_uavs_links():
                            axis=2)
     users_m = rng.uniform(-50, 50, (2, 4, 2))
     channel = build_channel(make_scenario())
-    geometry = all_links_geometry(uav_m, users_m, user_height_m=0.0, carrier_hz=28e9,
+    geometry = links_geometry(uav_m, users_m, user_height_m=0.0, carrier_hz=28e9,
                                   bandwidth_hz=2e9)
     _, both, _ = link_gains(channel, "sampled", geometry,
                             [np.random.default_rng(1), np.random.default_rng(2)], num_uavs=3)
-    second = all_links_geometry(uav_m[1:], users_m[1:], user_height_m=0.0, carrier_hz=28e9,
+    second = links_geometry(uav_m[1:], users_m[1:], user_height_m=0.0, carrier_hz=28e9,
                                 bandwidth_hz=2e9)
     _, alone, _ = link_gains(channel, "sampled", second, np.random.default_rng(2), num_uavs=3)
     assert np.array_equal(both[1], alone[0])
@@ -279,7 +275,7 @@ def test_gains_of_every_link_are_the_plugins_gains_of_each_uav_alone():
                            axis=2)
     users_m = rng.uniform(-50, 50, (3, 6, 2))
     channel = build_channel(make_scenario(channel={"model": "sub6-al-hourani"}))
-    gain, _, _ = link_gains(channel, "expected", all_links_geometry(
+    gain, _, _ = link_gains(channel, "expected", links_geometry(
         uav_m, users_m, user_height_m=0.0, carrier_hz=2e9, bandwidth_hz=50e6), num_uavs=4)
     for b in range(3):
         for u in range(4):

@@ -13,12 +13,12 @@ from numpy.typing import NDArray
 from adaptsky.channels.contract import ChannelModel, LinkGeometry
 from adaptsky.scenario import Scenario, load_scenario
 from adaptsky.sim import noma
-from adaptsky.sim.interference import noma_rates
-from adaptsky.sim.links import all_links_geometry, build_channel, carrier_hz, link_gains
+from adaptsky.sim.links import build_channel, carrier_hz, link_gains, links_geometry
 from adaptsky.sim.network import NetworkBatch
 from adaptsky.sim.observation import GAIN_DB_CENTER, GAIN_DB_SCALE
 from adaptsky.sim.reward import reward_weights
 from adaptsky.sim.state import Dynamics, SimState, step
+from tests.unit.sim.rates_reference import noma_rates
 
 NUM_ENVS = 12
 STEPS = 200
@@ -119,7 +119,7 @@ class Reference:
     def evaluate(self) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         scenario, env, state = self.scenario, self.env, self.state
         radio = scenario.radio
-        geometry = all_links_geometry(state.uav_m, state.users_m,
+        geometry = links_geometry(state.uav_m, state.users_m,
                                       user_height_m=scenario.users.height_m,
                                       carrier_hz=carrier_hz(scenario),
                                       bandwidth_hz=radio.bandwidth_hz)
