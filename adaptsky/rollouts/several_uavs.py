@@ -88,7 +88,10 @@ def _soa(env: NetworkBatch) -> tuple[FloatArray, FloatArray]:
     uavs = np.arange(env.num_uavs)[None, :, None]
     gain_first = gain[rows, uavs, association.first_user]
     gain_second = gain[rows, uavs, association.second_user]
-    return uav_m, soa_shares(scenario, gain_first, gain_second)
+    # a UAV with fewer clusters than K_max keeps start_alpha in its unused slots (-1)
+    return uav_m, np.where(association.first_user >= 0,
+                           soa_shares(scenario, gain_first, gain_second),
+                           scenario.uav.start_alpha)
 
 
 class _Search:
@@ -102,14 +105,11 @@ class _Search:
         self.users_m = env.layouts_m[layout]
         self.serving = a.serving_uav[layout]
         self.cluster = a.cluster[layout]
-        self.first = a.first_user[layout]       # (U, K)
+        self.first = a.first_user[layout]       # (U, K_max), -1 in unused slots
         self.second = a.second_user[layout]
         # each user's cluster partner and whether it is the first user (alpha_k is its share)
-        self.partner = np.empty_like(self.serving)
-        self.partner[self.first.ravel()] = self.second.ravel()
-        self.partner[self.second.ravel()] = self.first.ravel()
-        self.is_first = np.zeros(len(self.serving), dtype=bool)
-        self.is_first[self.first.ravel()] = True
+        self.partner = a.partner[layout]
+        self.is_first = a.is_first[layout]
         self.interferer = interferers(a)[layout]      # (U, N)
         radio = scenario.radio
         self.tx_power_w, self.antenna_gain = radio.tx_power_w, radio.antenna_gain
@@ -204,9 +204,13 @@ class _Search:
         closed form of docs/model.md §6 with effective SNRs)."""
         serving_gain, interference = self._serving(gain)
         effective = self.power / (interference + self.noise_w) * serving_gain
-        alpha, _ = _best_alpha_first(effective[:, self.first[u]], effective[:, self.second[u]],
-                                     self.alphas, self.scenario, 1.0)
-        return np.where(np.isnan(alpha), self.alphas[0], alpha)
+        valid = self.first[u] >= 0           # its own K_u clusters
+        alpha, _ = _best_alpha_first(effective[:, self.first[u][valid]],
+                                     effective[:, self.second[u][valid]], self.alphas,
+                                     self.scenario, 1.0)
+        shares = np.full((len(gain), len(valid)), self.alphas[0])
+        shares[:, valid] = np.where(np.isnan(alpha), self.alphas[0], alpha)
+        return shares
 
 
 def layout_share(rounds_done: float, expected: float) -> float:

@@ -224,8 +224,9 @@ class NetworkBatch:
         self.observation_order: NDArray[np.intp] | None = None
         if scenario.agent.user_order == "clusters":
             pairs = np.stack([self.association.first_user, self.association.second_user],
-                             axis=-1)
-            self.observation_order = pairs.reshape(self.num_envs, self.num_users)
+                             axis=-1).reshape(self.num_envs, -1)
+            # (-1 marks the unused cluster slots of a UAV with fewer clusters than K_max)
+            self.observation_order = pairs[pairs >= 0].reshape(self.num_envs, self.num_users)
         self._index()
 
     def _index(self) -> None:

@@ -291,3 +291,33 @@ def test_interference_needs_a_cluster_on_the_same_subchannel():
     gain = np.ones((1, 2, 6))
     interference = interference_w(gain, association, 1.0, 1.0, "full")
     assert interference.tolist() == [[1.0, 1.0, 0.0, 0.0, 1.0, 1.0]]
+
+
+def test_groups_of_different_sizes_give_the_plain_formulas():
+    """users.uav = [0, 0, 0, 0, 1, 1]: UAV 0 serves two clusters, UAV 1 one (docs/model.md
+    §9). Under full reuse cluster 0's users hear the other UAV; UAV 0's cluster 1 has its
+    subchannel alone. Every step gives finite numbers; no action moves UAV 1's unused share."""
+    users = [[-30.0, 10.0], [-10.0, -20.0], [-40.0, -35.0], [-5.0, 30.0], [30.0, 20.0],
+             [40.0, -10.0]]
+    serving = [0, 0, 0, 0, 1, 1]
+    scenario = make_scenario(
+        users={"positions_m": users, "association": "listed", "uav": serving,
+               "pairing": "listed"},
+        uav={"count": 2, "start_positions_m": [[-20.0, 0.0, 50.0], [25.0, 0.0, 50.0]]},
+        radio={"noise_figure_db": 5.0})
+    batch = NetworkBatch(scenario, num_envs=1, seed=0)
+    uav_m = np.array([[[-25.0, 5.0, 40.0], [20.0, -5.0, 60.0]]])
+    state = batch.evaluate_at(uav_m, np.array([[[0.3, 0.8], [0.6, 0.5]]]))
+    _, interference, strong, _, rate, _ = scalar_network(
+        uav_m[0], users, serving, [[(0, 1), (2, 3)], [(4, 5)]], [[0.3, 0.8], [0.6]], "full")
+    assert interference[2] == interference[3] == 0.0 < min(interference[:2] + interference[4:])
+    assert state.interference_w[0] == pytest.approx(interference, rel=1e-12, abs=0)
+    assert state.strong[0].tolist() == strong
+    assert state.rate_bps[0] == pytest.approx(rate, rel=1e-12)
+    assert batch.actions.num_components == (3 + 2) + (3 + 1)
+    obs, start = batch.reset()
+    assert np.isfinite(start.reward).all() and np.isfinite(obs).all()
+    for action in np.random.default_rng(0).integers(0, batch.actions.count, 30):
+        obs, reward, _, _ = batch.step(np.array([action]))
+        assert np.isfinite(reward).all() and np.isfinite(obs).all()
+    assert batch.sim_state.alpha_first[0, 1, 1] == scenario.uav.start_alpha
