@@ -66,7 +66,7 @@ def _best_alpha_first(gain_first: FloatArray, gain_second: FloatArray, alphas: F
                       scenario: Scenario, snr_scale: float) -> tuple[FloatArray, FloatArray]:
     """Per point and cluster: the grid alpha_first maximising the cluster's sum rate under
     R_min, and that sum rate (-inf where no grid alpha meets R_min)."""
-    first_strong = gain_first >= gain_second
+    first_strong = noma.is_strong(gain_first, gain_second, gain_first, gain_second, True)
     weak_snr = snr_scale * np.minimum(gain_first, gain_second)
     threshold = 2.0 ** scenario.reward.min_se
     strong_share_max = ((1 + weak_snr) / threshold - 1) / weak_snr

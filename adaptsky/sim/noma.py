@@ -46,13 +46,8 @@ def cluster_sinr(alpha_first: FloatArray, gain_first: FloatArray, gain_second: F
     """
     alpha_second = 1.0 - alpha_first
     first_strong = is_strong(gain_first, gain_second, gain_first, gain_second, True)
-    signal_first = snr_scale * gain_first
-    signal_second = snr_scale * gain_second
-    sinr_first = alpha_first * signal_first / np.where(
-        first_strong, 1.0, alpha_second * signal_first + 1.0)
-    sinr_second = alpha_second * signal_second / np.where(
-        first_strong, alpha_first * signal_second + 1.0, 1.0)
-    return sinr_first, sinr_second
+    return (user_sinr(alpha_first, alpha_second, gain_first, first_strong, snr_scale),
+            user_sinr(alpha_second, alpha_first, gain_second, ~first_strong, snr_scale))
 
 
 def user_sinr(alpha: FloatArray, alpha_partner: FloatArray, gain: FloatArray,
