@@ -28,7 +28,7 @@ from adaptsky.rollouts.oracle import (
     oracle,
     require_deterministic_gains,
 )
-from adaptsky.rollouts.soa import soa_shares
+from adaptsky.rollouts.soa import soa_per_uav_configuration
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.interference import interference_sum_w, interferers, oma_rates_bps, sic_rates
 from adaptsky.sim.lattice import axis_lattice, share_lattice
@@ -71,27 +71,7 @@ def soa_per_uav(scenario: Scenario, users_m: FloatArray) -> tuple[FloatArray, Fl
     each cluster's split of docs/model.md §6 planned from the LoS gains without
     interference."""
     env = NetworkBatch(scenario, num_envs=len(users_m), users_m=users_m)
-    return _soa(env)
-
-
-def _soa(env: NetworkBatch) -> tuple[FloatArray, FloatArray]:
-    scenario, association = env.scenario, env.association
-    layouts = env.layouts_m
-    members = association.serving_uav[:, None, :] == np.arange(env.num_uavs)[None, :, None]
-    centroid = (members[..., None] * layouts[:, None]).sum(axis=2) / members.sum(
-        axis=2)[..., None]                                                     # (L, U, 2)
-    height = np.broadcast_to(env.start_m[:, 2], centroid.shape[:2])[..., None]
-    uav_m = np.concatenate([centroid, height], axis=-1)
-    gain = env.channel.gain_los(env.geometry(uav_m, layouts)).reshape(
-        len(layouts), env.num_uavs, env.num_users)
-    rows = np.arange(len(layouts))[:, None, None]
-    uavs = np.arange(env.num_uavs)[None, :, None]
-    gain_first = gain[rows, uavs, association.first_user]
-    gain_second = gain[rows, uavs, association.second_user]
-    # a UAV with fewer clusters than K_max keeps start_alpha in its unused slots (-1)
-    return uav_m, np.where(association.first_user >= 0,
-                           soa_shares(scenario, gain_first, gain_second),
-                           scenario.uav.start_alpha)
+    return soa_per_uav_configuration(env)
 
 
 class _Search:
@@ -231,7 +211,7 @@ def _search(scenario: Scenario, users_m: FloatArray, rounds: int, oma: bool,
         raise ValueError(f"rounds must be >= 1, got {rounds}")
     started = time.process_time()
     env = NetworkBatch(scenario, num_envs=len(users_m), users_m=users_m)
-    start_uav, start_alpha = _soa(env)
+    start_uav, start_alpha = soa_per_uav_configuration(env)
     num_layouts = len(users_m)
     objective = np.zeros(num_layouts)
     uav_m, alpha_first = start_uav.copy(), start_alpha.copy()
