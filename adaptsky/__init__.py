@@ -20,9 +20,10 @@ _EXPORTS = {
     "AdaptskyError": "adaptsky.errors",
     "Scenario": "adaptsky.scenario",
     "load_scenario": "adaptsky.scenario",
-    "NomaUavBatch": "adaptsky.sim.batch",
-    "MultiUavBatch": "adaptsky.sim.multi_batch",
-    "network_batch": "adaptsky.sim.multi_batch",
+    "NetworkBatch": "adaptsky.sim.network",
+    "NomaUavBatch": "adaptsky.sim.batch",        # deprecated: NetworkBatch
+    "MultiUavBatch": "adaptsky.sim.multi_batch",  # deprecated: NetworkBatch
+    "network_batch": "adaptsky.sim.multi_batch",  # deprecated: NetworkBatch
     "NomaUavEnv": "adaptsky.envs.gym_env",
     "NomaUavVectorEnv": "adaptsky.envs.gym_env",
     "NomaUavParallelEnv": "adaptsky.envs.parallel_env",
@@ -32,6 +33,8 @@ _EXPORTS = {
     "baseline": "adaptsky.evaluation.api",
     "evaluate_policy": "adaptsky.evaluation.outside",
 }
+
+_DEPRECATED = {"NomaUavBatch", "MultiUavBatch", "network_batch"}
 
 __all__ = ["ENV_ID", "__version__", *_EXPORTS]
 
@@ -53,7 +56,8 @@ def __getattr__(name: str) -> Any:
     else:
         raise AttributeError(f"module 'adaptsky' has no attribute {name!r}; "
                              f"it exports {', '.join(__all__)}")
-    globals()[name] = value
+    if name not in _DEPRECATED:   # deprecated names warn on every use
+        globals()[name] = value
     return value
 
 

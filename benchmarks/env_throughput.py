@@ -18,12 +18,12 @@ from rich.console import Console  # noqa: E402
 from rich.table import Table  # noqa: E402
 
 from adaptsky.scenario import load_scenario  # noqa: E402
-from adaptsky.sim.batch import NomaUavBatch  # noqa: E402
+from adaptsky.sim.network import NetworkBatch  # noqa: E402
 
 
 def measure(scenario, num_envs: int, seconds: float) -> float:
     """Batched steps per second, best of three timed blocks of about ``seconds`` / 3 each."""
-    env = NomaUavBatch(scenario, num_envs=num_envs, seed=0)
+    env = NetworkBatch(scenario, num_envs=num_envs, seed=0)
     env.reset()
     actions = np.random.default_rng(0).integers(0, env.actions.count, size=(256, num_envs))
     for a in actions[:20]:  # warm up

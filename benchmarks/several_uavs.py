@@ -1,8 +1,8 @@
 """Speed of several UAVs against one (issue 23; docs/model.md §9), on one CPU thread.
 
 (a) Links stepped per second (B x U x N per second) at B = 1024 environments: U = 4, N = 16
-    (:class:`~adaptsky.sim.multi_batch.MultiUavBatch`) must reach those of U = 1, N = 4
-    (:class:`~adaptsky.sim.batch.NomaUavBatch`): the cost of a link does not grow with the
+    must reach those of U = 1, N = 4, both on :class:`~adaptsky.sim.network.NetworkBatch`:
+    the cost of a link does not grow with the
     number of UAVs. Best of eight timed blocks per scenario, the two scenarios alternated.
 (b) Training seed-steps per second of a stack of S seeds (:class:`StackRun`, as training runs
     them): BDQ at U = 4 must reach half of the dense DQN's at U = 1 (the one-UAV scenario with
@@ -36,7 +36,7 @@ from rich.console import Console  # noqa: E402
 from rich.table import Table  # noqa: E402
 
 from adaptsky.scenario import Scenario, load_scenario  # noqa: E402
-from adaptsky.sim.multi_batch import network_batch  # noqa: E402
+from adaptsky.sim.network import NetworkBatch  # noqa: E402
 from adaptsky.training.api import load_with_overrides  # noqa: E402
 from adaptsky.training.host import pin_threads  # noqa: E402
 from adaptsky.training.stack_run import Member, StackRun  # noqa: E402
@@ -60,8 +60,8 @@ def endless(scenario: Scenario) -> Scenario:
 def stepping(scenario: Scenario, num_envs: int) -> Callable[[int], None]:
     """A function that steps ``num_envs`` environments of ``scenario`` (per-environment
     seeds, as training makes them) ``count`` times, after a warm-up."""
-    env = network_batch(endless(scenario), num_envs,
-                        seed=[np.random.SeedSequence([s, 0]) for s in range(num_envs)])
+    env = NetworkBatch(endless(scenario), num_envs,
+                       seed=[np.random.SeedSequence([s, 0]) for s in range(num_envs)])
     env.reset()
     actions = np.random.default_rng(0).integers(0, env.actions.count, size=(64, num_envs))
 

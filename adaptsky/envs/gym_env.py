@@ -1,6 +1,6 @@
 """Gymnasium environments over the batched simulation: ``adaptsky/NomaUav-v0`` and its native
-vector env, for one UAV (:class:`NomaUavBatch`) or several (:class:`MultiUavBatch`,
-docs/model.md §9).
+vector env, for one UAV or several (docs/model.md §9), both on
+:class:`~adaptsky.sim.network.NetworkBatch`.
 
 Action Space
     One UAV, by default: ``Discrete(2^(3+K))`` (``actions = "paper"``) or ``Discrete(3^(3+K))``
@@ -13,8 +13,8 @@ Observation Space
     One UAV: ``Box`` of shape (4 N + 1,), float32: per user [dx, dy, alpha, g], then h; scaling
     in :mod:`adaptsky.sim.observation`. Several: ``Box`` of shape (5 N + 3 U,): per user
     [dx, dy, alpha, g, I] to its serving UAV, then every UAV's [x, y, h]
-    (:mod:`adaptsky.sim.multi_observation`). Its bounds are finite and hold every observation:
-    g between the weakest and strongest gain the scenario's geometry allows
+    (:class:`adaptsky.sim.observation.MultiObserver`). Its bounds are finite and hold every
+    observation: g between the weakest and strongest gain the scenario's geometry allows
     (:mod:`adaptsky.sim.gain_bounds`; docs/environment.md, "Observation bounds").
 Rewards
     Eq. 13 with the scenario's ``[reward]`` weights, over all users.
@@ -56,17 +56,9 @@ from adaptsky.envs.action_spaces import action_space_kind, gym_action_space, to_
 from adaptsky.envs.registration import register_envs
 from adaptsky.scenario import Scenario, load_scenario
 from adaptsky.shipped_files import default_scenario_path
-from adaptsky.sim.batch import NetworkState
 from adaptsky.sim.layout import uniform_layouts, user_layouts
-from adaptsky.sim.multi_batch import (
-    MultiNetworkState,
-    MultiUavBatch,
-    NetworkBatch,
-    network_batch,
-    user_roles,
-)
-from adaptsky.sim.multi_observation import multi_observation_bounds
-from adaptsky.sim.observation import observation_bounds
+from adaptsky.sim.network import NetworkBatch, NetworkState
+from adaptsky.sim.observation import bounds_of
 
 RENDER_MODES = ["ansi", "rgb_array"]
 VECTOR_RENDER_MODES = ["ansi"]
@@ -89,8 +81,7 @@ def _resolve(scenario: Scenario | str | Path | None) -> Scenario:
 
 def observation_space(scenario: Scenario, batch: NetworkBatch) -> spaces.Box:
     """The ``Box`` of one environment's observation: finite bounds from the scenario."""
-    bounds = multi_observation_bounds if isinstance(batch, MultiUavBatch) else observation_bounds
-    low, high = bounds(scenario, batch.gain_bounds())
+    low, high = bounds_of(scenario, batch.gain_bounds())
     return spaces.Box(low, high, dtype=np.float32)
 
 
@@ -154,7 +145,7 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64 | np.ndarray]):
         else:
             layouts = np.asarray(users_m, dtype=np.float64)[None]
         self.action_kind = action_space_kind(self.scenario, action_space)
-        self.batch = network_batch(self.scenario, num_envs=1, users_m=layouts)
+        self.batch = NetworkBatch(self.scenario, num_envs=1, users_m=layouts)
         self._fresh = users_m is None and self.scenario.users.placement == "fresh"
         self.observation_space = observation_space(self.scenario, self.batch)
         self.action_space = gym_action_space(self.batch.actions, self.action_kind)
@@ -185,7 +176,7 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64 | np.ndarray]):
         truncated = self.batch.t >= self.max_episode_steps
         return obs[0], float(reward[0]), False, truncated, state.for_env(0)
 
-    def _record(self, state: NetworkState | MultiNetworkState) -> None:
+    def _record(self, state: NetworkState) -> None:
         """Keep the step's positions, shares, rates and LoS states for ``rgb_array``."""
         if self.render_mode != "rgb_array":
             return
@@ -217,7 +208,7 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64 | np.ndarray]):
 
         if self._episode is None or self._episode.rows == 0:
             raise RuntimeError("call reset() before render()")
-        serving, cluster = user_roles(self.batch)
+        serving, cluster = self.batch.roles()
         episode = self._episode.episode(self.batch.users_m[0].copy(), serving[0], cluster[0],
                                         first_step=0, label=self.scenario.name)
         if self._picture is not None and EpisodeFigure.fits(self._picture.blocks[0].episode,
@@ -254,9 +245,9 @@ class NomaUavVectorEnv(VectorEnv):
         self.max_episode_steps = episode_steps(self.scenario, max_episode_steps)
         self.num_envs = num_envs
         self.action_kind = action_space_kind(self.scenario, action_space)
-        self.batch = network_batch(self.scenario, num_envs=num_envs, users_m=users_m)
+        self.batch = NetworkBatch(self.scenario, num_envs=num_envs, users_m=users_m)
         self._fresh = users_m is None and self.scenario.users.placement == "fresh"
-        self._info_keys = MULTI_INFO_KEYS if isinstance(self.batch, MultiUavBatch) else INFO_KEYS
+        self._info_keys = MULTI_INFO_KEYS if self.batch.num_uavs > 1 else INFO_KEYS
         self.single_observation_space = observation_space(self.scenario, self.batch)
         self.single_action_space = gym_action_space(self.batch.actions, self.action_kind)
         self.observation_space = batch_space(self.single_observation_space, num_envs)
@@ -264,7 +255,7 @@ class NomaUavVectorEnv(VectorEnv):
         self._needs_reset = True
         self._all_envs = np.ones(num_envs, dtype=bool)
 
-    def _info(self, state: NetworkState | MultiNetworkState) -> dict[str, Any]:
+    def _info(self, state: NetworkState) -> dict[str, Any]:
         """Every key with its mask ``_key`` (which environments have it: all), as
         Gymnasium's vector envs give them."""
         info: dict[str, Any] = {}

@@ -56,13 +56,16 @@ class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
         num_uavs = self.scenario.uav.count
         self.possible_agents: list[AgentID] = [f"uav_{u}" for u in range(num_uavs)]
         self.agents: list[AgentID] = []          # none until reset()
-        self.components_per_uav = self.env.batch.actions.num_components // num_uavs
+        actions = self.env.batch.actions
+        # 3 + K_u sub-actions of every UAV (its own number of clusters)
+        self.components = {agent: actions.components_of(u)
+                           for u, agent in enumerate(self.possible_agents)}
         box = self.env.observation_space
         self.state_space = spaces.Box(box.low, box.high, dtype=np.float32)
         self.observation_spaces = {agent: spaces.Box(box.low, box.high, dtype=np.float32)
                                    for agent in self.possible_agents}
         self.action_spaces = {
-            agent: multi_discrete(self.env.batch.actions, self.components_per_uav)
+            agent: multi_discrete(actions, self.components[agent])
             for agent in self.possible_agents}
         self._observation: np.ndarray | None = None
 
@@ -100,8 +103,8 @@ class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
             raise ValueError(f"actions must name every agent ({', '.join(self.agents)}); "
                              f"missing: {', '.join(missing) or '-'}, unknown: "
                              f"{', '.join(unknown) or '-'}")
-        shape = (self.components_per_uav,)
         for agent in self.agents:
+            shape = (self.components[agent],)
             if np.shape(actions[agent]) != shape:
                 raise ValueError(f"the action of {agent} must have shape {shape}, got "
                                  f"{np.shape(actions[agent])}")

@@ -31,8 +31,7 @@ from adaptsky.rollouts.soa import soa_configuration
 from adaptsky.scenario import Scenario
 from adaptsky.scenario.variants import with_values
 from adaptsky.sim.actions import ActionSet
-from adaptsky.sim.batch import NomaUavBatch
-from adaptsky.sim.multi_batch import network_batch
+from adaptsky.sim.network import NetworkBatch
 
 BASELINES = ("soa", "oracle", "best-response", "oma", "random")
 SEARCHES = ("oracle", "best-response", "oma")
@@ -101,7 +100,7 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
     one_uav = scenario.uav.count == 1
     if method == "soa":
         if one_uav:
-            env = NomaUavBatch(scenario, num_envs=len(users_m), users_m=users_m)
+            env = NetworkBatch(scenario, num_envs=len(users_m), users_m=users_m)
             uav_m, alpha_first = soa_configuration(env)
         else:
             uav_m, alpha_first = several_uavs.soa_per_uav(scenario, users_m)
@@ -128,7 +127,7 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
             trace = hold(scenario, uav_m, np.full(held.shape, OMA_POWER_SHARE), steps,
                          users_m, seed, oma=True)
         else:
-            hover_j = network_batch(scenario, len(users_m), users_m=users_m).hover_energy_j
+            hover_j = NetworkBatch(scenario, len(users_m), users_m=users_m).hover_energy_j
             trace = Trace(found.rate_bps[None].copy(), uav_m[None].copy(),
                           np.full((1, *found.rate_bps.shape), OMA_POWER_SHARE),
                           hover_j[None].copy())

@@ -15,7 +15,7 @@ from adaptsky.errors import AdaptskyError
 from adaptsky.rollouts.rollout import Trace
 from adaptsky.scenario import Scenario
 from adaptsky.scenario.loading import parse_scenario, parse_toml
-from adaptsky.sim.multi_batch import network_batch, user_roles
+from adaptsky.sim.network import NetworkBatch
 from adaptsky.store.eval_file import (
     OUTSIDE,
     EvalContents,
@@ -31,7 +31,7 @@ def layout_roles(scenario: Scenario, users_m: FloatArray
                  ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     """Every user's serving UAV and cluster (N,) on the layout ``users_m`` (N, 2), as the
     simulation pairs and associates them (from the UAVs' start positions)."""
-    serving, cluster = user_roles(network_batch(scenario, num_envs=1, users_m=users_m[None]))
+    serving, cluster = NetworkBatch(scenario, num_envs=1, users_m=users_m[None]).roles()
     return serving[0], cluster[0]
 
 

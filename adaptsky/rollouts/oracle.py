@@ -32,8 +32,9 @@ from numpy.typing import NDArray
 from adaptsky.errors import AdaptskyError
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim import noma
-from adaptsky.sim.batch import NomaUavBatch, build_channel, deterministic_gain, fading_active
 from adaptsky.sim.lattice import axis_lattice, share_lattice
+from adaptsky.sim.links import build_channel, deterministic_gain, fading_active
+from adaptsky.sim.network import NetworkBatch
 from adaptsky.sim.state import users_move
 
 FloatArray = NDArray[np.float64]
@@ -65,7 +66,7 @@ def _best_alpha_first(gain_first: FloatArray, gain_second: FloatArray, alphas: F
                       scenario: Scenario, snr_scale: float) -> tuple[FloatArray, FloatArray]:
     """Per point and cluster: the grid alpha_first maximising the cluster's sum rate under
     R_min, and that sum rate (-inf where no grid alpha meets R_min)."""
-    first_strong = gain_first >= gain_second
+    first_strong = noma.is_strong(gain_first, gain_second, gain_first, gain_second, True)
     weak_snr = snr_scale * np.minimum(gain_first, gain_second)
     threshold = 2.0 ** scenario.reward.min_se
     strong_share_max = ((1 + weak_snr) / threshold - 1) / weak_snr
@@ -138,7 +139,9 @@ def oracle(scenario: Scenario, users_m: FloatArray,
     some of a layout's lattice to search."""
     require_deterministic_gains(scenario)
     num_layouts = len(users_m)
-    env = NomaUavBatch(scenario, num_envs=num_layouts, users_m=users_m)
+    env = NetworkBatch(scenario, num_envs=num_layouts, users_m=users_m)
+    radio = scenario.radio
+    snr_scale = radio.tx_power_w * radio.antenna_gain / radio.noise_w   # P_T G / sigma^2
     channel = env.channel
     xs, ys, hs, alphas = lattice(scenario)
     grid = np.stack(np.meshgrid(xs, ys, hs, indexing="ij"), axis=-1).reshape(-1, 3)
@@ -155,7 +158,7 @@ def oracle(scenario: Scenario, users_m: FloatArray,
             gain_first = gain[:, env.first_user[layout]]
             gain_second = gain[:, env.second_user[layout]]
             alpha, rate = _best_alpha_first(gain_first, gain_second, alphas, scenario,
-                                            env.snr_scale)
+                                            snr_scale)
             total = rate.sum(axis=1)
             best = int(np.argmax(total))
             if total[best] > objective[layout]:

@@ -1,8 +1,6 @@
 """Rollouts over L layouts at once: a policy stepping from the episode start, or a fixed
-configuration held (baselines). Both give a time-major :class:`Trace`. One UAV runs on
-:class:`~adaptsky.sim.batch.NomaUavBatch`, several on
-:class:`~adaptsky.sim.multi_batch.MultiUavBatch` (:func:`~adaptsky.sim.multi_batch.network_batch`
-chooses)."""
+configuration held (baselines). Both give a time-major :class:`Trace`. Every rollout runs on
+:class:`~adaptsky.sim.network.NetworkBatch`, for one UAV as for several."""
 
 from __future__ import annotations
 
@@ -16,9 +14,8 @@ from adaptsky.algos.protocol import Policy
 from adaptsky.algos.registry import algorithm_of
 from adaptsky.arrays import Tree
 from adaptsky.scenario.models import Scenario
-from adaptsky.sim.batch import NetworkState
 from adaptsky.sim.interference import oma_rates_bps
-from adaptsky.sim.multi_batch import MultiNetworkState, NetworkBatch, network_batch
+from adaptsky.sim.network import NetworkBatch, NetworkState
 from adaptsky.sim.state import users_move
 
 Tick = Callable[[int], None]
@@ -45,7 +42,7 @@ class Trace:
         return self.rate_bps.sum(axis=-1)
 
     @classmethod
-    def of(cls, states: list[NetworkState] | list[MultiNetworkState],
+    def of(cls, states: list[NetworkState],
            users_m: list[FloatArray] | None = None) -> Trace:
         """The trace of the states of a rollout, with the users' positions of each step
         (``users_m``: none where they stand)."""
@@ -56,7 +53,7 @@ class Trace:
 
 
 def _env(scenario: Scenario, users_m: FloatArray, seed: int) -> NetworkBatch:
-    return network_batch(scenario, num_envs=len(users_m), seed=seed, users_m=users_m)
+    return NetworkBatch(scenario, num_envs=len(users_m), seed=seed, users_m=users_m)
 
 
 def rollout(scenario: Scenario, policy: Policy, steps: int, users_m: FloatArray,
@@ -99,14 +96,12 @@ def hold(scenario: Scenario, uav_m: FloatArray, alpha_first: FloatArray, steps: 
     return Trace.of(states, walked)
 
 
-def oma_rates(scenario: Scenario, state: NetworkState | MultiNetworkState) -> FloatArray:
+def oma_rates(scenario: Scenario, state: NetworkState) -> FloatArray:
     """Every user's OMA rate (B, N), bit/s, at the gains of ``state`` (docs/model.md §9:
     half the band and half the power of its cluster each; the interference of several UAVs
     as the state heard it)."""
     radio = scenario.radio
-    interference = (state.interference_w if isinstance(state, MultiNetworkState)
-                    else np.zeros_like(state.gain))
-    return oma_rates_bps(state.gain, interference, tx_power_w=radio.tx_power_w,
+    return oma_rates_bps(state.gain, state.interference_w, tx_power_w=radio.tx_power_w,
                          antenna_gain=radio.antenna_gain, noise_w=radio.noise_w,
                          bandwidth_hz=radio.bandwidth_hz)
 

@@ -28,13 +28,12 @@ from adaptsky.rollouts.oracle import (
     oracle,
     require_deterministic_gains,
 )
-from adaptsky.rollouts.soa import soa_shares
+from adaptsky.rollouts.soa import soa_per_uav_configuration
 from adaptsky.scenario.models import Scenario
-from adaptsky.sim import noma
-from adaptsky.sim.batch import deterministic_gain, scenario_geometry
-from adaptsky.sim.interference import oma_rates_bps
+from adaptsky.sim.interference import interference_sum_w, interferers, oma_rates_bps, sic_rates
 from adaptsky.sim.lattice import axis_lattice, share_lattice
-from adaptsky.sim.multi_batch import MultiUavBatch
+from adaptsky.sim.links import deterministic_gain, scenario_geometry
+from adaptsky.sim.network import NetworkBatch
 
 FloatArray = NDArray[np.float64]
 DEFAULT_ROUNDS = 10
@@ -71,46 +70,27 @@ def soa_per_uav(scenario: Scenario, users_m: FloatArray) -> tuple[FloatArray, Fl
     layouts ``users_m`` (L, N, 2): each UAV at its group's 2D centroid at its start height,
     each cluster's split of docs/model.md §6 planned from the LoS gains without
     interference."""
-    env = MultiUavBatch(scenario, num_envs=len(users_m), users_m=users_m)
-    return _soa(env)
-
-
-def _soa(env: MultiUavBatch) -> tuple[FloatArray, FloatArray]:
-    scenario, association = env.scenario, env.association
-    layouts = env.layouts_m
-    members = association.serving_uav[:, None, :] == np.arange(env.num_uavs)[None, :, None]
-    centroid = (members[..., None] * layouts[:, None]).sum(axis=2) / members.sum(
-        axis=2)[..., None]                                                     # (L, U, 2)
-    height = np.broadcast_to(env.start_m[:, 2], centroid.shape[:2])[..., None]
-    uav_m = np.concatenate([centroid, height], axis=-1)
-    gain = env.channel.gain_los(env.geometry(uav_m, layouts)).reshape(
-        len(layouts), env.num_uavs, env.num_users)
-    rows = np.arange(len(layouts))[:, None, None]
-    uavs = np.arange(env.num_uavs)[None, :, None]
-    gain_first = gain[rows, uavs, association.first_user]
-    gain_second = gain[rows, uavs, association.second_user]
-    return uav_m, soa_shares(scenario, gain_first, gain_second)
+    env = NetworkBatch(scenario, num_envs=len(users_m), users_m=users_m)
+    return soa_per_uav_configuration(env)
 
 
 class _Search:
     """Best responses of one layout (module doc): the lattice of every UAV, the fixed
     association, and the constants of the rates."""
 
-    def __init__(self, env: MultiUavBatch, layout: int, oma: bool) -> None:
+    def __init__(self, env: NetworkBatch, layout: int, oma: bool) -> None:
         scenario = env.scenario
         self.env, self.scenario, self.oma = env, scenario, oma
         self.association = a = env.association
         self.users_m = env.layouts_m[layout]
         self.serving = a.serving_uav[layout]
         self.cluster = a.cluster[layout]
-        self.first = a.first_user[layout]       # (U, K)
+        self.first = a.first_user[layout]       # (U, K_max), -1 in unused slots
         self.second = a.second_user[layout]
         # each user's cluster partner and whether it is the first user (alpha_k is its share)
-        self.partner = np.empty_like(self.serving)
-        self.partner[self.first.ravel()] = self.second.ravel()
-        self.partner[self.second.ravel()] = self.first.ravel()
-        self.is_first = np.zeros(len(self.serving), dtype=bool)
-        self.is_first[self.first.ravel()] = True
+        self.partner = a.partner[layout]
+        self.is_first = a.is_first[layout]
+        self.interferer = interferers(a)[layout]      # (U, N)
         radio = scenario.radio
         self.tx_power_w, self.antenna_gain = radio.tx_power_w, radio.antenna_gain
         self.power = radio.tx_power_w * radio.antenna_gain       # P_T G
@@ -144,26 +124,20 @@ class _Search:
             return oma_rates_bps(serving_gain, interference, tx_power_w=self.tx_power_w,
                                  antenna_gain=self.antenna_gain, noise_w=self.noise_w,
                                  bandwidth_hz=self.bandwidth_hz)
-        scale = self.power / (interference + self.noise_w)
-        alpha_k = alpha_first[..., self.serving, self.cluster]
-        effective = scale * serving_gain
-        partner, is_first = self.partner, self.is_first
-        alpha = np.where(is_first, alpha_k, 1.0 - alpha_k)
-        alpha_partner = 1.0 - alpha
-        other = effective[..., partner]
-        strong = (effective > other) | ((effective == other) & is_first)
-        sinr = noma.user_sinr(alpha, alpha_partner, effective, strong, np.array(1.0))
-        return noma.rate_bps(sinr, self.bandwidth_hz)
+        partner = self.partner
+        return sic_rates(serving_gain, interference, alpha_first[..., self.serving, self.cluster],
+                         self.is_first, lambda values: values[..., partner],
+                         power_w=self.power, noise_w=self.noise_w,
+                         bandwidth_hz=self.bandwidth_hz)[0]
 
     def _serving(self, gain: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Each user's serving gain (..., N) and interference I_i (..., N), W: under full
-        reuse P_T G times the gains of the other UAVs (every UAV has a cluster on every
-        subchannel: equal groups)."""
+        """Each user's serving gain (..., N) and interference I_i (..., N), W
+        (:func:`~adaptsky.sim.interference.interference_sum_w`, 0 under orthogonal reuse)."""
         users = np.arange(len(self.serving))
         serving_gain = gain[..., self.serving, users]
         if not self.full_reuse:
             return serving_gain, np.zeros(serving_gain.shape)
-        return serving_gain, self.power * (gain.sum(axis=-2) - serving_gain)
+        return serving_gain, interference_sum_w(gain, self.interferer, self.power)
 
     def objective(self, uav_m: FloatArray, alpha_first: FloatArray) -> float:
         gain = self.gains(uav_m).reshape(len(uav_m), -1)                  # (U, N)
@@ -210,9 +184,13 @@ class _Search:
         closed form of docs/model.md §6 with effective SNRs)."""
         serving_gain, interference = self._serving(gain)
         effective = self.power / (interference + self.noise_w) * serving_gain
-        alpha, _ = _best_alpha_first(effective[:, self.first[u]], effective[:, self.second[u]],
-                                     self.alphas, self.scenario, 1.0)
-        return np.where(np.isnan(alpha), self.alphas[0], alpha)
+        valid = self.first[u] >= 0           # its own K_u clusters
+        alpha, _ = _best_alpha_first(effective[:, self.first[u][valid]],
+                                     effective[:, self.second[u][valid]], self.alphas,
+                                     self.scenario, 1.0)
+        shares = np.full((len(gain), len(valid)), self.alphas[0])
+        shares[:, valid] = np.where(np.isnan(alpha), self.alphas[0], alpha)
+        return shares
 
 
 def layout_share(rounds_done: float, expected: float) -> float:
@@ -232,8 +210,8 @@ def _search(scenario: Scenario, users_m: FloatArray, rounds: int, oma: bool,
     if rounds < 1:
         raise ValueError(f"rounds must be >= 1, got {rounds}")
     started = time.process_time()
-    env = MultiUavBatch(scenario, num_envs=len(users_m), users_m=users_m)
-    start_uav, start_alpha = _soa(env)
+    env = NetworkBatch(scenario, num_envs=len(users_m), users_m=users_m)
+    start_uav, start_alpha = soa_per_uav_configuration(env)
     num_layouts = len(users_m)
     objective = np.zeros(num_layouts)
     uav_m, alpha_first = start_uav.copy(), start_alpha.copy()

@@ -1,6 +1,7 @@
 """The SoA baseline (Chen et al. 2019 as the paper uses it; docs/model.md §6).
 
-The UAV stays at the users' 2D centroid at the start height. Planning assumes LoS: in each
+The UAV stays at the users' 2D centroid at the start height (for several UAVs, each at its
+group's: SoA per UAV, docs/model.md §9). Planning assumes LoS: in each
 cluster the user with the smaller LoS gain is weak and gets the least power that meets R_min,
 
     alpha_w = min(1, (2^(R_min/W) - 1) / 2^(R_min/W) * (1 + sigma^2 / (P_T G g_w))),
@@ -15,21 +16,40 @@ import numpy as np
 from numpy.typing import NDArray
 
 from adaptsky.scenario.models import Scenario
-from adaptsky.sim.batch import NomaUavBatch
+from adaptsky.sim import noma
+from adaptsky.sim.network import NetworkBatch
 
 FloatArray = NDArray[np.float64]
 
 
-def soa_configuration(env: NomaUavBatch) -> tuple[FloatArray, FloatArray]:
-    """UAV position (B, 3) and first users' power shares (B, K) for the env's B layouts."""
-    scenario = env.scenario
-    centroid = env.layouts_m.mean(axis=1)
-    height = np.full((env.num_envs, 1), scenario.uav.start_m[2])
-    uav_m = np.concatenate([centroid, height], axis=1)
-    gain = env.channel.gain_los(env.geometry(uav_m, env.layouts_m))
-    gain_first = np.take_along_axis(gain, env.first_user, axis=1)
-    gain_second = np.take_along_axis(gain, env.second_user, axis=1)
-    return uav_m, soa_shares(scenario, gain_first, gain_second)
+def soa_configuration(env: NetworkBatch) -> tuple[FloatArray, FloatArray]:
+    """UAV position (B, 3) and first users' power shares (B, K) for the env's B layouts of
+    one UAV: :func:`soa_per_uav_configuration` with U = 1."""
+    uav_m, alpha_first = soa_per_uav_configuration(env)
+    return uav_m[:, 0], alpha_first[:, 0]
+
+
+def soa_per_uav_configuration(env: NetworkBatch) -> tuple[FloatArray, FloatArray]:
+    """SoA per UAV (docs/model.md §6 and §9) for the env's B layouts: every UAV's position
+    (B, U, 3) at its group's 2D centroid at its start height, and its first users' shares
+    (B, U, K_max) planned from the LoS gains without interference (a UAV with fewer clusters
+    than K_max keeps ``start_alpha`` in its unused slots)."""
+    scenario, association = env.scenario, env.association
+    layouts = env.layouts_m
+    members = association.serving_uav[:, None, :] == np.arange(env.num_uavs)[None, :, None]
+    centroid = (members[..., None] * layouts[:, None]).sum(axis=2) / members.sum(
+        axis=2)[..., None]                                                     # (B, U, 2)
+    height = np.broadcast_to(env.start_m[:, 2], centroid.shape[:2])[..., None]
+    uav_m = np.concatenate([centroid, height], axis=-1)
+    gain = env.channel.gain_los(env.geometry(uav_m, layouts)).reshape(
+        len(layouts), env.num_uavs, env.num_users)
+    rows = np.arange(len(layouts))[:, None, None]
+    uavs = np.arange(env.num_uavs)[None, :, None]
+    gain_first = gain[rows, uavs, association.first_user]
+    gain_second = gain[rows, uavs, association.second_user]
+    return uav_m, np.where(association.first_user >= 0,
+                           soa_shares(scenario, gain_first, gain_second),
+                           scenario.uav.start_alpha)
 
 
 def soa_shares(scenario: Scenario, gain_first: FloatArray, gain_second: FloatArray
@@ -41,5 +61,5 @@ def soa_shares(scenario: Scenario, gain_first: FloatArray, gain_second: FloatArr
     weak_gain = np.minimum(gain_first, gain_second)
     alpha_weak = np.minimum(1.0, (threshold - 1) / threshold * (
         1 + radio.noise_w / (radio.tx_power_w * radio.antenna_gain * weak_gain)))
-    first_strong = gain_first >= gain_second
+    first_strong = noma.is_strong(gain_first, gain_second, gain_first, gain_second, True)
     return np.where(first_strong, 1.0 - alpha_weak, alpha_weak)

@@ -352,6 +352,11 @@ class Scenario(Section):
             raise ValueError(f"users.association: {n} users do not split into {uav.count} "
                              "equal groups of an even size; choose N divisible by 2 U, or "
                              "association = 'listed' with users.uav")
+        if len(set(self.clusters_of_uavs)) > 1 and getattr(self.agent, "reward_split",
+                                                           "team") != "team":
+            raise ValueError(f"agent.reward_split: '{self.agent.reward_split}' needs every UAV "
+                             f"to serve as many clusters (users.uav gives "
+                             f"{list(self.clusters_of_uavs)}); use 'team'")
         starts = self.uav_start_positions_m
         half_m = self.area.side_m / 2
         for u, (x, y, _) in enumerate(uav.start_positions_m or []):
@@ -404,9 +409,19 @@ class Scenario(Section):
         return self.num_users // 2
 
     @property
+    def clusters_of_uavs(self) -> tuple[int, ...]:
+        """K_u of every UAV (docs/model.md §9): half its listed users (``users.uav``), else
+        N / (2 U) each (equal groups)."""
+        listed = self.users.uav
+        if listed is not None:
+            return tuple(listed.count(u) // 2 for u in range(self.uav.count))
+        return (self.num_users // (2 * self.uav.count),) * self.uav.count
+
+    @property
     def clusters_per_uav(self) -> int:
-        """K_u = N / (2 U), the clusters of each UAV (equal groups, docs/model.md §9)."""
-        return self.num_users // (2 * self.uav.count)
+        """K_max, the most clusters of one UAV: N / (2 U) for equal groups; the width of every
+        UAV's shares in the configuration (a UAV with fewer has padded, unused slots)."""
+        return max(self.clusters_of_uavs)
 
     @property
     def min_rate_bps(self) -> float:

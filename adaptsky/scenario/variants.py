@@ -22,9 +22,12 @@ def with_values(scenario: Scenario, section: str, values: dict[str, Any], source
 
 
 def eval_scenario(scenario: Scenario, layouts: int | None, layout_seed: int) -> Scenario:
-    """The scenario on ``layouts`` uniform layouts (near-far pairing), or as it is."""
+    """The scenario on ``layouts`` uniform layouts (near-far pairing; listed serving UAVs kept),
+    or as it is."""
     if layouts is None:
         return scenario
     users = {"count": scenario.num_users, "placement": "uniform", "layout_seed": layout_seed,
              "pairing": "near-far", "speed_m_per_step": scenario.users.speed_m_per_step}
+    if scenario.users.uav is not None:   # listed serving UAVs keep serving user i on any layout
+        users |= {"association": "listed", "uav": list(scenario.users.uav)}
     return with_values(scenario, "users", users, "evaluation layouts", replace=True)

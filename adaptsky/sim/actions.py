@@ -37,17 +37,30 @@ def count_estimate(num_clusters: int, mode: ActionMode, num_uavs: int = 1) -> fl
 
 @dataclass(frozen=True)
 class ActionSet:
-    """The dense actions of ``num_uavs`` UAVs of ``num_clusters`` clusters each: components
-    x, y, h, cluster 1 .. K of UAV 0, then those of UAV 1, ... (docs/model.md §3 and §9)."""
+    """The dense actions of ``num_uavs`` UAVs of ``num_clusters`` clusters each, or of
+    ``clusters`` (K_u per UAV) where they differ: components x, y, h, cluster 1 .. K_u of
+    UAV 0, then those of UAV 1, ... (docs/model.md §3 and §9), D = sum_u (3 + K_u)."""
 
     num_clusters: int
     mode: ActionMode = "paper"
     num_uavs: int = 1
+    clusters: tuple[int, ...] = ()
 
     @classmethod
     def of(cls, scenario: Scenario) -> ActionSet:
         """The action set of ``scenario``: its UAVs, each with its K_u clusters."""
-        return cls(scenario.clusters_per_uav, scenario.uav.actions, scenario.uav.count)
+        clusters = scenario.clusters_of_uavs
+        return cls(scenario.clusters_per_uav, scenario.uav.actions, scenario.uav.count,
+                   () if len(set(clusters)) == 1 else clusters)
+
+    @property
+    def clusters_of_uavs(self) -> tuple[int, ...]:
+        """K_u of every UAV."""
+        return self.clusters or (self.num_clusters,) * self.num_uavs
+
+    def components_of(self, uav: int) -> int:
+        """3 + K_u, the components of UAV ``uav``."""
+        return 3 + self.clusters_of_uavs[uav]
 
     @property
     def base(self) -> int:
@@ -55,7 +68,8 @@ class ActionSet:
 
     @property
     def num_components(self) -> int:
-        return self.num_uavs * (3 + self.num_clusters)
+        """D = sum_u (3 + K_u)."""
+        return sum(3 + k for k in self.clusters_of_uavs)
 
     @property
     def count(self) -> int:

@@ -1,5 +1,6 @@
-"""NOMA with several UAVs (docs/model.md §9): inter-UAV interference, the SIC order by the
-effective gain, SINR and rates, as pure functions over B environments, U UAVs, N users.
+"""The rates stage (docs/model.md §1 and §9), for one UAV as for several: inter-UAV
+interference, the SIC order by the effective gain, SINR and rates (NOMA and OMA), as pure
+functions over B environments, U UAVs, N users.
 
 Shapes: gains of every link (B, U, N); per user (B, N); the association's arrays as in
 :class:`adaptsky.sim.association.Association`. Powers in W, rates in bit/s. With U = 1 the
@@ -8,7 +9,7 @@ interference is 0 and every number is the one of docs/model.md §1 (eqs. 2-3), b
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,81 +27,44 @@ def serving_gain(gain: FloatArray, serving_uav: NDArray[np.intp]) -> FloatArray:
     return np.take_along_axis(gain, serving_uav[:, None, :], axis=1)[:, 0]
 
 
-def interference_w(gain: FloatArray, association: Association, tx_power_w: float,
-                   antenna_gain: float, reuse: str) -> FloatArray:
-    """I_i (B, N), W: under ``reuse = "full"`` the sum over the UAVs u' other than user i's
-    that have a cluster on i's subchannel k (their cluster k) of P_T G g_{u',i}: both users'
-    signals of that cluster, alpha_s + alpha_w = 1. ``"orthogonal"``: 0 (every cluster of
-    every UAV on its own subchannel)."""
-    num_envs, num_uavs, n = gain.shape
-    if reuse == "orthogonal":
-        return np.zeros((num_envs, n))
-    if reuse != "full":
-        raise ValueError(f"unknown reuse {reuse!r}; use full or orthogonal")
-    # interferer[b, u', i]: UAV u' has a cluster on user i's subchannel and does not serve i
+def interferers(association: Association) -> BoolArray:
+    """(B, U, N): whether UAV u' sends on user i's subchannel k (has a cluster k) and does not
+    serve i, under full reuse (docs/model.md §9)."""
+    num_uavs = association.has_cluster.shape[0]
     interferer = np.moveaxis(association.has_cluster[:, association.cluster], 0, 1)
     interferer &= np.arange(num_uavs)[None, :, None] != association.serving_uav[:, None, :]
-    return tx_power_w * antenna_gain * np.where(interferer, gain, 0.0).sum(axis=1)
+    return interferer
 
 
-def strong_users(gain_serving: FloatArray, interference: FloatArray, noise_w: float,
-                 association: Association) -> BoolArray:
-    """Whether each user (B, N) is its cluster's strong user (decodes and cancels its
-    partner's signal): the larger effective gain c_i = g_{u,i} / (I_i + sigma^2); where the
-    two c are equal, the larger plain gain g_{u,i}; where those are equal too, the first user.
-    (With I = 0 this is exactly the order of docs/model.md §1: c is g scaled by one positive
-    number, so it never reverses two gains, and where rounding makes two c equal the gains
-    decide.)"""
-    effective = gain_serving / (interference + noise_w)
-    partner = association.partner
-    effective_partner = np.take_along_axis(effective, partner, axis=1)
-    gain_partner = np.take_along_axis(gain_serving, partner, axis=1)
-    return (effective > effective_partner) | ((effective == effective_partner) & (
-        (gain_serving > gain_partner) | ((gain_serving == gain_partner)
-                                         & association.is_first)))
+def interference_sum_w(gain: FloatArray, interferer: BoolArray, power_w: float) -> FloatArray:
+    """I_i (..., N), W, the one interference sum: ``power_w`` (P_T G) times the sum over the
+    UAV axis (-2) of the gains ``gain`` (..., U, N) of the links that interfere
+    (``interferer``, broadcast to the gains)."""
+    return power_w * np.where(interferer, gain, 0.0).sum(axis=-2)
 
 
-def user_shares(alpha_first: FloatArray, association: Association
-                ) -> tuple[FloatArray, FloatArray]:
-    """alpha_i and its partner's share (each (B, N)) from the first users' shares
-    ``alpha_first`` (B, U, K_max): alpha_k for cluster k's first user, 1 - alpha_k for its
-    second."""
-    rows = np.arange(len(alpha_first))[:, None]
-    alpha_k = alpha_first[rows, association.serving_uav, association.cluster]
-    first = association.is_first
-    return np.where(first, alpha_k, 1.0 - alpha_k), np.where(first, 1.0 - alpha_k, alpha_k)
+def sic_rates(gain: FloatArray, interference_w: FloatArray, alpha_k: FloatArray,
+              is_first: BoolArray, partner: Callable[[np.ndarray], np.ndarray], *,
+              power_w: float, noise_w: float, bandwidth_hz: float | FloatArray
+              ) -> tuple[FloatArray, BoolArray, FloatArray]:
+    """The rates stage, written once (eqs. 2-3; docs/model.md §9): every user's rate (bit/s),
+    whether it is its cluster's strong user, and its share, each (..., N).
 
-
-class NomaRates(NamedTuple):
-    """Every user's (B, N) serving gain, interference (W), whether strong, SINR, rate
-    (bit/s)."""
-
-    gain: FloatArray
-    interference_w: FloatArray
-    strong: BoolArray
-    sinr: FloatArray
-    rate_bps: FloatArray
-
-
-def noma_rates(alpha_first: FloatArray, gain: FloatArray, association: Association, *,
-               tx_power_w: float, antenna_gain: float, noise_w: float, bandwidth_hz: float,
-               reuse: str) -> NomaRates:
-    """SINR and rate of every user (docs/model.md §9) with first users' shares
-    ``alpha_first`` (B, U, K_max) and link gains ``gain`` (B, U, N):
-
-    strong: alpha_s P_T G g_{u,s} / (I_s + sigma^2);
-    weak:   alpha_w P_T G g_{u,w} / (alpha_s P_T G g_{u,w} + I_w + sigma^2);
-    R_i = W log2(1 + SINR_i) (eq. 3). Both SINRs are computed as eq. 2 with the user's own
-    s_i = P_T G / (I_i + sigma^2) (:func:`adaptsky.sim.noma.user_sinr`): the same quotients,
-    and with I = 0 the same floating-point operations as one UAV.
+    From each user's serving gain ``gain``, the interference it hears ``interference_w`` (W),
+    its cluster's first user's share ``alpha_k`` and ``is_first``; ``partner`` maps an array
+    over users to its values at each user's cluster partner. SIC by the effective gain
+    c_i = g_i / (I_i + sigma^2) (:func:`adaptsky.sim.noma.is_strong`); SINR of eq. 2 with
+    s_i = P_T G / (I_i + sigma^2) (``power_w`` = P_T G): with I = 0 the same floating-point
+    operations as docs/model.md §1.
     """
-    g = serving_gain(gain, association.serving_uav)
-    interference = interference_w(gain, association, tx_power_w, antenna_gain, reuse)
-    strong = strong_users(g, interference, noise_w, association)
-    alpha, alpha_partner = user_shares(alpha_first, association)
-    snr_scale = tx_power_w * antenna_gain / (interference + noise_w)
-    sinr = noma.user_sinr(alpha, alpha_partner, g, strong, snr_scale)
-    return NomaRates(g, interference, strong, sinr, noma.rate_bps(sinr, bandwidth_hz))
+    noise_plus = interference_w + noise_w
+    effective = gain / noise_plus
+    strong = noma.is_strong(effective, partner(effective), gain, partner(gain), is_first)
+    second_share = 1.0 - alpha_k
+    alpha = np.where(is_first, alpha_k, second_share)
+    alpha_partner = np.where(is_first, second_share, alpha_k)
+    sinr = noma.user_sinr(alpha, alpha_partner, gain, strong, power_w / noise_plus)
+    return noma.rate_bps(sinr, bandwidth_hz), strong, alpha
 
 
 def oma_rates_bps(gain_serving: FloatArray, interference: FloatArray, *, tx_power_w: float,
@@ -110,6 +74,6 @@ def oma_rates_bps(gain_serving: FloatArray, interference: FloatArray, *, tx_powe
     noise and the interference are halved too, so
     R_i = (W/2) log2(1 + (P_T/2) G g_{u,i} / ((I_i + sigma^2)/2))
         = (W/2) log2(1 + P_T G g_{u,i} / (I_i + sigma^2)),
-    ``interference`` I_i (B, N) the NOMA interference of :func:`interference_w`."""
+    ``interference`` I_i (B, N) the NOMA interference of :func:`interference_sum_w`."""
     snr = tx_power_w * antenna_gain * gain_serving / (interference + noise_w)
     return noma.rate_bps(snr, bandwidth_hz / 2)

@@ -14,32 +14,96 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from adaptsky.channels.contract import ChannelModel, LinkGeometry, contract_version_of
+from adaptsky.channels.contract import (
+    DEFAULT_CARRIER_HZ,
+    ChannelModel,
+    LinkGeometry,
+    contract_version_of,
+)
+from adaptsky.channels.registry import get_model_class
+from adaptsky.scenario.models import Scenario
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 
 
-def all_links_geometry(uav_m: FloatArray, users_m: FloatArray, *, user_height_m: float,
-                       carrier_hz: float, bandwidth_hz: float) -> LinkGeometry:
-    """The (B*U, N) geometry of the links from UAVs ``uav_m`` (B, U, 3) [x, y, h], m, to the
-    users ``users_m`` (B, N, 2) [x, y], m, of their environment: row b U + u holds UAV u of
-    environment b."""
+def build_channel(scenario: Scenario) -> ChannelModel:
+    """The scenario's channel-model plugin with its parameters."""
+    model_class = get_model_class(scenario.channel.model)
+    return model_class(model_class.Params.model_validate(scenario.channel.params))
+
+
+def carrier_hz(scenario: Scenario) -> float:
+    """f_c of the scenario (``radio.carrier_hz``, resolved when the scenario is loaded)."""
+    value = scenario.radio.carrier_hz
+    return DEFAULT_CARRIER_HZ if value is None else value
+
+
+def fading_active(channel: ChannelModel) -> bool:
+    """Whether the environment draws per-step fading from this model (contract 2 and its
+    ``fading_enabled()``)."""
+    return contract_version_of(channel) >= 2 and bool(channel.fading_enabled())
+
+
+def deterministic_gain(channel: ChannelModel, los: str, geometry: LinkGeometry) -> FloatArray:
+    """The gain planning uses: the LoS gain for ``los = "always"``, else the expected gain
+    (never with fading)."""
+    return channel.gain_los(geometry) if los == "always" else channel.expected_gain(geometry)
+
+
+def links_geometry(uav_m: FloatArray, users_m: FloatArray, *,
+                   user_height_m: float | FloatArray, carrier_hz: float, bandwidth_hz: float,
+                   repeated_users_m: FloatArray | None = None) -> LinkGeometry:
+    """The geometry stage: the (B*U, N) geometry of the links from UAVs ``uav_m`` (B, U, 3)
+    [x, y, h], m, to the users ``users_m`` (B, N, 2) [x, y], m, of their environment; row
+    b U + u holds UAV u of environment b (docs/model.md §2, eq. 1 and §9).
+
+    The numbers of :meth:`LinkGeometry.between` on the flattened links, computed from
+    offsets laid out (B, U, N); ``user_height_m`` is a number or every link's (B*U, N), and
+    ``repeated_users_m`` is ``users_m`` repeated U times along the first axis (B*U, N, 2),
+    where the caller keeps them from step to step.
+    """
     num_envs, num_uavs, _ = uav_m.shape
-    flat_uav_m = np.reshape(uav_m, (num_envs * num_uavs, 3))
-    flat_users_m = np.repeat(users_m, num_uavs, axis=0)
-    return LinkGeometry.between(flat_uav_m, flat_users_m, user_height_m=user_height_m,
-                                carrier_hz=carrier_hz, bandwidth_hz=bandwidth_hz)
+    n = users_m.shape[1]
+    flat = (num_envs * num_uavs, n)
+    x_m, y_m = users_m[..., 0], users_m[..., 1]               # (B, N) each
+    dx_m = np.subtract(x_m[:, None, :], uav_m[:, :, 0:1])    # user - UAV, as between()
+    dy_m = np.subtract(y_m[:, None, :], uav_m[:, :, 1:2])
+    height_m = np.empty((num_envs, num_uavs, n))
+    height_m[...] = uav_m[:, :, 2:3]
+    height_m = height_m.reshape(flat)
+    if isinstance(user_height_m, np.ndarray):
+        user_height = user_height_m
+    else:
+        user_height = np.full(flat, user_height_m, dtype=np.float64)
+    if repeated_users_m is None:
+        repeated_users_m = np.repeat(users_m, num_uavs, axis=0)
+    return LinkGeometry._from_offsets(
+        dx_m.reshape(flat), dy_m.reshape(flat), height_m, user_height,
+        np.reshape(uav_m, (num_envs * num_uavs, 3)), repeated_users_m, carrier_hz,
+        bandwidth_hz, height_m - user_height if user_height.any() else height_m)
+
+
+def scenario_geometry(scenario: Scenario, uav_m: FloatArray, users_m: FloatArray
+                      ) -> LinkGeometry:
+    """The links between UAVs ``uav_m`` (B', 3) and users ``users_m`` (B', N, 2) in
+    ``scenario`` (its user height, carrier and bandwidth; docs/plugins.md, the geometry):
+    :func:`links_geometry` with one UAV per row."""
+    return links_geometry(np.asarray(uav_m, dtype=np.float64)[:, None],
+                          np.asarray(users_m, dtype=np.float64),
+                          user_height_m=scenario.users.height_m,
+                          carrier_hz=carrier_hz(scenario),
+                          bandwidth_hz=scenario.radio.bandwidth_hz)
 
 
 Generators = np.random.Generator | list[np.random.Generator] | None
 
 
 def link_gains(channel: ChannelModel, los_mode: str, geometry: LinkGeometry,
-               rng: Generators = None, *, num_uavs: int = 1
+               rng: Generators = None, *, num_uavs: int = 1, fading: bool | None = None
                ) -> tuple[FloatArray, BoolArray, FloatArray]:
     """Linear gain of one antenna pair, LoS state and LoS probability of every link, each
-    (B, U, N), from a (B*U, N) ``geometry`` (:func:`all_links_geometry`).
+    (B, U, N), from a (B*U, N) ``geometry`` (:func:`links_geometry`).
 
     ``los_mode`` (docs/model.md §2): ``"always"`` the LoS gain; ``"sampled"`` LoS drawn per
     link (the plugin's ``sample_los``), the LoS or NLoS gain; ``"expected"``
@@ -47,6 +111,7 @@ def link_gains(channel: ChannelModel, los_mode: str, geometry: LinkGeometry,
     multiplies the gain by its ``sample_fading``, drawn after the LoS states. Draws come from
     ``rng``: one generator for every link, or a list of B, environment b's links (U rows)
     drawn from generator b (so its numbers do not depend on B or on its neighbours).
+    ``fading``: :func:`fading_active` of the channel where the caller has it.
     """
     p_los = channel.los_probability(geometry)
     if los_mode == "always":
@@ -60,10 +125,16 @@ def link_gains(channel: ChannelModel, los_mode: str, geometry: LinkGeometry,
                          num_uavs)
         gain = np.where(los, channel.gain_los(geometry), channel.gain_nlos(geometry))
     elif los_mode == "expected":
-        gain, los = channel.expected_gain(geometry), p_los > 0.5
+        if type(channel).expected_gain is ChannelModel.expected_gain:
+            # the base class's P g_LoS + (1 - P) g_NLoS, with the P_LoS at hand
+            gain = p_los * channel.gain_los(geometry) + (1 - p_los) * channel.gain_nlos(
+                geometry)
+        else:
+            gain = channel.expected_gain(geometry)
+        los = p_los > 0.5
     else:
         raise ValueError(f"unknown LoS mode {los_mode!r}; use always, sampled or expected")
-    if contract_version_of(channel) >= 2 and channel.fading_enabled():
+    if fading_active(channel) if fading is None else fading:
         gain = gain * _drawn(channel.sample_fading, geometry, los, rng, num_uavs)
     shape = (geometry.shape[0] // num_uavs, num_uavs, geometry.shape[1])
     return gain.reshape(shape), los.reshape(shape), p_los.reshape(shape)

@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 # the reward of eq. 13 lives in adaptsky.sim.reward; its names stay importable from here
 from adaptsky.sim.reward import RewardFromSums, RewardWeights, reward, stack_weights
 
-__all__ = ["RewardFromSums", "RewardWeights", "cluster_sinr", "jain_fairness",
+__all__ = ["RewardFromSums", "RewardWeights", "cluster_sinr", "is_strong", "jain_fairness",
            "jain_from_sums", "rate_bps", "reward", "stack_weights", "user_sinr"]
 
 FloatArray = NDArray[np.float64]
@@ -20,6 +20,19 @@ FloatArray = NDArray[np.float64]
 # (same numbers); the functions the environment calls every step use them
 _ZERO = np.array(0.0)
 _ONE = np.array(1.0)
+
+
+def is_strong(effective: FloatArray, effective_partner: FloatArray, gain: FloatArray,
+              gain_partner: FloatArray, is_first: NDArray[np.bool_] | bool
+              ) -> NDArray[np.bool_]:
+    """The SIC order (eq. 2; docs/model.md §9), the one rule: a user is its cluster's strong
+    user (decodes and cancels its partner's signal) where its effective gain
+    c_i = g_i / (I_i + sigma^2) is the larger; where the two c are equal, where its gain g_i
+    is the larger; where those are equal too, where it is the cluster's first user. Without
+    interference c is g over one positive number, so this is "the larger gain, the first user
+    on a tie" (pass ``effective = gain`` there)."""
+    return (effective > effective_partner) | ((effective == effective_partner) & (
+        (gain > gain_partner) | ((gain == gain_partner) & is_first)))
 
 
 def cluster_sinr(alpha_first: FloatArray, gain_first: FloatArray, gain_second: FloatArray,
@@ -32,14 +45,9 @@ def cluster_sinr(alpha_first: FloatArray, gain_first: FloatArray, gain_second: F
     user sees the strong user's share as interference, SINR = alpha_w s g_w / (alpha_s s g_w + 1).
     """
     alpha_second = 1.0 - alpha_first
-    first_strong = gain_first >= gain_second
-    signal_first = snr_scale * gain_first
-    signal_second = snr_scale * gain_second
-    sinr_first = alpha_first * signal_first / np.where(
-        first_strong, 1.0, alpha_second * signal_first + 1.0)
-    sinr_second = alpha_second * signal_second / np.where(
-        first_strong, alpha_first * signal_second + 1.0, 1.0)
-    return sinr_first, sinr_second
+    first_strong = is_strong(gain_first, gain_second, gain_first, gain_second, True)
+    return (user_sinr(alpha_first, alpha_second, gain_first, first_strong, snr_scale),
+            user_sinr(alpha_second, alpha_first, gain_second, ~first_strong, snr_scale))
 
 
 def user_sinr(alpha: FloatArray, alpha_partner: FloatArray, gain: FloatArray,

@@ -1,4 +1,7 @@
-"""Observation of sec. IV-B.1: per user [dx_i, dy_i, alpha_i, g_i], then h (size 4 N + 1).
+"""The observation stage (docs/environment.md). One UAV: the paper's layout (sec. IV-B.1,
+:class:`Observer`), below; several UAVs: :class:`MultiObserver`.
+
+Sec. IV-B.1: per user [dx_i, dy_i, alpha_i, g_i], then h (size 4 N + 1).
 
 dx_i = x_UAV - x_i, dy_i = y_UAV - y_i. The raw values span 12 orders of magnitude, so by
 default they are scaled (``observation = "scaled"``):
@@ -20,11 +23,14 @@ its cluster and role on every layout (docs/agent.md).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import NDArray
 
 from adaptsky.scenario.models import Scenario
 
+FloatArray = NDArray[np.float64]
 GAIN_DB_CENTER = -100.0
 GAIN_DB_SCALE = 20.0
 FEATURES_PER_USER = 4
@@ -42,25 +48,9 @@ def observation_size_of(scenario: Scenario) -> int:
     return observation_size(scenario.num_users, scenario.uav.count)
 
 
-def observe(scenario: Scenario, uav_m: NDArray[np.float64], users_m: NDArray[np.float64],
-            alpha: NDArray[np.float64], gain: NDArray[np.float64],
-            order: NDArray[np.intp] | None = None) -> NDArray[np.float32]:
-    """Observations (B, 4 N + 1), float32.
-
-    From UAV (B, 3), users (B, N, 2), alpha and gain (B, N); ``order`` (B, N) lists the users
-    in observation order (``user_order = "clusters"``; None: as listed).
-    """
-    features = np.empty((FEATURES_PER_USER, *gain.shape))
-    features[:2] = np.moveaxis(uav_m[:, None, :2] - users_m, -1, 0)
-    features[2] = alpha
-    flat = None if order is None else (np.arange(len(order))[:, None] * order.shape[1]
-                                       + order).ravel()
-    return Observer(scenario, gain.shape)(features, gain, uav_m[:, 2], flat)
-
-
 class Observer:
-    """:func:`observe` for one scenario and B environments of N users, with its constants
-    prepared once."""
+    """Observations (B, 4 N + 1), float32, of one UAV (the paper's layout), for one scenario
+    and B environments of N users, with its constants prepared once."""
 
     def __init__(self, scenario: Scenario, shape: tuple[int, int]) -> None:
         self.scaled = scenario.agent.observation == "scaled"
@@ -103,6 +93,15 @@ class Observer:
         return obs
 
 
+def bounds_of(scenario: Scenario, gains: tuple[float, float] | None = None
+              ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """The observation's bounds of ``scenario``: :func:`observation_bounds` for one UAV,
+    :func:`multi_observation_bounds` for several."""
+    if scenario.uav.count == 1:
+        return observation_bounds(scenario, gains)
+    return multi_observation_bounds(scenario, gains)
+
+
 FLOAT64_GAIN_RANGE = (float(np.finfo(np.float64).smallest_subnormal),
                       float(np.finfo(np.float64).max))
 """Where the gains have no bound from the scenario (per-step fading): every positive float64."""
@@ -112,7 +111,7 @@ def observation_bounds(scenario: Scenario, gains: tuple[float, float] | None = N
                        ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
     """Lower and upper bounds of every observation component, finite (docs/environment.md,
     "Observation bounds"): dx, dy by the area, alpha in [0, 1], h in [h_min, h_max], and g_i
-    between ``gains`` (linear, e.g. ``NomaUavBatch.gain_bounds()``; None: every positive
+    between ``gains`` (linear, e.g. ``NetworkBatch.gain_bounds()``; None: every positive
     float64), scaled as the observation is and rounded outward to float32."""
     side_m = scenario.area.side_m
     gain_low, gain_high = gains or FLOAT64_GAIN_RANGE
@@ -145,3 +144,97 @@ def _float32_outward(values: NDArray[np.float64], towards: float) -> NDArray[np.
     inward = rounded > values if towards < 0 else rounded < values
     rounded[inward] = np.nextafter(rounded[inward], np.float32(towards))
     return rounded
+
+
+MULTI_FEATURES_PER_USER = 5
+FEATURES_PER_UAV = 3
+
+
+class MultiObserver:
+    """Observations (B, 5 N + 3 U), float32, of a scenario of several UAVs (docs/environment.md,
+    "Several UAVs"; docs/model.md §9): per user i, served by UAV u, [x_u - x_i, y_u - y_i,
+    alpha_i, g_{u,i}, I_i], then every UAV's [x_u, y_u, h_u]. Scaled as for one UAV: offsets
+    and UAV coordinates over L/2, h over h_max, the serving gain as (10 log10 g + 100) / 20,
+    the interference as 10 log10(1 + I_i / sigma^2) / 20 (0 without interference); ``"raw"``
+    gives m, 1, the linear gain and I_i / sigma^2."""
+
+    def __init__(self, scenario: Scenario) -> None:
+        self.scaled = scenario.agent.observation == "scaled"
+        self.half_side_m = scenario.area.side_m / 2
+        self.max_height_m = scenario.uav.max_height_m
+        self.noise_w = scenario.radio.noise_w
+
+    def __call__(self, uav_m: FloatArray, users_m: FloatArray, serving_uav: NDArray[np.intp],
+                 alpha: FloatArray, gain: FloatArray, interference_w: FloatArray,
+                 order: NDArray[np.intp] | None = None) -> NDArray[np.float32]:
+        """From the UAVs (B, U, 3), users (B, N, 2), each user's serving UAV, share, serving
+        gain and interference (B, N); ``order`` (B, N) lists the users in observation order
+        (None: as listed)."""
+        if order is not None:   # every feature is elementwise: permute the users first
+            users_m = np.take_along_axis(users_m, order[..., None], axis=1)
+            serving_uav, alpha, gain, interference_w = (
+                np.take_along_axis(values, order, axis=1)
+                for values in (serving_uav, alpha, gain, interference_w))
+        serving_m = np.take_along_axis(uav_m, serving_uav[..., None], axis=1)   # (B, N, 3)
+        return self.from_offsets(serving_m[..., 0] - users_m[..., 0],
+                                 serving_m[..., 1] - users_m[..., 1], uav_m, alpha, gain,
+                                 interference_w)
+
+    def from_offsets(self, dx_m: FloatArray, dy_m: FloatArray, uav_m: FloatArray,
+                     alpha: FloatArray, gain: FloatArray, interference_w: FloatArray
+                     ) -> NDArray[np.float32]:
+        """The observations from every user's offsets x_u - x_i and y_u - y_i to its serving
+        UAV, share, serving gain and interference (each (B, N), users in observation order)
+        and the UAVs ``uav_m`` (B, U, 3): each feature is computed in float64 and rounded
+        once to float32, straight into its place."""
+        num_envs, num_users = gain.shape
+        num_uavs = uav_m.shape[1]
+        width = MULTI_FEATURES_PER_USER * num_users
+        obs = np.empty((num_envs, width + FEATURES_PER_UAV * num_uavs), dtype=np.float32)
+        features = obs[:, :width].reshape(num_envs, num_users, MULTI_FEATURES_PER_USER)
+        uavs = obs[:, width:].reshape(num_envs, num_uavs, FEATURES_PER_UAV)
+        features[..., 2] = alpha
+        inr = interference_w / self.noise_w
+        if self.scaled:
+            half_side_m = self.half_side_m
+            features[..., 0] = dx_m / half_side_m
+            features[..., 1] = dy_m / half_side_m
+            features[..., 3] = (10.0 * np.log10(gain) - GAIN_DB_CENTER) / GAIN_DB_SCALE
+            features[..., 4] = 10.0 * np.log10(1.0 + inr) / GAIN_DB_SCALE
+            uavs[..., :2] = uav_m[..., :2] / half_side_m
+            uavs[..., 2] = uav_m[..., 2] / self.max_height_m
+        else:
+            features[..., 0] = dx_m
+            features[..., 1] = dy_m
+            features[..., 3] = gain
+            features[..., 4] = inr
+            uavs[...] = uav_m
+        return obs
+
+
+def multi_observation_bounds(scenario: Scenario, gains: tuple[float, float] | None = None
+                             ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """Finite lower and upper bounds of every component (``gains``: the linear gain range of
+    a link, None: every positive float64). The interference is at most U - 1 UAVs' full
+    power P_T G at the largest gain."""
+    uav, radio = scenario.uav, scenario.radio
+    half_m = scenario.area.side_m / 2
+    gain_low, gain_high = gains or FLOAT64_GAIN_RANGE
+    inr_high = (uav.count - 1) * radio.tx_power_w * radio.antenna_gain * gain_high / radio.noise_w
+    if scenario.agent.observation == "scaled":
+        delta, position = 2.0, 1.0
+        gain_low, gain_high = _scaled_gain(gain_low), _scaled_gain(gain_high)
+        inr_high = 10.0 * math.log10(1.0 + inr_high) / GAIN_DB_SCALE if math.isfinite(
+            inr_high) else float(np.finfo(np.float32).max)
+        height = (uav.min_height_m / uav.max_height_m, 1.0)
+    else:
+        delta, position = 2 * half_m, half_m
+        gain_low, gain_high = 0.0, min(gain_high, float(np.finfo(np.float32).max))
+        inr_high = min(inr_high, float(np.finfo(np.float32).max))
+        height = (uav.min_height_m, uav.max_height_m)
+    n, u = scenario.num_users, uav.count
+    low = np.array([-delta, -delta, 0.0, gain_low, 0.0] * n + [-position, -position,
+                                                              height[0]] * u)
+    high = np.array([delta, delta, 1.0, gain_high, inr_high] * n + [position, position,
+                                                                   height[1]] * u)
+    return _float32_outward(low, -np.inf), _float32_outward(high, np.inf)

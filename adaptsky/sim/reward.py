@@ -20,6 +20,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from adaptsky.scenario.models import Scenario
+
 FloatArray = NDArray[np.float64]
 
 
@@ -35,6 +37,14 @@ class RewardWeights:
     w_unsatisfied: float | FloatArray = 0.0
     min_rate_bps: float | FloatArray = 0.0
     w_energy: float | FloatArray = 0.0
+
+
+def reward_weights(scenario: Scenario) -> RewardWeights:
+    """The weights of eq. 13 in ``scenario`` (its ``[reward]`` section and R_min)."""
+    r = scenario.reward
+    return RewardWeights(w_rate=r.w_rate, w_fairness=r.w_fairness, w_gain=r.w_gain,
+                         w_satisfied=r.w_satisfied, w_unsatisfied=r.w_unsatisfied,
+                         min_rate_bps=scenario.min_rate_bps, w_energy=r.w_energy)
 
 
 def stack_weights(weights: list[RewardWeights]) -> RewardWeights:

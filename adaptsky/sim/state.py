@@ -1,14 +1,13 @@
-"""The simulation's explicit state and its step (docs/model.md §3), in the style of gymnax:
-:func:`step` is a pure function ``(state, actions, dynamics, headings) -> state'``.
+"""The simulation's explicit state and the first stages of its step (docs/model.md §3 and
+§9), in the style of gymnax: :func:`step` is a pure function
+``(state, actions, dynamics, headings) -> state'`` (the users' mobility, then the controls).
 
 Several UAVs are an axis, not a loop: every UAV array has the UAV axis U after the
-environments' axis B. Today U = 1 (several UAVs, SPEC section 8.1, are future work). Code that
-knows one UAV per environment (training, rollouts, environments, baselines) sees positions
-(B, 3) and shares (B, K) through :func:`one_uav`, the one place where the UAV axis is dropped.
+environments' axis B, for one UAV (U = 1) as for several.
 
 A step's randomness (the users' headings) is drawn by the caller, which owns the generators,
-and handed to :func:`step`; the channel, rates and reward of the new state are evaluated by
-:class:`adaptsky.sim.batch.NomaUavBatch`.
+and handed to :func:`step`; the geometry, channel, rates, reward and observation of the new
+state are the later stages, called by :class:`adaptsky.sim.network.NetworkBatch`.
 """
 
 from __future__ import annotations
@@ -29,9 +28,10 @@ class SimState:
     """Where everything is between two steps.
 
     ``config`` (B, U, 3 + K): every UAV's configuration [x_m, y_m, h_m, alpha_1 .. alpha_K],
-    its position (m) and the power shares of its K clusters' first users (the second user of
-    cluster k has 1 - alpha_k, docs/model.md §1); one array, so that an action is a table
-    lookup, an addition and a clip. ``users_m`` (B, N, 2): user positions [x, y], m.
+    its position (m) and the power shares of its clusters' first users (the second user of
+    cluster k has 1 - alpha_k, docs/model.md §1), K = K_max the most clusters of one UAV (a
+    UAV with K_u < K_max leaves its last slots unused); one array, so that an action is a
+    table lookup, an addition and a clip. ``users_m`` (B, N, 2): user positions [x, y], m.
     ``t``: steps since the episode started.
 
     A state is never changed in place: a step makes a new one, so views of it stay valid.
@@ -78,16 +78,6 @@ class SimState:
         return self.config.shape[1]
 
 
-def one_uav(values: FloatArray) -> FloatArray:
-    """``values`` (B, U, ...) of the only UAV (U = 1), (B, ...): a view.
-
-    The one place where the UAV axis meets code that knows one UAV per environment
-    (``NomaUavBatch.uav_m`` and ``alpha_first``, ``NetworkState.uav_m``, the geometry the
-    channel plugins see, the observation's height).
-    """
-    return values[:, 0]
-
-
 def user_positions(users_m: FloatArray) -> FloatArray:
     """A copy of ``users_m`` (B, N, 2), m, laid out as x and y arrays (2, B, N): a (B, N, 2)
     view whose :func:`users_xy` is C-contiguous, the layout a step computes with."""
@@ -108,8 +98,10 @@ def users_xy(users_m: FloatArray) -> FloatArray:
 class Dynamics:
     """The rules of a step that do not change (docs/model.md §3) for B environments of U UAVs.
 
-    ``actions``: the action set of ``action_count`` actions; ``action_step`` (U (3 + K),):
-    delta_x, delta_y, delta_h (m) and delta_alpha K times, for every UAV; ``action_moves``
+    ``actions``: the action set of ``action_count`` actions; ``action_step`` (D,):
+    delta_x, delta_y, delta_h (m) and delta_alpha K_u times, for every UAV; ``slots`` (D,)
+    where the components sit in the flattened (U (3 + K),) configuration (None: in order,
+    every UAV with K clusters); ``action_moves``
     (A, U, 3 + K): the change of the configuration by each of the A actions (None for sets over
     ``TABLE_MAX_ACTIONS``, decoded instead); ``config_low`` and ``config_high``
     (B, U, 3 + K): the feasible set (alg. 1 line 7), |x|, |y| <= L/2, h_min <= h <= h_max,
@@ -126,6 +118,7 @@ class Dynamics:
     num_envs: int
     speed_m_per_step: float
     half_side_m: float
+    slots: NDArray[np.intp] | None = None
 
     @classmethod
     def of(cls, scenario: Scenario, num_envs: int) -> Dynamics:
@@ -140,17 +133,25 @@ class Dynamics:
         high = np.concatenate([[half_m, half_m, uav.max_height_m],
                                np.full(k, 1.0 - power_step)])
         action_set = ActionSet.of(scenario)
+        clusters = action_set.clusters_of_uavs
         # one UAV's steps, then every UAV's: the components of an action in order
-        action_step = np.tile(np.concatenate([np.array(uav.step_m, dtype=np.float64),
-                                              np.full(k, power_step)]), num_uavs)
+        action_step = np.concatenate([np.concatenate([np.array(uav.step_m, dtype=np.float64),
+                                                      np.full(k_u, power_step)])
+                                      for k_u in clusters])
+        # where UAVs serve different numbers of clusters, the configuration's slots of the
+        # components (a UAV with fewer than K_max has unused share slots no action moves)
+        slots = None
+        if len(set(clusters)) > 1:
+            slots = np.concatenate([u * (3 + k) + np.arange(3 + k_u)
+                                    for u, k_u in enumerate(clusters)])
         moves = None
         if action_set.count <= TABLE_MAX_ACTIONS:
-            moves = (action_set.table() * action_step).reshape(action_set.count, num_uavs,
-                                                                3 + k)
+            moves = _in_slots(action_set.table() * action_step, slots, num_uavs * (3 + k)
+                              ).reshape(action_set.count, num_uavs, 3 + k)
         return cls(action_set, action_set.count, action_step, moves,
                    np.broadcast_to(low, config_shape).copy(),
                    np.broadcast_to(high, config_shape).copy(), num_envs,
-                   scenario.users.speed_m_per_step, half_m)
+                   scenario.users.speed_m_per_step, half_m, slots)
 
     def checked(self, actions: NDArray[np.integer]) -> NDArray[np.integer]:
         """``actions`` (B,) as an array, after checking their shape and range."""
@@ -173,7 +174,8 @@ class Dynamics:
         if self.action_moves is not None and actions.dtype.kind in "iu":
             return self.action_moves.take(actions, axis=0)
         shape = self.config_low.shape
-        return (self.actions.decode(actions) * self.action_step).reshape(shape)
+        return _in_slots(self.actions.decode(actions) * self.action_step, self.slots,
+                         shape[1] * shape[2]).reshape(shape)
 
     def moved(self, config: FloatArray, actions: NDArray[np.integer]) -> FloatArray:
         """The configuration (B, U, 3 + K) after checked ``actions`` (B,): every UAV moved and
@@ -193,6 +195,16 @@ class Dynamics:
         # np.clip(moved, -L/2, L/2)
         np.minimum(np.maximum(moved, -half_m, out=moved), half_m, out=moved)
         return moved.transpose(1, 2, 0)
+
+
+def _in_slots(changes: FloatArray, slots: NDArray[np.intp] | None, width: int) -> FloatArray:
+    """``changes`` (..., D) of the action components written into their ``slots`` of a
+    flattened configuration (..., width), 0 elsewhere (None: the components are the slots)."""
+    if slots is None:
+        return changes
+    placed = np.zeros((*changes.shape[:-1], width))
+    placed[..., slots] = changes
+    return placed
 
 
 def step(state: SimState, actions: NDArray[np.integer], dynamics: Dynamics,

@@ -36,7 +36,7 @@ from adaptsky.rollouts.several_uavs import OnSearch, best_response
 from adaptsky.scenario import Scenario
 from adaptsky.scenario.variants import eval_scenario
 from adaptsky.sim.layout import user_layouts
-from adaptsky.sim.multi_batch import NetworkBatch, network_batch
+from adaptsky.sim.network import NetworkBatch
 from adaptsky.sim.noma import jain_fairness
 from adaptsky.store.layout import EVALUATIONS
 from adaptsky.units import plural
@@ -185,7 +185,7 @@ class GreedyEvaluator:
 
     def __init__(self, evaluations: list[EvaluationSet], steps: int) -> None:
         self.evaluations, self.members, self.steps = evaluations, len(evaluations), steps
-        self.envs = [network_batch(group.scenario, num_envs=self.members * len(group.layouts_m),
+        self.envs = [NetworkBatch(group.scenario, num_envs=self.members * len(group.layouts_m),
                                    seed=0,
                                    users_m=np.concatenate([group.layouts_m] * self.members))
                      for group in evaluations[0].groups]

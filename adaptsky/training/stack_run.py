@@ -31,13 +31,13 @@ from adaptsky.arrays import Tree
 from adaptsky.errors import NonFiniteError
 from adaptsky.scenario.agents import BdqAgent
 from adaptsky.scenario.models import Scenario
-from adaptsky.sim.batch import reward_weights
 from adaptsky.sim.energy import episode_energy
 from adaptsky.sim.lattice import exploring_shares
 from adaptsky.sim.layout import episode_layouts
-from adaptsky.sim.multi_batch import MultiUavBatch, network_batch
+from adaptsky.sim.network import NetworkBatch
 from adaptsky.sim.noma import jain_fairness
 from adaptsky.sim.observation import observation_size_of
+from adaptsky.sim.reward import reward_weights
 from adaptsky.training.evaluation import EVALUATION_KEYS, EvaluationSet, GreedyEvaluator
 
 STATE_FIELDS = ("uav_m", "alpha", "gain", "los", "rate_bps", "energy_j")
@@ -111,7 +111,7 @@ class StackRun:
         self.members = members
         self.scenario = scenario = members[0].scenario
         seeds = [member.seed for member in members]
-        self.env = network_batch(scenario, num_envs=len(members),
+        self.env = NetworkBatch(scenario, num_envs=len(members),
                                  seed=[np.random.SeedSequence([s, 0]) for s in seeds],
                                  weights=[reward_weights(m.scenario) for m in members])
         self.rngs = [np.random.default_rng([s, 1]) for s in seeds]
@@ -136,7 +136,7 @@ class StackRun:
         split = None
         if algorithm.reward_parts > 1:
             env, agent = self.env, self.scenario.agent
-            assert isinstance(env, MultiUavBatch) and isinstance(agent, BdqAgent)
+            assert isinstance(agent, BdqAgent)
             split = functools.partial(env.reward_parts, split=agent.reward_split)
         algorithm.begin_episode(start)
         if self.scenario.users.placement == "fresh":

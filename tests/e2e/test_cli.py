@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from adaptsky.scenario import load_scenario
-from adaptsky.sim.batch import NomaUavBatch
+from adaptsky.sim.network import NetworkBatch
 from adaptsky_cli.cli.main import main
 from tests.conftest import SCENARIOS
 from tests.helpers.cli import ADAPTSKY
@@ -168,7 +168,7 @@ def test_example_third_party_plugin_validates_and_steps(tmp_path):
         carrier_hz = 2e9
         """))
     assert main(["scenario", "validate", str(path)]) == 0
-    env = NomaUavBatch(load_scenario(path), num_envs=4, seed=0)
+    env = NetworkBatch(load_scenario(path), num_envs=4, seed=0)
     env.reset()
     for _ in range(5):
         _, reward, _, state = env.step(np.arange(4))

@@ -10,7 +10,7 @@ branches' sub-actions as digits in base b: a = sum_d a_d b^d.
 
 With ``agent.reward_split`` "per-uav" or "difference" and U > 1 UAVs the head is [V_1 ..
 V_U | A_1 .. A_D]: UAV u's branches (its 3 + K components, one after another) take V_u, and
-learn from UAV u's part of the reward (``MultiUavBatch.reward_parts``); the replay stores the
+learn from UAV u's part of the reward (``NetworkBatch.reward_parts``); the replay stores the
 U parts of every reward.
 """
 

@@ -366,11 +366,11 @@ ORDER_LAYOUT_M = [[20.0, 0.0], [-45.0, 40.0], [0.0, 5.0], [30.0, -30.0]]
 
 
 def test_clusters_order_lists_each_clusters_first_then_second_user():
-    from adaptsky.sim.batch import NomaUavBatch
+    from adaptsky.sim.network import NetworkBatch
 
     users = {"positions_m": ORDER_LAYOUT_M, "pairing": "near-far"}
-    listed = NomaUavBatch(scenario(users=users))
-    clustered = NomaUavBatch(scenario(users=users, agent={"user_order": "clusters"}))
+    listed = NetworkBatch(scenario(users=users))
+    clustered = NetworkBatch(scenario(users=users, agent={"user_order": "clusters"}))
     by_user, _ = listed.reset()
     by_cluster, _ = clustered.reset()
     blocks = by_user[0, :-1].reshape(4, 4)  # [dx, dy, alpha, g] per user, as listed
@@ -380,8 +380,8 @@ def test_clusters_order_lists_each_clusters_first_then_second_user():
     assert by_cluster[0, 0] == 0.0 and by_cluster[0, 4] == np.float32(45.0 / 50.0)
     assert np.array_equal(clustered.observation(), by_cluster)
     # with the paper's listed pairing, clusters are (1, 2), (3, 4): the same order as listed
-    paper = NomaUavBatch(scenario(agent={"user_order": "clusters"}))
-    plain = NomaUavBatch(scenario())
+    paper = NetworkBatch(scenario(agent={"user_order": "clusters"}))
+    plain = NetworkBatch(scenario())
     assert np.array_equal(paper.reset()[0], plain.reset()[0])
 
 

@@ -17,7 +17,7 @@ from adaptsky.errors import AdaptskyError, ScenarioError
 from adaptsky.rollouts.oracle import has_oracle, require_deterministic_gains
 from adaptsky.scenario import parse_scenario
 from adaptsky.scenario.models import PAPER_TRAINING_LAYOUT_M
-from adaptsky.sim.batch import NomaUavBatch
+from adaptsky.sim.network import NetworkBatch
 
 C_LIGHT = 299_792_458.0
 
@@ -157,7 +157,7 @@ def test_a_geometry_built_from_distances_alone_gets_a_consistent_placement():
 
 def test_the_environment_hands_the_model_the_scenarios_geometry(register):
     register("recorder", Recorder)
-    env = NomaUavBatch(scenario("recorder", users={"height_m": 1.5, "speed_m_per_step": 2.0},
+    env = NetworkBatch(scenario("recorder", users={"height_m": 1.5, "speed_m_per_step": 2.0},
                                 radio={"carrier_hz": 3.5e9, "bandwidth_hz": 20e6}),
                        num_envs=2, seed=0)
     env.reset()
@@ -178,7 +178,7 @@ def test_the_environment_hands_the_model_the_scenarios_geometry(register):
 def test_mmwave_nyc_with_user_antennas_matches_eq_4_and_5():
     """The built-in model at users 1.5 m up: eq. 5 with d between the antennas, eq. 4 with the
     elevation seen from the antenna (scalar formulas from the paper)."""
-    env = NomaUavBatch(scenario(users={"height_m": 1.5}))
+    env = NetworkBatch(scenario(users={"height_m": 1.5}))
     _, state = env.reset()
     for i, (x, y) in enumerate(env.users_m[0]):
         d = math.sqrt(x * x + y * y + 48.5 ** 2)  # UAV at (0, 0, 50)
@@ -208,7 +208,7 @@ def test_the_carrier_defaults_to_the_models_parameter_else_its_declared_carrier(
 def test_radio_carrier_reaches_a_model_that_has_a_carrier_parameter():
     loaded = scenario("sub6-al-hourani", radio={"carrier_hz": 3.5e9})
     assert loaded.channel.params["carrier_hz"] == 3.5e9
-    env = NomaUavBatch(loaded)
+    env = NetworkBatch(loaded)
     _, state = env.reset()
     x, y = env.users_m[0, 0]
     d = math.sqrt(x * x + y * y + 50.0 ** 2)
@@ -245,7 +245,7 @@ def test_the_models_range_limits_radio_carrier_and_says_so():
 
 def test_a_contract_1_plugin_works_on_the_ground_and_is_refused_above_it(register):
     register("undeclared", Undeclared)
-    env = NomaUavBatch(scenario("undeclared"), seed=0)
+    env = NetworkBatch(scenario("undeclared"), seed=0)
     env.reset()
     _, reward, _, state = env.step(np.array([3]))
     assert np.isfinite(reward).all() and (state.gain > 0).all()
@@ -295,8 +295,8 @@ def test_contract_rules_are_structural(model, line):
 def test_fading_multiplies_the_steps_gain(register):
     register("doubling", Doubling)
     register("free-space-28", FreeSpace28)
-    plain = NomaUavBatch(scenario("free-space-28"), seed=0)
-    doubled = NomaUavBatch(scenario("doubling"), seed=0)
+    plain = NetworkBatch(scenario("free-space-28"), seed=0)
+    doubled = NetworkBatch(scenario("doubling"), seed=0)
     _, plain_state = plain.reset()
     _, doubled_state = doubled.reset()
     np.testing.assert_array_equal(doubled_state.gain, 2.0 * plain_state.gain)
@@ -307,9 +307,9 @@ def test_fading_is_seeded_and_each_stacked_seed_draws_its_own(register):
     register("shadowed", Shadowed)
     loaded = scenario("shadowed", channel={"los": "sampled"})
     seeds = [np.random.SeedSequence(5), np.random.SeedSequence(9)]
-    stack = NomaUavBatch(loaded, num_envs=2, seed=seeds)
-    alone = NomaUavBatch(loaded, num_envs=1, seed=[np.random.SeedSequence(9)])
-    again = NomaUavBatch(loaded, num_envs=2, seed=[np.random.SeedSequence(5),
+    stack = NetworkBatch(loaded, num_envs=2, seed=seeds)
+    alone = NetworkBatch(loaded, num_envs=1, seed=[np.random.SeedSequence(9)])
+    again = NetworkBatch(loaded, num_envs=2, seed=[np.random.SeedSequence(5),
                                                    np.random.SeedSequence(9)])
     gains = []
     for env in (stack, alone, again):
@@ -324,8 +324,8 @@ def test_fading_is_seeded_and_each_stacked_seed_draws_its_own(register):
 def test_fading_can_be_switched_off_by_the_model(register):
     register("shadowed-off", ShadowedOff)
     register("free-space-28", FreeSpace28)
-    off = NomaUavBatch(scenario("shadowed-off"), seed=0)
-    plain = NomaUavBatch(scenario("free-space-28"), seed=0)
+    off = NetworkBatch(scenario("shadowed-off"), seed=0)
+    plain = NetworkBatch(scenario("free-space-28"), seed=0)
     np.testing.assert_array_equal(off.reset()[1].gain, plain.reset()[1].gain)
     assert has_oracle(scenario("shadowed-off"))
 

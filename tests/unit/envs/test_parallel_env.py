@@ -13,16 +13,29 @@ from adaptsky.envs.parallel_env import NomaUavParallelEnv
 from tests.conftest import make_scenario
 from tests.unit.envs.several_uavs import two_uavs
 
+UNEVEN = make_scenario(
+    train={"steps": 10},
+    users={"positions_m": [[-30.0, 10.0], [-10.0, -20.0], [-40.0, -35.0], [-5.0, 30.0],
+                           [30.0, 20.0], [40.0, -10.0]],
+           "association": "listed", "uav": [0, 0, 0, 0, 1, 1]},
+    uav={"count": 2, "start_positions_m": [[-20.0, 0.0, 50.0], [25.0, 0.0, 50.0]]})
+"""Two UAVs serving two clusters and one (groups of different sizes)."""
+
 
 @pytest.mark.parametrize("scenario", [two_uavs(steps=10, moving=True),
-                                      make_scenario(train={"steps": 10})],
-                         ids=["two-uavs", "one-uav"])
+                                      make_scenario(train={"steps": 10}), UNEVEN],
+                         ids=["two-uavs", "one-uav", "uneven-groups"])
 def test_parallel_api_test_passes(scenario):
     env = NomaUavParallelEnv(scenario)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         parallel_api_test(env, num_cycles=30)
     assert env.agents == []                         # the episode ended by truncation
+
+
+def test_each_uav_acts_on_its_own_clusters():
+    env = NomaUavParallelEnv(UNEVEN)
+    assert [env.action_space(agent).shape for agent in env.possible_agents] == [(5,), (4,)]
 
 
 def test_agents_spaces_and_state():

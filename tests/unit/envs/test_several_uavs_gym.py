@@ -1,4 +1,4 @@
-"""The Gymnasium envs over several UAVs (MultiUavBatch): spaces, check_env, determinism, the
+"""The Gymnasium envs over several UAVs (NetworkBatch): spaces, check_env, determinism, the
 MultiDiscrete and dense actions against the batch stepped directly, the native vector env."""
 
 import warnings
@@ -13,7 +13,7 @@ from adaptsky.envs.action_spaces import to_dense, to_sub_actions
 from adaptsky.envs.gym_env import NomaUavEnv, NomaUavVectorEnv
 from adaptsky.scenario import parse_scenario
 from adaptsky.sim.actions import ActionSet
-from adaptsky.sim.multi_batch import MultiUavBatch
+from adaptsky.sim.network import NetworkBatch
 from tests.conftest import SCENARIOS, SUB6_RADIO, make_scenario
 from tests.unit.envs.several_uavs import TWO_UAVS, two_uavs
 
@@ -66,7 +66,7 @@ def test_same_seed_same_rollout_bit_for_bit(action_space):
 def test_multi_discrete_and_dense_actions_step_as_the_batch():
     scenario = two_uavs(steps=30, moving=True)
     multi, dense = NomaUavEnv(scenario), NomaUavEnv(scenario, action_space="discrete")
-    batch = MultiUavBatch(scenario, num_envs=1)
+    batch = NetworkBatch(scenario, num_envs=1)
     action_set = ActionSet.of(scenario)
     obs = [multi.reset(seed=7)[0], dense.reset(seed=7)[0], batch.reset(seed=7)[0][0]]
     assert all(np.array_equal(o, obs[0]) for o in obs)

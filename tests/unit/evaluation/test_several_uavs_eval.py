@@ -16,7 +16,7 @@ from adaptsky.evaluation.api import eval_layouts, run_baseline
 from adaptsky.rollouts import several_uavs
 from adaptsky.rollouts.oracle import oracle
 from adaptsky.scenario import load_scenario
-from adaptsky.sim.multi_batch import network_batch
+from adaptsky.sim.network import NetworkBatch
 from adaptsky.store.eval_file import read_eval_metrics
 from adaptsky.training import api
 from adaptsky_cli.cli.main import main
@@ -72,7 +72,7 @@ def test_soa_per_uav_is_held_with_the_true_interference(tmp_path):
     users_m = eval_layouts(scenario, None)
     uav_m, alpha = several_uavs.soa_per_uav(scenario, users_m)
     result = run_baseline(scenario, "soa", 3, users_m)
-    state = network_batch(scenario, 1, users_m=users_m).evaluate_at(uav_m, alpha)
+    state = NetworkBatch(scenario, 1, users_m=users_m).evaluate_at(uav_m, alpha)
     assert result.trace.uav_m.shape == (3, 1, 2, 3)
     assert np.array_equal(result.trace.rate_bps[-1], state.rate_bps)
     assert state.interference_w.max() > 0

@@ -14,8 +14,8 @@ from adaptsky.rollouts.rollout import hold, random_policy, rollout
 from adaptsky.rollouts.soa import soa_configuration
 from adaptsky.scenario import load_scenario
 from adaptsky.sim import noma
-from adaptsky.sim.batch import NomaUavBatch
 from adaptsky.sim.layout import user_layouts
+from adaptsky.sim.network import NetworkBatch
 from tests.conftest import SCENARIOS, SUB6_RADIO, make_scenario
 
 
@@ -27,7 +27,7 @@ def _mmwave_snr(uav, user, noise_dbm):
 
 def test_soa_on_nyc_mmwave_by_hand():
     scenario = load_scenario(SCENARIOS / "nyc_mmwave.toml")
-    env = NomaUavBatch(scenario, seed=0)
+    env = NetworkBatch(scenario, seed=0)
     uav_m, alpha_first = soa_configuration(env)
     # centroid of (4, 15), (-44, -49), (-5, 21), (47, 49) at the start height: (0.5, 9, 50)
     assert uav_m[0].tolist() == [0.5, 9.0, 50.0]
@@ -45,7 +45,7 @@ def test_soa_on_nyc_mmwave_by_hand():
 
 def test_soa_gives_the_weak_user_exactly_r_min():
     scenario = make_scenario(reward={"min_se": 1.5})
-    env = NomaUavBatch(scenario, seed=0)
+    env = NetworkBatch(scenario, seed=0)
     uav_m, alpha_first = soa_configuration(env)
     # docs/model.md §6 formula for the weak user 2 (at (-44, -49)), by hand
     b = _mmwave_snr(uav_m[0], (-44, -49), -84.0)
@@ -79,7 +79,7 @@ def _brute_force(scenario, users_m):
     environment's own rate computation."""
     xs, ys, hs, alphas = lattice(scenario)
     best = np.zeros(len(users_m))
-    env = NomaUavBatch(scenario, num_envs=len(users_m), users_m=users_m)
+    env = NetworkBatch(scenario, num_envs=len(users_m), users_m=users_m)
     combos = list(itertools.product(alphas, repeat=scenario.num_clusters))
     for x, y, h in itertools.product(xs, ys, hs):
         for combo in combos:
@@ -110,7 +110,7 @@ def test_oracle_is_never_below_any_other_method(layout_seed, min_se):
     scenario = _small(min_se)
     users_m = user_layouts(scenario, 6, layout_seed=layout_seed)
     ceiling = oracle(scenario, users_m).objective_bps * (1 + 1e-12)
-    env = NomaUavBatch(scenario, num_envs=6, users_m=users_m)
+    env = NetworkBatch(scenario, num_envs=6, users_m=users_m)
     soa = hold(scenario, *soa_configuration(env), 1, users_m)
     walk = rollout(scenario, random_policy(32, layout_seed), 200, users_m)
     rng = np.random.default_rng(layout_seed)

@@ -14,7 +14,7 @@ import pytest
 from adaptsky.rollouts.oracle import oracle
 from adaptsky.rollouts.several_uavs import best_oma, best_response, soa_per_uav
 from adaptsky.sim.layout import user_layouts
-from adaptsky.sim.multi_batch import MultiUavBatch, network_batch
+from adaptsky.sim.network import NetworkBatch
 from tests.conftest import make_scenario
 from tests.helpers.scalar_models import NOISE_W, scalar_gain, scalar_network
 
@@ -131,7 +131,7 @@ def test_moves_that_break_the_separation_are_held_back():
     """UAVs 2 m apart at the minimum separation: a step bringing them closer keeps both
     positions (their power moves still apply); a step taking them apart moves both."""
     scenario = tiny()
-    env = MultiUavBatch(scenario, num_envs=1)
+    env = NetworkBatch(scenario, num_envs=1)
     env.reset()
     actions = env.actions
     start = env.uav_m.copy()
@@ -148,8 +148,8 @@ def test_moves_that_break_the_separation_are_held_back():
 def test_each_uav_moves_by_its_own_components():
     scenario = make_scenario(users={"count": 8, "placement": "uniform"},
                              uav={"count": 2, "actions": "with-hover"})
-    env = network_batch(scenario, num_envs=1)
-    assert isinstance(env, MultiUavBatch) and env.actions.num_components == 2 * (3 + 2)
+    env = NetworkBatch(scenario, num_envs=1)
+    assert env.actions.num_components == 2 * (3 + 2)
     env.reset()
     before = env.uav_m.copy()
     climb_uav_1 = np.zeros((1, 10), dtype=np.int64)

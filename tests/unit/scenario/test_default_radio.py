@@ -70,9 +70,9 @@ def test_the_carrier_of_the_table_yields_to_the_models_carrier_parameter():
 def test_the_sub6_default_radio_gives_the_reference_rates_of_model_section_8():
     """docs/model.md §8: sub-6 with -88 dBm, UAV at (0, 0, 50), alpha 0.5: 13.667, 1.000, 13.553,
     1.000 bit/s/Hz -- from a file that names only the channel model."""
-    from adaptsky.sim.batch import NomaUavBatch
+    from adaptsky.sim.network import NetworkBatch
     scenario = parse_scenario({"name": "r", "channel": {"model": "sub6-al-hourani"}}, "r")
-    _, state = NomaUavBatch(scenario, num_envs=1, seed=0).reset()
+    _, state = NetworkBatch(scenario, num_envs=1, seed=0).reset()
     rates = state.rate_bps[0] / scenario.radio.bandwidth_hz
     np.testing.assert_allclose(rates, [13.667, 1.000, 13.553, 1.000], atol=5e-4)
 

@@ -12,7 +12,7 @@ import pytest
 
 from adaptsky.scenario import load_scenario, parse_scenario
 from adaptsky.sim.energy import ZENG_2019, StepEnergy, propulsion_power_w
-from adaptsky.sim.multi_batch import network_batch
+from adaptsky.sim.network import NetworkBatch
 from tests.conftest import ROOT
 from tests.helpers.scalar_models import scalar_power_w
 
@@ -51,7 +51,7 @@ def test_a_steps_energy_counts_speed_climbing_and_transmitters():
 
 
 def _rollout(scenario, steps: int = 6):
-    env = network_batch(scenario, num_envs=2, seed=3)
+    env = NetworkBatch(scenario, num_envs=2, seed=3)
     env.reset()
     actions = np.random.default_rng(0).integers(env.actions.count, size=(steps, 2))
     return env, [env.step(a)[3] for a in actions]

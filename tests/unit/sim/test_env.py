@@ -4,8 +4,8 @@ observation scaling, seeding."""
 import numpy as np
 import pytest
 
-from adaptsky.sim.batch import NomaUavBatch
 from adaptsky.sim.layout import pair_users, user_layouts
+from adaptsky.sim.network import NetworkBatch
 from tests.conftest import SUB6_RADIO, TRAINING_LAYOUT_M, make_scenario
 
 LAYOUT = [list(p) for p in TRAINING_LAYOUT_M]
@@ -16,7 +16,7 @@ def _direction_action(env, directions):
 
 
 def test_episode_starts_at_the_start_position_with_even_split(mmwave):
-    env = NomaUavBatch(mmwave, num_envs=2, seed=0)
+    env = NetworkBatch(mmwave, num_envs=2, seed=0)
     env.reset()
     env.step(np.array([31, 0]))
     _, state = env.reset()
@@ -26,7 +26,7 @@ def test_episode_starts_at_the_start_position_with_even_split(mmwave):
 
 
 def test_a_step_moves_one_step_on_every_axis(mmwave):
-    env = NomaUavBatch(mmwave, seed=0)
+    env = NetworkBatch(mmwave, seed=0)
     env.reset()
     _, _, _, state = env.step(np.array([_direction_action(env, [1, -1, 1, -1, 1])]))
     assert state.uav_m[0].tolist() == [1.0, -1.0, 51.0]
@@ -40,7 +40,7 @@ def test_moves_are_clipped_at_every_position_bound(axis, direction, bound):
     start = [0.0, 0.0, 30.0]
     start[axis] = bound - 3.0 * direction
     scenario = make_scenario(uav={"start_m": start, "max_height_m": 60.0})
-    env = NomaUavBatch(scenario, seed=0)
+    env = NetworkBatch(scenario, seed=0)
     env.reset()
     directions = [1, 1, 1, 1, 1]
     directions[axis] = direction
@@ -51,7 +51,7 @@ def test_moves_are_clipped_at_every_position_bound(axis, direction, bound):
 
 @pytest.mark.parametrize(("direction", "bound"), [(1, 0.99), (-1, 0.01)])
 def test_alpha_is_clipped_to_power_step_bounds(mmwave, direction, bound):
-    env = NomaUavBatch(mmwave, seed=0)
+    env = NetworkBatch(mmwave, seed=0)
     env.reset()
     action = np.array([_direction_action(env, [1, 1, 1, direction, -direction])])
     for _ in range(60):
@@ -60,7 +60,7 @@ def test_alpha_is_clipped_to_power_step_bounds(mmwave, direction, bound):
 
 
 def test_episode_is_truncated_after_train_steps():
-    env = NomaUavBatch(make_scenario(train={"steps": 3}), seed=0)
+    env = NetworkBatch(make_scenario(train={"steps": 3}), seed=0)
     env.reset()
     flags = [env.step(np.array([0]))[2] for _ in range(3)]
     assert flags == [False, False, True]
@@ -95,7 +95,7 @@ def test_sampled_los_draws_nlos_at_low_elevation_and_expected_lies_between():
     gains = {}
     for mode in ("always", "sampled", "expected"):
         scenario = make_scenario(channel={"model": "sub6-al-hourani", "los": mode}, **base)
-        state = NomaUavBatch(scenario, num_envs=50, seed=1).reset()[1]
+        state = NetworkBatch(scenario, num_envs=50, seed=1).reset()[1]
         gains[mode] = state.gain
         if mode == "sampled":
             assert not state.los[:, 1].any() and not state.los[:, 3].any()
@@ -106,7 +106,7 @@ def test_sampled_los_draws_nlos_at_low_elevation_and_expected_lies_between():
 
 
 def test_scaled_observation_by_hand(mmwave):
-    env = NomaUavBatch(mmwave, seed=0)
+    env = NetworkBatch(mmwave, seed=0)
     obs, state = env.reset()
     # user 1 at (4, 15), UAV at (0, 0, 50): dx = -4 / 50, dy = -15 / 50
     gain_db = 10 * np.log10(state.gain[0, 0])
@@ -116,7 +116,7 @@ def test_scaled_observation_by_hand(mmwave):
 
 
 def test_raw_observation_is_the_papers_state():
-    env = NomaUavBatch(make_scenario(agent={"observation": "raw"}), seed=0)
+    env = NetworkBatch(make_scenario(agent={"observation": "raw"}), seed=0)
     obs, state = env.reset()
     assert obs[0, 4:8] == pytest.approx([44.0, 49.0, 0.5, state.gain[0, 1]], rel=1e-6)
     assert obs[0, -1] == 50.0
@@ -124,7 +124,7 @@ def test_raw_observation_is_the_papers_state():
 
 def test_users_random_walk_at_their_speed(mmwave):
     scenario = make_scenario(users={"positions_m": LAYOUT, "speed_m_per_step": 2.0})
-    env = NomaUavBatch(scenario, num_envs=4, seed=0)
+    env = NetworkBatch(scenario, num_envs=4, seed=0)
     env.reset()
     before = env.users_m.copy()
     env.step(np.zeros(4, dtype=int))
@@ -139,18 +139,18 @@ def test_same_seed_same_rollout_bit_for_bit():
                              channel={"model": "sub6-al-hourani", "los": "sampled"})
     runs = []
     for _ in range(2):
-        env = NomaUavBatch(scenario, num_envs=8, seed=42)
+        env = NetworkBatch(scenario, num_envs=8, seed=42)
         env.reset()
         actions = np.random.default_rng(5).integers(0, 32, size=(40, 8))
         runs.append(np.stack([env.step(a)[1] for a in actions]))
     assert np.array_equal(runs[0], runs[1])
-    other = NomaUavBatch(scenario, num_envs=8, seed=43)
+    other = NetworkBatch(scenario, num_envs=8, seed=43)
     other.reset()
     assert not np.array_equal(runs[0][0], other.step(actions[0])[1])
 
 
 def test_invalid_actions_are_rejected(mmwave):
-    env = NomaUavBatch(mmwave, num_envs=2, seed=0)
+    env = NetworkBatch(mmwave, num_envs=2, seed=0)
     env.reset()
     with pytest.raises(ValueError, match="actions must lie"):
         env.step(np.array([0, 32]))

@@ -1,4 +1,4 @@
-"""The fast step of NomaUavBatch against a straightforward reference built from the pure
+"""The fast step of NetworkBatch against a straightforward reference built from the pure
 functions (noma.py, the channel plugins, pair_users), written the way the batch did before it
 was tuned for small B: the same observations, rewards and states, environment by environment.
 """
@@ -10,9 +10,11 @@ import pytest
 
 from adaptsky.channels.contract import LinkGeometry
 from adaptsky.sim import noma
-from adaptsky.sim.batch import NomaUavBatch, build_channel, deterministic_gain, reward_weights
 from adaptsky.sim.layout import pair_users, user_layouts
+from adaptsky.sim.links import build_channel, deterministic_gain
+from adaptsky.sim.network import NetworkBatch
 from adaptsky.sim.observation import GAIN_DB_CENTER, GAIN_DB_SCALE
+from adaptsky.sim.reward import reward_weights
 from tests.conftest import SCENARIOS, SUB6_RADIO, TRAINING_LAYOUT_M, make_scenario
 
 FIELDS = ("uav_m", "alpha", "gain", "los", "p_los", "rate_bps", "sum_rate_bps", "fairness",
@@ -197,7 +199,7 @@ def _from_file(name):
 def test_step_equals_the_plain_reference(case, num_envs, seeds):
     scenario = _scenario(case)
     seed = [np.random.SeedSequence([b, 4]) for b in range(num_envs)] if seeds == "list" else 11
-    env = NomaUavBatch(scenario, num_envs, seed=seed)
+    env = NetworkBatch(scenario, num_envs, seed=seed)
     ref = Reference(scenario, num_envs, seed)
     actions = np.random.default_rng(num_envs).integers(0, env.actions.count,
                                                        size=(60, num_envs))
@@ -221,7 +223,7 @@ def test_per_environment_weights_equal_the_plain_reference():
                for b in range(3)]
     for chosen in (weights, [w for w in weights if w.min_rate_bps == 0]):
         seed = [np.random.SeedSequence([b, 4]) for b in range(len(chosen))]
-        env = NomaUavBatch(scenario, len(chosen), seed=seed, weights=chosen)
+        env = NetworkBatch(scenario, len(chosen), seed=seed, weights=chosen)
         ref = Reference(scenario, len(chosen), seed, weights=chosen)
         _assert_same(*env.reset(), *ref.reset())
         for a in np.random.default_rng(0).integers(0, 32, size=(20, len(chosen))):
@@ -230,7 +232,7 @@ def test_per_environment_weights_equal_the_plain_reference():
 
 def test_evaluate_at_equals_the_plain_reference():
     scenario = _scenario("sub6_expected_uniform_rewards")
-    env, ref = NomaUavBatch(scenario, 4, seed=0), Reference(scenario, 4, 0)
+    env, ref = NetworkBatch(scenario, 4, seed=0), Reference(scenario, 4, 0)
     env.reset(), ref.reset()
     rng = np.random.default_rng(2)
     for _ in range(5):
@@ -248,11 +250,11 @@ def test_an_environment_does_not_depend_on_its_neighbours(case):
     scenario = _scenario(case)
     seeds = [np.random.SeedSequence([b, 7]) for b in range(4)]
     actions = np.random.default_rng(3).integers(0, 32, size=(30, 4))
-    stacked = NomaUavBatch(scenario, 4, seed=seeds, users_m=user_layouts(scenario, 4))
+    stacked = NetworkBatch(scenario, 4, seed=seeds, users_m=user_layouts(scenario, 4))
     stacked.reset()
     alone = []
     for b in range(4):
-        env = NomaUavBatch(scenario, 1, seed=[seeds[b]],
+        env = NetworkBatch(scenario, 1, seed=[seeds[b]],
                            users_m=user_layouts(scenario, 4)[b:b + 1])
         env.reset()
         alone.append(env)
@@ -267,7 +269,7 @@ def test_an_environment_does_not_depend_on_its_neighbours(case):
 
 
 def test_states_are_not_changed_by_later_steps():
-    env = NomaUavBatch(_scenario("mmwave_sampled_moving"), 2, seed=1)
+    env = NetworkBatch(_scenario("mmwave_sampled_moving"), 2, seed=1)
     obs, state = env.reset()
     kept = {name: getattr(state, name).copy() for name in FIELDS}
     kept_obs = obs.copy()
@@ -282,7 +284,7 @@ def test_on_a_tie_the_first_user_is_strong_as_in_the_reference():
     # both users of each cluster at the same distance from the UAV: equal gains
     scenario = make_scenario(users={"positions_m": [[10.0, 0.0], [-10.0, 0.0], [0.0, 20.0],
                                                     [0.0, -20.0]]})
-    env, ref = NomaUavBatch(scenario, 2, seed=0), Reference(scenario, 2, 0)
+    env, ref = NetworkBatch(scenario, 2, seed=0), Reference(scenario, 2, 0)
     env.reset(), ref.reset()
     uav_m, alpha_first = np.array([[0.0, 0.0, 30.0], [0.0, 0.0, 60.0]]), np.full((2, 2), 0.3)
     ref.uav_m, ref.alpha_first = uav_m, alpha_first

@@ -1,7 +1,7 @@
 """Several UAVs' physics (docs/model.md §9) against plain scalar formulas written from the
 model, for U = 2 and 4: link gains, interference, SINR, SIC order, NOMA and OMA rates; a
 layout where the interference flips the SIC order; and U = 1 against today's single-UAV
-computation (``NomaUavBatch``), bit for bit."""
+computation (``NetworkBatch``), bit for bit."""
 
 from __future__ import annotations
 
@@ -11,17 +11,13 @@ import numpy as np
 import pytest
 
 from adaptsky.channels.contract import LinkGeometry
+from adaptsky.sim import noma
 from adaptsky.sim.association import associate, serving_groups
-from adaptsky.sim.batch import NomaUavBatch, build_channel
-from adaptsky.sim.interference import (
-    interference_w,
-    noma_rates,
-    oma_rates_bps,
-    serving_gain,
-    strong_users,
-)
-from adaptsky.sim.links import all_links_geometry, link_gains
+from adaptsky.sim.interference import oma_rates_bps, serving_gain
+from adaptsky.sim.links import build_channel, link_gains, links_geometry
+from adaptsky.sim.network import NetworkBatch
 from tests.conftest import make_scenario
+from tests.helpers.rates_reference import interference_w, noma_rates
 from tests.helpers.scalar_models import (
     ANTENNA_GAIN,
     BANDWIDTH_HZ,
@@ -35,7 +31,7 @@ from tests.helpers.scalar_models import (
 
 def _vectorised(uav_m, users_m, association, alpha_first, reuse, los="always"):
     scenario = make_scenario(channel={"los": los})
-    geometry = all_links_geometry(uav_m, users_m, user_height_m=0.0, carrier_hz=28e9,
+    geometry = links_geometry(uav_m, users_m, user_height_m=0.0, carrier_hz=28e9,
                                   bandwidth_hz=BANDWIDTH_HZ)
     gain, _, _ = link_gains(build_channel(scenario), los, geometry,
                             num_uavs=uav_m.shape[1])
@@ -117,14 +113,21 @@ def test_interference_flips_the_sic_order_the_plain_gains_give():
     assert full.rate_bps[0] == pytest.approx(rate, rel=1e-12)
 
 
-def test_the_order_ties_go_to_the_larger_plain_gain_then_to_the_first_user():
+def _strong(gains: np.ndarray, interference_w: np.ndarray, noise_w: float) -> np.ndarray:
+    """The SIC order (noma.is_strong) of users 0-3 in clusters (0, 1) and (2, 3)."""
     association = associate(np.zeros((1, 4), dtype=np.intp), np.zeros((1, 4)), "listed", 1)
+    partner = association.partner
+    effective = gains / (interference_w + noise_w)
+    return noma.is_strong(effective, np.take_along_axis(effective, partner, axis=1), gains,
+                          np.take_along_axis(gains, partner, axis=1), association.is_first)
+
+
+def test_the_order_ties_go_to_the_larger_plain_gain_then_to_the_first_user():
     gains = np.array([[2.0, 1.0, 1.0, 1.0]])
     # equal effective gains for users 0 and 1 (twice the gain, twice the interference + noise)
-    strong = strong_users(gains, np.array([[1.0, 0.0, 0.0, 0.0]]), 1.0, association)
+    strong = _strong(gains, np.array([[1.0, 0.0, 0.0, 0.0]]), 1.0)
     assert strong.tolist() == [[True, False, True, False]]
-    strong = strong_users(gains[:, ::-1].copy(), np.array([[0.0, 0.0, 0.0, 1.0]]), 1.0,
-                          association)
+    strong = _strong(gains[:, ::-1].copy(), np.array([[0.0, 0.0, 0.0, 1.0]]), 1.0)
     assert strong.tolist() == [[True, False, False, True]]
 
 
@@ -132,12 +135,12 @@ def test_the_order_ties_go_to_the_larger_plain_gain_then_to_the_first_user():
 @pytest.mark.parametrize("pairing", ["near-far", "listed"])
 def test_one_uav_gives_todays_numbers_bit_for_bit(los, pairing):
     """No ulp of difference: the same geometry, the same generator draws, the same SIC order
-    and the same floating-point operations as ``NomaUavBatch``'s step."""
+    and the same floating-point operations as ``NetworkBatch``'s step."""
     scenario = make_scenario(users={"count": 8, "placement": "uniform", "layout_seed": 3,
                                     "pairing": pairing},
                              channel={"los": los}, radio={"noise_figure_db": 5.0})
     num_envs = 32
-    batch = NomaUavBatch(scenario, num_envs=num_envs, seed=11)
+    batch = NetworkBatch(scenario, num_envs=num_envs, seed=11)
     rng = np.random.default_rng(5)
     uav_m = np.concatenate([rng.uniform(-50, 50, (num_envs, 2)),
                             rng.uniform(10, 200, (num_envs, 1))], axis=1)
@@ -147,7 +150,7 @@ def test_one_uav_gives_todays_numbers_bit_for_bit(los, pairing):
     radio = scenario.radio
     users_m = batch.layouts_m
     start = np.broadcast_to(scenario.uav_start_positions_m, (num_envs, 1, 3))
-    start_geometry = all_links_geometry(start, users_m, user_height_m=0.0,
+    start_geometry = links_geometry(start, users_m, user_height_m=0.0,
                                         carrier_hz=radio.carrier_hz,
                                         bandwidth_hz=radio.bandwidth_hz)
     deterministic = "always" if los == "always" else "expected"
@@ -158,7 +161,7 @@ def test_one_uav_gives_todays_numbers_bit_for_bit(los, pairing):
     assert np.array_equal(association.first_user[:, 0], batch.first_user)
     assert np.array_equal(association.second_user[:, 0], batch.second_user)
 
-    geometry = all_links_geometry(uav_m[:, None, :], users_m, user_height_m=0.0,
+    geometry = links_geometry(uav_m[:, None, :], users_m, user_height_m=0.0,
                                   carrier_hz=radio.carrier_hz, bandwidth_hz=radio.bandwidth_hz)
     gain, los_state, p_los = link_gains(batch.channel, los, geometry, np.random.default_rng(11))
     assert np.array_equal(gain[:, 0], state.gain)
@@ -177,10 +180,10 @@ def test_one_uav_draws_as_todays_batch_with_a_generator_per_environment():
     scenario = make_scenario(users={"count": 4, "placement": "uniform"},
                              channel={"los": "sampled"})
     seeds = [np.random.SeedSequence(s) for s in (3, 4, 5)]
-    batch = NomaUavBatch(scenario, num_envs=3, seed=seeds)
+    batch = NetworkBatch(scenario, num_envs=3, seed=seeds)
     uav_m = np.array([[0.0, 0.0, 50.0], [10.0, -5.0, 20.0], [-30.0, 40.0, 120.0]])
     state = batch.evaluate_at(uav_m, np.full((3, 2), 0.5))
-    geometry = all_links_geometry(uav_m[:, None, :], batch.layouts_m, user_height_m=0.0,
+    geometry = links_geometry(uav_m[:, None, :], batch.layouts_m, user_height_m=0.0,
                                   carrier_hz=28e9, bandwidth_hz=2e9)
     rngs = [np.random.default_rng(s) for s in (3, 4, 5)]
     gain, los, _ = link_gains(batch.channel, "sampled", geometry, rngs)
@@ -193,11 +196,11 @@ def test_with_a_generator_per_environment_each_draws_its_own_uavs_links():
                            axis=2)
     users_m = rng.uniform(-50, 50, (2, 4, 2))
     channel = build_channel(make_scenario())
-    geometry = all_links_geometry(uav_m, users_m, user_height_m=0.0, carrier_hz=28e9,
+    geometry = links_geometry(uav_m, users_m, user_height_m=0.0, carrier_hz=28e9,
                                   bandwidth_hz=2e9)
     _, both, _ = link_gains(channel, "sampled", geometry,
                             [np.random.default_rng(1), np.random.default_rng(2)], num_uavs=3)
-    second = all_links_geometry(uav_m[1:], users_m[1:], user_height_m=0.0, carrier_hz=28e9,
+    second = links_geometry(uav_m[1:], users_m[1:], user_height_m=0.0, carrier_hz=28e9,
                                 bandwidth_hz=2e9)
     _, alone, _ = link_gains(channel, "sampled", second, np.random.default_rng(2), num_uavs=3)
     assert np.array_equal(both[1], alone[0])
@@ -221,7 +224,7 @@ def test_gains_of_every_link_are_the_plugins_gains_of_each_uav_alone():
                            axis=2)
     users_m = rng.uniform(-50, 50, (3, 6, 2))
     channel = build_channel(make_scenario(channel={"model": "sub6-al-hourani"}))
-    gain, _, _ = link_gains(channel, "expected", all_links_geometry(
+    gain, _, _ = link_gains(channel, "expected", links_geometry(
         uav_m, users_m, user_height_m=0.0, carrier_hz=2e9, bandwidth_hz=50e6), num_uavs=4)
     for b in range(3):
         for u in range(4):
@@ -237,3 +240,33 @@ def test_interference_needs_a_cluster_on_the_same_subchannel():
     gain = np.ones((1, 2, 6))
     interference = interference_w(gain, association, 1.0, 1.0, "full")
     assert interference.tolist() == [[1.0, 1.0, 0.0, 0.0, 1.0, 1.0]]
+
+
+def test_groups_of_different_sizes_give_the_plain_formulas():
+    """users.uav = [0, 0, 0, 0, 1, 1]: UAV 0 serves two clusters, UAV 1 one (docs/model.md
+    §9). Under full reuse cluster 0's users hear the other UAV; UAV 0's cluster 1 has its
+    subchannel alone. Every step gives finite numbers; no action moves UAV 1's unused share."""
+    users = [[-30.0, 10.0], [-10.0, -20.0], [-40.0, -35.0], [-5.0, 30.0], [30.0, 20.0],
+             [40.0, -10.0]]
+    serving = [0, 0, 0, 0, 1, 1]
+    scenario = make_scenario(
+        users={"positions_m": users, "association": "listed", "uav": serving,
+               "pairing": "listed"},
+        uav={"count": 2, "start_positions_m": [[-20.0, 0.0, 50.0], [25.0, 0.0, 50.0]]},
+        radio={"noise_figure_db": 5.0})
+    batch = NetworkBatch(scenario, num_envs=1, seed=0)
+    uav_m = np.array([[[-25.0, 5.0, 40.0], [20.0, -5.0, 60.0]]])
+    state = batch.evaluate_at(uav_m, np.array([[[0.3, 0.8], [0.6, 0.5]]]))
+    _, interference, strong, _, rate, _ = scalar_network(
+        uav_m[0], users, serving, [[(0, 1), (2, 3)], [(4, 5)]], [[0.3, 0.8], [0.6]], "full")
+    assert interference[2] == interference[3] == 0.0 < min(interference[:2] + interference[4:])
+    assert state.interference_w[0] == pytest.approx(interference, rel=1e-12, abs=0)
+    assert state.strong[0].tolist() == strong
+    assert state.rate_bps[0] == pytest.approx(rate, rel=1e-12)
+    assert batch.actions.num_components == (3 + 2) + (3 + 1)
+    obs, start = batch.reset()
+    assert np.isfinite(start.reward).all() and np.isfinite(obs).all()
+    for action in np.random.default_rng(0).integers(0, batch.actions.count, 30):
+        obs, reward, _, _ = batch.step(np.array([action]))
+        assert np.isfinite(reward).all() and np.isfinite(obs).all()
+    assert batch.sim_state.alpha_first[0, 1, 1] == scenario.uav.start_alpha

@@ -1,4 +1,4 @@
-"""MultiUavBatch's step gives, bit for bit, the numbers of a straightforward computation from
+"""NetworkBatch's step gives, bit for bit, the numbers of a straightforward computation from
 the pure functions of docs/model.md §9 (links, interference, NOMA, the separation rule, the
 observation), however the step is made fast (index arrays made once per layout, buffers kept,
 the separation tested cheaply first). The reference here recomputes everything every step,
@@ -13,12 +13,12 @@ from numpy.typing import NDArray
 from adaptsky.channels.contract import ChannelModel, LinkGeometry
 from adaptsky.scenario import Scenario, load_scenario
 from adaptsky.sim import noma
-from adaptsky.sim.batch import build_channel, carrier_hz, reward_weights
-from adaptsky.sim.interference import noma_rates
-from adaptsky.sim.links import all_links_geometry, link_gains
-from adaptsky.sim.multi_batch import MultiUavBatch
+from adaptsky.sim.links import build_channel, carrier_hz, link_gains, links_geometry
+from adaptsky.sim.network import NetworkBatch
 from adaptsky.sim.observation import GAIN_DB_CENTER, GAIN_DB_SCALE
+from adaptsky.sim.reward import reward_weights
 from adaptsky.sim.state import Dynamics, SimState, step
+from tests.helpers.rates_reference import noma_rates
 
 NUM_ENVS = 12
 STEPS = 200
@@ -91,7 +91,7 @@ def plain_draws(channel: ChannelModel) -> ChannelModel:
 class Reference:
     """The network of ``env``'s scenario and association, stepped the plain way."""
 
-    def __init__(self, env: MultiUavBatch, seeds: list[np.random.SeedSequence]) -> None:
+    def __init__(self, env: NetworkBatch, seeds: list[np.random.SeedSequence]) -> None:
         self.scenario, self.env = env.scenario, env
         self.channel = plain_draws(build_channel(env.scenario))
         self.dynamics = Dynamics.of(env.scenario, env.num_envs)
@@ -119,7 +119,7 @@ class Reference:
     def evaluate(self) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         scenario, env, state = self.scenario, self.env, self.state
         radio = scenario.radio
-        geometry = all_links_geometry(state.uav_m, state.users_m,
+        geometry = links_geometry(state.uav_m, state.users_m,
                                       user_height_m=scenario.users.height_m,
                                       carrier_hz=carrier_hz(scenario),
                                       bandwidth_hz=radio.bandwidth_hz)
@@ -181,7 +181,7 @@ def same(a: np.ndarray, b: np.ndarray) -> bool:
 def test_step_equals_the_plain_computation(name: str, kind: str) -> None:
     scenario = variant(name, kind)
     seeds = [np.random.SeedSequence([s, 0]) for s in range(NUM_ENVS)]
-    env = MultiUavBatch(scenario, NUM_ENVS, seed=seeds)
+    env = NetworkBatch(scenario, NUM_ENVS, seed=seeds)
     reference = Reference(env, seeds)
     obs, state = env.reset()
     expected_obs, expected = reference.evaluate()

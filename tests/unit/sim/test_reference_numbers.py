@@ -4,12 +4,12 @@ alpha = 0.5 in both clusters, spectral efficiency per user in bit/s/Hz, listed o
 import numpy as np
 import pytest
 
-from adaptsky.sim.batch import NomaUavBatch
+from adaptsky.sim.network import NetworkBatch
 from tests.conftest import SUB6_RADIO, make_scenario
 
 
 def _spectral_efficiency(scenario):
-    env = NomaUavBatch(scenario, num_envs=1, seed=0)
+    env = NetworkBatch(scenario, num_envs=1, seed=0)
     _, state = env.reset()
     return state.rate_bps[0] / scenario.radio.bandwidth_hz, state.fairness[0]
 
@@ -29,6 +29,6 @@ def test_sub6_with_paper_noise():
 
 
 def test_every_environment_of_a_batch_sees_the_same_listed_layout():
-    env = NomaUavBatch(make_scenario(radio={"noise_figure_db": 5.0}), num_envs=3, seed=0)
+    env = NetworkBatch(make_scenario(radio={"noise_figure_db": 5.0}), num_envs=3, seed=0)
     _, state = env.reset()
     assert np.all(state.rate_bps == state.rate_bps[0])

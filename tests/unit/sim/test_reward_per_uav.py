@@ -90,11 +90,11 @@ def test_the_difference_part_charges_each_uav_its_interference_by_the_plain_form
     """R_i^{-u}: user i's rate had UAV u sent nothing, by loops over the links (the gains of
     eq. 4-5 with LoS, SIC by the effective gain, eq. 2-3), and each UAV's difference part
     = its per-UAV part + w_r sum_{i not of u} (R_i - R_i^{-u}) / W."""
-    from adaptsky.sim.multi_batch import MultiUavBatch
+    from adaptsky.sim.network import NetworkBatch
     from tests.helpers.scalar_models import ANTENNA_GAIN, NOISE_W, TX_POWER_W, scalar_gain
 
     scenario = _difference_scenario(count)
-    env = MultiUavBatch(scenario, num_envs=1, seed=0)
+    env = NetworkBatch(scenario, num_envs=1, seed=0)
     env.reset()
     rng = np.random.default_rng(1)
     for _ in range(5):

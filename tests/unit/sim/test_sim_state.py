@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from adaptsky.sim.batch import NomaUavBatch
+from adaptsky.sim.network import NetworkBatch
 from adaptsky.sim.reward import (
     FAIRNESS,
     GAIN,
@@ -22,14 +22,14 @@ from adaptsky.sim.reward import (
     weighted_sum,
     with_weights,
 )
-from adaptsky.sim.state import Dynamics, SimState, one_uav, step
+from adaptsky.sim.state import Dynamics, SimState, step
 from tests.conftest import TRAINING_LAYOUT_M, make_scenario
 
 USERS_M = [[list(p) for p in TRAINING_LAYOUT_M]]          # (B = 1, N = 4, 2)
 
 
 def test_the_state_has_a_uav_axis_of_one(mmwave):
-    env = NomaUavBatch(mmwave, num_envs=3, seed=0)
+    env = NetworkBatch(mmwave, num_envs=3, seed=0)
     env.reset()
     state = env.sim_state
     assert state.config.shape == (3, 1, 3 + 2)               # (B, U, 3 + K)
@@ -39,11 +39,11 @@ def test_the_state_has_a_uav_axis_of_one(mmwave):
     assert state.alpha_first[:, 0].tolist() == [[0.5, 0.5]] * 3
     # consumers outside adaptsky.sim see one UAV per environment: (B, 3), (B, K)
     assert env.uav_m.shape == (3, 3) and env.alpha_first.shape == (3, 2)
-    assert np.array_equal(env.uav_m, one_uav(state.uav_m))
+    assert np.array_equal(env.uav_m, state.uav_m[:, 0])
     _, _, _, network = env.step(np.array([0, 5, 31]))
     assert env.sim_state.t == env.t == 1
     assert network.uav_m.shape == (3, 3)
-    assert np.array_equal(network.uav_m, one_uav(env.sim_state.uav_m))
+    assert np.array_equal(network.uav_m, env.sim_state.uav_m[:, 0])
 
 
 def _state(uav_m, alpha_first, t=7):
@@ -167,7 +167,7 @@ def test_the_sum_of_the_terms_is_the_environments_reward(min_se):
         users={"positions_m": None, "count": 6, "placement": "uniform", "layout_seed": 3,
                "pairing": "near-far"},
         reward={"min_se": min_se, **WEIGHTS, "w_gain": 1e9})
-    env = NomaUavBatch(scenario, num_envs=3, seed=0)
+    env = NetworkBatch(scenario, num_envs=3, seed=0)
     env.reset()
     weights = RewardWeights(**{**WEIGHTS, "w_gain": 1e9},
                             min_rate_bps=min_se * scenario.radio.bandwidth_hz)

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from adaptsky.scenario.toml_writer import dumps
-from adaptsky.sim.batch import NomaUavBatch
+from adaptsky.sim.network import NetworkBatch
 from adaptsky.store.run_file import RunFileError, RunReader
 from adaptsky.training import api
 from adaptsky.training.evaluation import (
@@ -103,7 +103,7 @@ def brute_force_oracle(layout_m: list, min_se: float = 0.0) -> float:
     scenario = make_scenario(**sections())
     xs, hs = np.arange(-50.0, 51.0, 10.0), np.arange(10.0, 201.0, 10.0)
     points = np.array([(x, y, h) for x in xs for y in xs for h in hs])
-    env = NomaUavBatch(scenario, num_envs=len(points),
+    env = NetworkBatch(scenario, num_envs=len(points),
                        users_m=np.broadcast_to(np.array(layout_m), (len(points), 4, 2)).copy())
     best = np.full((len(points), 2), -np.inf)
     for alpha in np.round(np.arange(1, 100) * 0.01, 10):
@@ -153,7 +153,7 @@ def test_steady_state_is_the_mean_of_the_last_100_steps_and_sampled_los_scores_i
     evaluation = evaluation_set(scenario)
     assert np.isnan(evaluation.training.oracle_bps).all()     # no oracle to compare with
     row = GreedyEvaluator([evaluation], steps).run(_constant(action))[0]
-    env = NomaUavBatch(scenario, num_envs=1, seed=0, users_m=np.array([TRAINING_LAYOUT_M]))
+    env = NetworkBatch(scenario, num_envs=1, seed=0, users_m=np.array([TRAINING_LAYOUT_M]))
     env.reset()
     rates = [env.step(np.array([action]))[3].rate_bps[0] for _ in range(steps)]
     sums = np.array(rates).sum(axis=1)
@@ -181,7 +181,7 @@ def test_held_out_layouts_score_the_mean_percent_of_their_oracles():
     row = GreedyEvaluator([evaluation], steps).run(_constant(action))[0]
     near_far = make_scenario(**sections(users={"count": 4, "placement": "uniform",
                                                "layout_seed": 5, "pairing": "near-far"}))
-    env = NomaUavBatch(near_far, num_envs=3, seed=0, users_m=layouts)
+    env = NetworkBatch(near_far, num_envs=3, seed=0, users_m=layouts)
     env.reset()
     sums = np.array([env.step(np.full(3, action))[3].sum_rate_bps for _ in range(steps)])
     steady = sums[-100:].mean(axis=0)

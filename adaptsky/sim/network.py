@@ -1,0 +1,590 @@
+"""The network of U UAVs and N users (docs/model.md §1-4 and §9), simulated for B independent
+layouts at once: :class:`NetworkBatch`, the one simulator, for one UAV (the paper's, U = 1) and
+for several.
+
+A step is the gymnax-like pure step of :mod:`adaptsky.sim.state` followed by the evaluation of
+the new state, each a named stage, called in this order (docs/architecture.md):
+
+1. mobility: the users walk (:meth:`~adaptsky.sim.state.Dynamics.walked`);
+2. controls: every UAV's move and every share's change, clipped to the feasible set
+   (:meth:`~adaptsky.sim.state.Dynamics.moved`), moves that break the separation held back
+   (:func:`~adaptsky.sim.separation.separated`);
+3. geometry of every UAV-user link (:func:`~adaptsky.sim.links.links_geometry`);
+4. channel: the plugin's gains, LoS and fading (:func:`~adaptsky.sim.links.link_gains`);
+5. association and clusters, fixed per layout (:mod:`adaptsky.sim.association`);
+6. rates: interference (:func:`~adaptsky.sim.interference.interference_sum_w`), SIC order
+   (:func:`~adaptsky.sim.noma.is_strong`), SINR and rates (eqs. 2-3);
+7. reward terms (eq. 9 and eq. 13, :mod:`adaptsky.sim.reward`) and energy
+   (:mod:`adaptsky.sim.energy`);
+8. observation (:mod:`adaptsky.sim.observation`): the paper's layout for one UAV, the
+   several-UAV layout otherwise.
+
+With U = 1 every public array keeps the paper's shapes: UAV positions (B, 3), shares (B, K),
+energy (B,); with U > 1 they have a UAV axis: (B, U, 3), (B, U, K), (B, U).
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from adaptsky.channels.contract import LinkGeometry
+from adaptsky.scenario.models import Scenario
+from adaptsky.sim import noma
+from adaptsky.sim.association import Association, associate, serving_groups
+from adaptsky.sim.energy import EnergyAccount
+from adaptsky.sim.gain_bounds import gain_range, reachable_heights
+from adaptsky.sim.interference import (
+    interference_sum_w,
+    interferers,
+    serving_gain,
+    sic_rates,
+)
+from adaptsky.sim.layout import user_layouts
+from adaptsky.sim.links import (
+    build_channel,
+    carrier_hz,
+    deterministic_gain,
+    fading_active,
+    link_gains,
+    links_geometry,
+    scenario_geometry,
+)
+from adaptsky.sim.observation import FEATURES_PER_USER, MultiObserver, Observer
+from adaptsky.sim.reward import RewardFromSums, reward_per_uav, reward_weights, stack_weights
+from adaptsky.sim.separation import separated
+from adaptsky.sim.state import Dynamics, SimState, step, users_xy
+
+FloatArray = NDArray[np.float64]
+Seed = int | np.random.SeedSequence | list[np.random.SeedSequence] | None
+_ONE = np.array(1.0)
+
+
+def generators(seed: Seed, num_envs: int
+               ) -> tuple[list[np.random.Generator] | None, np.random.Generator]:
+    """``(rngs, rng)``: for a list of ``num_envs`` seeds a generator per environment (and an
+    unseeded shared one), else None and one shared generator from ``seed``."""
+    rngs = None
+    if isinstance(seed, list):
+        if len(seed) != num_envs:
+            raise ValueError(f"seed must list {num_envs} seeds, got {len(seed)}")
+        rngs = [np.random.default_rng(s) for s in seed]
+    return rngs, np.random.default_rng(None if isinstance(seed, list) else seed)
+
+
+@dataclass(frozen=True)
+class NetworkState:
+    """The network after a reset or step; leading axis B, then users N where it applies.
+
+    ``uav_m`` every UAV's position, m ((B, 3) for one UAV, (B, U, 3) for several); per user
+    (B, N): ``alpha`` its power share, ``gain`` the linear gain of one antenna pair from its
+    serving UAV (with the step's fading where the channel draws it), ``interference_w`` the
+    other UAVs' power it hears (W; 0 for one UAV), ``los`` and ``p_los`` of its serving link
+    (for ``los = "expected"``: P_LoS > 0.5), ``strong`` whether it is its cluster's strong
+    user, ``rate_bps``; per environment the sum rate, Jain's index over all users and the
+    reward (eq. 13); ``energy_j`` (B,) or (B, U) each UAV's energy of the step
+    (docs/model.md §10; hovering after a reset or for a held configuration).
+    """
+
+    uav_m: FloatArray
+    alpha: FloatArray
+    gain: FloatArray
+    interference_w: FloatArray
+    los: NDArray[np.bool_]
+    p_los: FloatArray
+    strong: NDArray[np.bool_]
+    rate_bps: FloatArray
+    sum_rate_bps: FloatArray
+    fairness: FloatArray
+    reward: FloatArray
+    energy_j: FloatArray
+
+    @classmethod
+    def _new(cls, *values: np.ndarray) -> NetworkState:
+        """The state of these fields in order, made without the frozen dataclass's
+        ``__init__`` (which sets each field through ``object.__setattr__``): once per step."""
+        state = object.__new__(cls)
+        state.__dict__.update(zip(_STATE_FIELDS, values, strict=True))
+        return state
+
+    def for_env(self, index: int) -> dict[str, np.ndarray | float]:
+        """The state of environment ``index`` as a Gymnasium ``info`` dict (with the
+        interference only for several UAVs)."""
+        names = ("uav_m", "alpha", "gain", "interference_w", "los", "p_los", "rate_bps")
+        if self.uav_m.ndim == 2:
+            names = tuple(name for name in names if name != "interference_w")
+        info: dict[str, np.ndarray | float] = {name: getattr(self, name)[index].copy()
+                                               for name in names}
+        info["sum_rate_bps"] = float(self.sum_rate_bps[index])
+        info["fairness"] = float(self.fairness[index])
+        energy = self.energy_j[index]
+        info["energy_j"] = float(energy) if np.ndim(energy) == 0 else energy.copy()
+        return info
+
+
+_STATE_FIELDS = tuple(NetworkState.__dataclass_fields__)
+
+
+class NetworkBatch:
+    """B independent copies of the network of a scenario's U UAVs, vectorised with numpy.
+
+    Arguments: ``scenario`` (validated), ``num_envs`` B, ``seed`` of the generator that draws
+    LoS states, fading and user moves (or a list of B seeds: every environment then draws from
+    a generator of its own, so its numbers do not depend on B or on its neighbours),
+    ``users_m`` (B, N, 2) to override the scenario's layouts, ``weights`` per environment
+    (eq. 13).
+
+    The state between steps is ``sim_state`` (:class:`~adaptsky.sim.state.SimState`); the
+    network there is ``state`` (:class:`NetworkState`). The association (serving UAV and NOMA
+    cluster of every user) is made once per layout, at construction and by
+    :meth:`set_layouts`: one group for one UAV, else balanced k-means from the UAVs' start
+    positions or ``users.uav``; pairs inside each group as ``users.pairing`` says, by the
+    gains from the serving UAV's start position. Index arrays of the association, made once
+    per layout, put a step's arrays in user order with one ``take`` each.
+    """
+
+    def __init__(self, scenario: Scenario, num_envs: int = 1, seed: Seed = None,
+                 users_m: FloatArray | None = None,
+                 weights: list[noma.RewardWeights] | None = None) -> None:
+        if num_envs < 1:
+            raise ValueError(f"num_envs must be >= 1, got {num_envs}")
+        self.scenario = scenario
+        self.num_envs = num_envs
+        self.num_users = scenario.num_users
+        self.num_uavs = scenario.uav.count
+        self.num_clusters = scenario.clusters_per_uav
+        self.channel = build_channel(scenario)
+        self._dynamics = Dynamics.of(scenario, num_envs)
+        self.actions = self._dynamics.actions
+        if weights is not None and len(weights) != num_envs:
+            raise ValueError(f"weights must have {num_envs} entries, got {len(weights)}")
+        self.weights = reward_weights(scenario) if weights is None else stack_weights(weights)
+        radio = scenario.radio
+        if radio.reuse not in ("full", "orthogonal"):
+            raise ValueError(f"unknown reuse {radio.reuse!r}; use full or orthogonal")
+        self.bandwidth_hz = radio.bandwidth_hz
+        self._power_w = radio.tx_power_w * radio.antenna_gain        # P_T G
+        self._noise_w = radio.noise_w
+        self._full_reuse = radio.reuse == "full" and self.num_uavs > 1
+        self._los_mode = scenario.channel.los
+        self._max_steps = scenario.train.steps
+        self._speed_m = scenario.users.speed_m_per_step
+        self._min_separation_m = scenario.uav.min_separation_m
+        self.start_m = np.array(scenario.uav_start_positions_m, dtype=np.float64)  # (U, 3)
+        self._carrier_hz = carrier_hz(scenario)
+        self._user_height_m = scenario.users.height_m
+        # every link's user antenna height (B*U, N), made once
+        self._link_user_height_m = np.full((num_envs * self.num_uavs, self.num_users),
+                                           scenario.users.height_m)
+        self._link_user_height_m.flags.writeable = False
+        self._fading = fading_active(self.channel)
+        self._reward = RewardFromSums(self.weights, self.num_users, self.bandwidth_hz)
+        self._num_users = np.array(float(self.num_users))
+        self._bandwidth = np.array(self.bandwidth_hz)
+        self._paper_observation = self.num_uavs == 1
+        if self._paper_observation:
+            self._observer: Observer | MultiObserver = Observer(scenario,
+                                                                (num_envs, self.num_users))
+        else:
+            self._observer = MultiObserver(scenario)
+        if users_m is None:
+            users_m = user_layouts(scenario, num_envs)
+        self._associate(users_m)
+        self._seed(seed)
+        self._to_start()
+        self.state: NetworkState | None = None
+
+    # ---- stage 5: association and clusters, once per layout ---------------------------------
+
+    def _associate(self, users_m: FloatArray) -> None:
+        """Serving UAVs and NOMA clusters of the layouts ``users_m`` (B, N, 2)."""
+        expected = (self.num_envs, self.num_users, 2)
+        if users_m.shape != expected:
+            raise ValueError(f"users_m must have shape {expected}, got {users_m.shape}")
+        self.layouts_m = np.array(users_m, dtype=np.float64)
+        scenario = self.scenario
+        serving = (np.zeros(expected[:2], dtype=np.intp) if self.num_uavs == 1 else
+                   serving_groups(self.layouts_m, self.start_m, scenario.users.association,
+                                  scenario.users.uav))
+        starts = np.broadcast_to(self.start_m, (self.num_envs, *self.start_m.shape))
+        start_gain = deterministic_gain(self.channel, self._los_mode,
+                                        self.geometry(starts, self.layouts_m))
+        start_gain = start_gain.reshape(self.num_envs, self.num_uavs, self.num_users)
+        self.association: Association = associate(
+            serving, serving_gain(start_gain, serving), scenario.users.pairing, self.num_uavs)
+        energy_shape = (self.num_envs,) if self.num_uavs == 1 else (self.num_envs,
+                                                                     self.num_uavs)
+        self._energy = EnergyAccount(scenario, self.weights, energy_shape,
+                                     None if self.num_uavs == 1
+                                     else self.association.clusters_per_uav)
+        # users in observation order: as listed, or UAV by UAV and cluster by cluster
+        self.observation_order: NDArray[np.intp] | None = None
+        if scenario.agent.user_order == "clusters":
+            pairs = np.stack([self.association.first_user, self.association.second_user],
+                             axis=-1).reshape(self.num_envs, -1)
+            # (-1 marks the unused cluster slots of a UAV with fewer clusters than K_max)
+            self.observation_order = pairs[pairs >= 0].reshape(self.num_envs, self.num_users)
+        self._index()
+
+    def _index(self) -> None:
+        """Flat index arrays of the association (docs/model.md §9), each (B, N):
+
+        ``_serving_link`` the position of user i's serving link in the links (B, U, N);
+        ``_partner_flat`` its cluster partner's in a (B, N) array; ``_alpha_source`` its
+        alpha_k's in the configuration (B, U, 3 + K); ``_is_first`` whether it is its
+        cluster's first user; ``_interferer`` (B, U, N) whether UAV u' interferes with it;
+        and, for the observation, ``_observed`` the users in observation order (positions
+        in a (B, N) array) and ``_observed_uav_xy`` (2, B, N) the positions of their serving
+        UAV's x and y in the configuration.
+        """
+        association = self.association
+        num_envs, n, num_uavs = self.num_envs, self.num_users, self.num_uavs
+        width = self._dynamics.config_low.shape[-1]     # 3 + K
+        rows = np.arange(num_envs)[:, None]
+        serving = association.serving_uav
+        self._serving_link = rows * (num_uavs * n) + serving * n + np.arange(n)
+        self._partner_flat = rows * n + association.partner
+        uav_base = rows * (num_uavs * width) + serving * width
+        self._alpha_source = uav_base + 3 + association.cluster
+        self._is_first = association.is_first
+        self._interferer = interferers(association)
+        order = (np.broadcast_to(np.arange(n), (num_envs, n)) if self.observation_order is None
+                 else self.observation_order)
+        self._observed = rows * n + order
+        # for one UAV in listed order the serving links and the observed users are every
+        # link and every user in order: no take needed
+        self._one_in_order = num_uavs == 1 and self.observation_order is None
+        observed_base = np.take_along_axis(uav_base, order, axis=1)
+        self._observed_uav_xy = np.stack([observed_base, observed_base + 1])
+        self._repeated_of: FloatArray | None = None    # see _repeated_users
+        self._repeated: FloatArray | None = None
+
+    def set_layouts(self, users_m: FloatArray) -> None:
+        """New home positions of the users (B, N, 2), associated anew; they take effect at the
+        next :meth:`reset` (``users.placement = "fresh"``: a layout per training episode)."""
+        self._associate(users_m)
+
+    def roles(self) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+        """Every user's serving UAV and its cluster k among that UAV's clusters, (B, N)
+        each."""
+        return self.association.serving_uav, self.association.cluster
+
+    @property
+    def first_user(self) -> NDArray[np.intp]:
+        """The first user of every cluster: (B, K) for one UAV, (B, U, K_max) for several."""
+        return self._squeezed(self.association.first_user)
+
+    @property
+    def second_user(self) -> NDArray[np.intp]:
+        """The second user of every cluster, shaped as :attr:`first_user`."""
+        return self._squeezed(self.association.second_user)
+
+    # ---- generators ------------------------------------------------------------------------
+
+    def _seed(self, seed: Seed) -> None:
+        """New generators: one per environment for a list of B seeds, else one shared."""
+        self.rngs, self.rng = generators(seed, self.num_envs)
+
+    def _headings(self) -> FloatArray:
+        """The step's user headings (B, N), rad, uniform: from the shared generator, or row b
+        from environment b's."""
+        shape = (self.num_envs, self.num_users)
+        if self.rngs is None:
+            return self.rng.uniform(0.0, 2 * np.pi, size=shape)
+        heading = np.empty(shape)
+        for row, rng in zip(heading, self.rngs, strict=True):
+            row[...] = rng.uniform(0.0, 2 * np.pi, size=self.num_users)
+        return heading
+
+    # ---- geometry --------------------------------------------------------------------------
+
+    def geometry(self, uav_m: FloatArray, users_m: FloatArray) -> LinkGeometry:
+        """The links from UAVs ``uav_m`` to the users ``users_m`` (B', N, 2) of their
+        environment: (B'*U, N) for ``uav_m`` (B', U, 3), (B', N) for one UAV per row
+        ``uav_m`` (B', 3) (:func:`~adaptsky.sim.links.links_geometry`)."""
+        uav_m = np.asarray(uav_m, dtype=np.float64)
+        if uav_m.ndim == 2:
+            uav_m = uav_m[:, None]
+        return links_geometry(uav_m, users_m, user_height_m=self._user_height_m,
+                              carrier_hz=self._carrier_hz, bandwidth_hz=self.bandwidth_hz)
+
+    def gain_bounds(self) -> tuple[float, float] | None:
+        """The smallest and largest gain of a link, linear (``gain_bounds.gain_range``: the
+        observation's bounds, docs/environment.md); None where the channel draws fading,
+        whose factors have no bound. Every link is one UAV's link to one user in the area,
+        so the bounds of one UAV's links hold."""
+        if self._fading:
+            return None
+        scenario = self.scenario
+        return gain_range(self.channel, scenario.channel.los,
+                          functools.partial(scenario_geometry, scenario),
+                          reachable_heights(scenario.uav), scenario.area.side_m)
+
+    # ---- state -----------------------------------------------------------------------------
+
+    @property
+    def max_steps(self) -> int:
+        """T, the time limit of an episode (``train.steps``)."""
+        return self._max_steps
+
+    @property
+    def t(self) -> int:
+        """Steps since the episode started."""
+        return self.sim_state.t
+
+    def _squeezed(self, values: np.ndarray) -> np.ndarray:
+        """``values`` (B, U, ...) without the UAV axis for one UAV (a view)."""
+        return values[:, 0] if self.num_uavs == 1 else values
+
+    @property
+    def uav_m(self) -> FloatArray:
+        """UAV positions, m: (B, 3) for one UAV, (B, U, 3) for several (a view)."""
+        return self._squeezed(self.sim_state.uav_m)
+
+    @property
+    def alpha_first(self) -> FloatArray:
+        """First users' shares: (B, K) for one UAV, (B, U, K) for several (a view)."""
+        return self._squeezed(self.sim_state.alpha_first)
+
+    @property
+    def users_m(self) -> FloatArray:
+        """User positions (B, N, 2), m (``sim_state.users_m``)."""
+        return self.sim_state.users_m
+
+    def _per_uav(self, values: FloatArray, width: int) -> FloatArray:
+        """``values`` broadcast to (B, U, width): given (..., width) with or, for one UAV,
+        without the UAV axis."""
+        values = np.asarray(values, dtype=np.float64)
+        if self.num_uavs == 1 and values.ndim == 2:
+            values = values[:, None]
+        return np.broadcast_to(values, (self.num_envs, self.num_uavs, width))
+
+    def _to_start(self, alpha_first: FloatArray | None = None) -> None:
+        """Step 0: every UAV at its start, every first user's share at ``start_alpha`` (or
+        ``alpha_first``), users at home."""
+        alpha = (np.full((self.num_envs, self.num_uavs, self.num_clusters),
+                         self.scenario.uav.start_alpha) if alpha_first is None
+                 else self._per_uav(alpha_first, self.num_clusters))
+        starts = np.broadcast_to(self.start_m, (self.num_envs, *self.start_m.shape))
+        self.sim_state = SimState.of(starts, alpha, self.layouts_m)
+
+    def reset(self, seed: Seed = None, alpha_first: FloatArray | None = None
+              ) -> tuple[NDArray[np.float32], NetworkState]:
+        """Start an episode: every UAV at its start position (``uav.start_m`` for one),
+        every first user's share at ``start_alpha`` (docs/model.md §3), or ``alpha_first``
+        where given (exploring starts, docs/training.md); a ``seed`` re-seeds the
+        generators of LoS draws, fading and user moves."""
+        if seed is not None:
+            self._seed(seed)
+        self._to_start(alpha_first)
+        self.state = self._evaluate(self.sim_state)
+        return self._obs, self.state
+
+    def step(self, actions: NDArray[np.integer]
+             ) -> tuple[NDArray[np.float32], FloatArray, bool, NetworkState]:
+        """Apply B actions (dense indices over all UAVs' components, docs/model.md §3);
+        return observations, rewards (eq. 13), truncated, and the state.
+
+        Stages 1-2 (:func:`adaptsky.sim.state.step`, then the separation: position moves
+        that would bring two UAVs closer than ``uav.min_separation_m`` are held back), then
+        stages 3-8 at the new state (:meth:`_evaluate`): the reward and next observation use
+        the channel at the position after the move (the released code's one-step lag is not
+        copied, docs/model.md §7).
+        """
+        if self.state is None:
+            raise RuntimeError("call reset() before step()")
+        dynamics = self._dynamics
+        actions = dynamics.checked(actions)    # before anything is drawn
+        before = self.sim_state
+        moved = step(before, actions, dynamics, self._headings() if self._speed_m else None)
+        config = moved.config
+        if self.num_uavs > 1:
+            moved_m = config[..., :3]
+            positions = separated(before.uav_m, moved_m, self._min_separation_m)
+            if positions is not moved_m:
+                config = np.concatenate([positions, config[..., 3:]], axis=-1)
+                moved = SimState._new(config, moved.users_m, moved.t)
+        self.sim_state = moved
+        energy_j = self._energy.of_move(self._squeezed(before.uav_m),
+                                        self._squeezed(moved.uav_m))
+        state = self.state = self._evaluate(moved, energy_j)
+        return self._obs, state.reward, moved.t >= self._max_steps, state
+
+    def evaluate_at(self, uav_m: FloatArray, alpha_first: FloatArray) -> NetworkState:
+        """The network with the UAVs at ``uav_m`` and first users' shares ``alpha_first``
+        (shaped as :attr:`uav_m` and :attr:`alpha_first`, or broadcast to them), as given (no
+        clipping); LoS drawn as in a step; the users stay where they are."""
+        state = self.sim_state
+        return self._held(uav_m, alpha_first, state.users_m, state.t)
+
+    def hold_step(self, uav_m: FloatArray, alpha_first: FloatArray) -> NetworkState:
+        """One step of a held configuration: the users move as in :meth:`step` (the same
+        draws in the same order: headings, then LoS), the UAVs are at ``uav_m`` with shares
+        ``alpha_first``, as given; a hovering step's energy. Baselines use this to hold a
+        configuration while the users walk (docs/evaluation.md)."""
+        state = self.sim_state
+        users_m = state.users_m
+        if self._speed_m:
+            users_m = self._dynamics.walked(users_m, self._headings())
+        return self._held(uav_m, alpha_first, users_m, state.t + 1)
+
+    def _held(self, uav_m: FloatArray, alpha_first: FloatArray, users_m: FloatArray, t: int
+              ) -> NetworkState:
+        """The network in the state of the given configuration, users and step count."""
+        self.sim_state = SimState.of(self._per_uav(uav_m, 3),
+                                     self._per_uav(alpha_first, self.num_clusters), users_m, t)
+        self.state = self._evaluate(self.sim_state)
+        return self.state
+
+    # ---- stages 3-8: the network at a state --------------------------------------------------
+
+    def _repeated_users(self, users_m: FloatArray) -> FloatArray:
+        """``users_m`` (B, N, 2) repeated for every UAV (B*U, N, 2), the users of the links'
+        geometry: kept until the users move (made once per move, not once per step)."""
+        if users_m is not self._repeated_of:
+            repeated = users_m if self.num_uavs == 1 else np.repeat(users_m, self.num_uavs,
+                                                                    axis=0)
+            self._repeated_of, self._repeated = users_m, repeated
+        assert self._repeated is not None
+        return self._repeated
+
+    def _evaluate(self, state: SimState, energy_j: FloatArray | None = None) -> NetworkState:
+        """Stages 3-8 at ``state`` after a step of energy ``energy_j`` (None: hovering):
+        geometry, channel, interference, SIC order, SINR and rates (eqs. 2-3, docs/model.md
+        §9), eq. 9 over all users and eq. 13 (with its energy term where ``reward.w_energy``
+        is set); also sets ``_obs``."""
+        config, users_m = state.config, state.users_m
+        uav_m = config[..., :3]
+        geometry = links_geometry(uav_m, users_m, user_height_m=self._link_user_height_m,
+                                  carrier_hz=self._carrier_hz, bandwidth_hz=self.bandwidth_hz,
+                                  repeated_users_m=self._repeated_users(users_m))
+        gains, los, p_los = link_gains(self.channel, self._los_mode, geometry,
+                                       self.rngs if self.rngs is not None else self.rng,
+                                       num_uavs=self.num_uavs, fading=self._fading)
+        if self.num_uavs == 1:    # the only link of every user is its serving link
+            gain, link_los, link_p_los = gains[:, 0], los[:, 0], p_los[:, 0]
+        else:
+            serving_link = self._serving_link
+            gain = gains.take(serving_link)
+            link_los, link_p_los = los.take(serving_link), p_los.take(serving_link)
+        # I_i: the gains of every interfering link (B, U, N), kept for rates_without
+        if self._full_reuse:
+            self._interfering = gains
+            interference = interference_sum_w(gains, self._interferer, self._power_w)
+        else:
+            self._interfering = None
+            interference = np.zeros(gain.shape)
+        rate_bps, strong, alpha = self._noma_rates(gain, interference, config)
+        rewards, total, fairness = self._rewarded(rate_bps, gain)
+        if energy_j is None:
+            energy_j = self._energy.hover_j
+        if self._energy.weighted:
+            rewards = self._energy.rewarded(rewards, energy_j)
+        self._obs = self._observe(config, users_m, alpha, gain, interference)
+        return NetworkState._new(self._squeezed(uav_m).copy(), alpha, gain, interference,
+                                 link_los, link_p_los, strong, rate_bps, total, fairness,
+                                 rewards, energy_j)
+
+    def _noma_rates(self, gain: FloatArray, interference: FloatArray, config: FloatArray
+                    ) -> tuple[FloatArray, NDArray[np.bool_], FloatArray]:
+        """Stage 6: every user's rate (B, N), whether it is its cluster's strong user, and
+        its share, from its serving gain, the interference it hears (W) and the UAVs'
+        configuration: SIC by the effective gain c_i = g_i / (I_i + sigma^2)
+        (:func:`~adaptsky.sim.interference.sic_rates`)."""
+        partner = self._partner_flat
+        return sic_rates(gain, interference, config.take(self._alpha_source), self._is_first,
+                         lambda values: values.take(partner), power_w=self._power_w,
+                         noise_w=self._noise_w, bandwidth_hz=self._bandwidth)
+
+    def _rewarded(self, rate_bps: FloatArray, gain: FloatArray
+                  ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Stage 7: eq. 13 (before the energy term), sum R and Jain's index (eq. 9), each
+        (B,); the sums over users of R, R^2, R/W (and g where the reward needs it) are one
+        reduction."""
+        reward = self._reward
+        terms = np.empty((4 if reward.needs_gain_sum else 3, *rate_bps.shape))
+        terms[0] = rate_bps
+        np.square(rate_bps, out=terms[1])
+        np.divide(rate_bps, self._bandwidth, out=terms[2])       # spectral efficiency R/W
+        if reward.needs_gain_sum:
+            terms[3] = gain
+        sums = np.add.reduce(terms, axis=2)
+        total = sums[0]
+        fairness = noma.jain_from_sums(total, sums[1], self._num_users)
+        rewards = reward(rate_bps, gain, fairness, sums[2],
+                         sums[3] if reward.needs_gain_sum else None)
+        return rewards, total, fairness
+
+    def _observe(self, config: FloatArray, users_m: FloatArray, alpha: FloatArray,
+                 gain: FloatArray, interference: FloatArray) -> NDArray[np.float32]:
+        """Stage 8: the observations (B, size), users in observation order."""
+        observed = self._observed
+        uav_xy = config.take(self._observed_uav_xy)              # (2, B, N)
+        if self._one_in_order:
+            users = users_xy(users_m)
+        else:
+            users = users_xy(users_m).reshape(2, -1).take(observed, axis=1)
+            alpha, gain = alpha.take(observed), gain.take(observed)
+        if self._paper_observation:
+            features = np.empty((FEATURES_PER_USER, *gain.shape))
+            np.subtract(uav_xy, users, out=features[:2])
+            features[2] = alpha
+            assert isinstance(self._observer, Observer)
+            return self._observer(features, gain, config[:, 0, 2])
+        assert isinstance(self._observer, MultiObserver)
+        return self._observer.from_offsets(
+            uav_xy[0] - users[0], uav_xy[1] - users[1], config[..., :3], alpha, gain,
+            interference.take(observed))
+
+    def observation(self) -> NDArray[np.float32]:
+        """The observations of the last evaluated state (B, size), float32."""
+        assert self.state is not None, "call reset() first"
+        return self._obs
+
+    @property
+    def hover_energy_j(self) -> FloatArray:
+        """Each UAV's energy of a hovering step (B,) or (B, U), J (docs/model.md §10)."""
+        return self._energy.hover_j
+
+    # ---- rewards per UAV -------------------------------------------------------------------
+
+    def rates_without(self, uav: int) -> FloatArray:
+        """Every user's rate (B, N) in the last evaluated state had UAV ``uav`` sent nothing
+        to the other UAVs' users: their interference without its term, SIC re-ordered (its
+        own users' rates as they are)."""
+        assert self.state is not None, "call reset() first"
+        if self._interfering is None:   # one UAV, or orthogonal reuse: no interference
+            return self.state.rate_bps
+        interferer = self._interferer.copy()
+        interferer[:, uav] = False
+        return self._noma_rates(self.state.gain, interference_sum_w(
+            self._interfering, interferer, self._power_w), self.sim_state.config)[0]
+
+    def reward_parts(self, state: NetworkState, split: str = "per-uav") -> FloatArray:
+        """Eq. 13 of ``state``, the last evaluated one, for each UAV (B, U) (docs/agent.md,
+        "A reward per UAV"): ``per-uav``, the part from its own users
+        (:func:`adaptsky.sim.reward.reward_per_uav`) and its own energy; ``difference``, that
+        part plus what its interference costs the other UAVs' users in eq. 13's rate term,
+        w_r sum_{i not of u} (R_i - R_i^{-u}) / W 1[all R_i >= R_min], with R_i^{-u} the rate
+        had UAV u sent them nothing (:meth:`rates_without`)."""
+        parts = reward_per_uav(state.rate_bps, state.gain, state.fairness, self.bandwidth_hz,
+                               self.weights, self.association.serving_uav, self.num_uavs)
+        if self._energy.weighted:
+            energy_j = state.energy_j if state.energy_j.ndim > 1 else state.energy_j[:, None]
+            parts = parts + self._energy.reward_parts(energy_j)
+        if split == "difference":
+            parts = parts + self._interference_costs(state)
+        return parts
+
+    def _interference_costs(self, state: NetworkState) -> FloatArray:
+        """w_r sum_{i not of u} (R_i - R_i^{-u}) / W 1[all R_i >= R_min] per UAV (B, U)."""
+        weights, serving = self.weights, self.association.serving_uav
+        every = (state.rate_bps >= np.asarray(weights.min_rate_bps)[..., None]).all(axis=-1)
+        costs = np.empty((self.num_envs, self.num_uavs))
+        for uav in range(self.num_uavs):
+            lost = np.where(serving == uav, 0.0, state.rate_bps - self.rates_without(uav))
+            costs[:, uav] = lost.sum(axis=-1) / self.bandwidth_hz
+        return np.asarray(weights.w_rate)[..., None] * costs * every[:, None]
