@@ -3,7 +3,11 @@ inspections, evaluations and one reproduction, run with the code of a git revisi
 the working tree, compared bit for bit (every array of every run and eval file, the JSON that
 inspect and eval print, the CSV and figure data of reproduce).
 
-    .venv/bin/python scripts/same_numbers.py [REV]      (default REV: HEAD)
+    .venv/bin/python scripts/same_numbers.py [REV] [--wide]     (default REV: HEAD)
+
+``--wide`` adds three and four UAVs, two UAVs on sub-6, the energy term on for one and two
+UAVs, evaluations against the oracle, best response and OMA, and a small ``reproduce e4``
+(about four times as long).
 
 Both run in this environment on this machine; the revision's code is checked out into a
 temporary worktree and put first on PYTHONPATH (with its built-in channel models). Prints one
@@ -40,6 +44,24 @@ TRAININGS = [
     ("plain-dqn", "nyc_mmwave.toml", ["agent.dueling=false"]),
     ("two-uavs", "two_uavs_mmwave.toml", ["train.eval_every=0"]),
 ]
+# --wide: more scenarios, every baseline, E4
+WIDE_TRAININGS = [
+    ("three-uavs", "three_uavs_mmwave.toml", ["train.eval_every=0"]),
+    ("four-uavs", "four_uavs_mmwave.toml", ["train.eval_every=0"]),
+    ("two-uavs-sub6", "two_uavs_sub6.toml", ["train.eval_every=0"]),
+    ("energy", "nyc_mmwave.toml", ["reward.w_energy=10"]),
+    ("two-uavs-energy", "two_uavs_mmwave.toml", ["reward.w_energy=10", "train.eval_every=0"]),
+]
+# (run, baselines, --set of the evaluation): every baseline where the run's scenario has it
+WIDE_EVALS = [
+    ("paper", "soa,oracle,oma", []),
+    ("sampled-los", "oracle", ["channel.los=expected"]),
+    ("two-uavs", "best-response,oma", []),
+    ("three-uavs", "soa,best-response,oma", []),
+    ("four-uavs", "soa,best-response,oma", []),
+    ("two-uavs-sub6", "soa,best-response,oma", []),
+    ("two-uavs-energy", "soa,best-response,oma", []),
+]
 CODE = ("import sys; from adaptsky_cli.cli.main import main; sys.exit(main(sys.argv[1:]))")
 
 
@@ -54,10 +76,11 @@ def run(tree: Path, out: Path, *args: str) -> str:
     return done.stdout
 
 
-def outputs(tree: Path, out: Path) -> dict[str, str]:
-    """Run the fixed set with ``tree``'s code in ``out``; the printed JSON by name."""
+def outputs(tree: Path, out: Path, wide: bool = False) -> dict[str, str]:
+    """Run the fixed set (``wide``: the wide one) with ``tree``'s code in ``out``; the printed
+    JSON by name."""
     printed = {}
-    for name, scenario, overrides in TRAININGS:
+    for name, scenario, overrides in TRAININGS + (WIDE_TRAININGS if wide else []):
         sets = [word for item in overrides for word in ("--set", item)]
         run(tree, out, "train", str(ROOT / "scenarios" / scenario), *RUN, *sets,
             "--out", f"{name}.h5")
@@ -68,6 +91,16 @@ def outputs(tree: Path, out: Path) -> dict[str, str]:
                                       "--json")
     run(tree, out, "reproduce", "e1a", *two_runs(tree), "--episodes", "3", "--steps", "20",
         "--workers", "1", "--out", "e1a", "--quiet")
+    if wide:
+        for name, baselines, overrides in WIDE_EVALS:
+            sets = [word for item in overrides for word in ("--set", item)]
+            label = f"eval {name} {baselines}"
+            printed[label] = run(tree, out, "eval", "--checkpoint", f"{name}.h5", "--steps",
+                                 "30", "--layouts", "1", "--compare", baselines, *sets,
+                                 "--out", f"{name}-{baselines.replace(',', '-')}-eval.h5",
+                                 "--json")
+        run(tree, out, "reproduce", "e4", *two_runs(tree), "--episodes", "2", "--steps",
+            "20", "--workers", "1", "--out", "e4", "--quiet")
     return printed
 
 
@@ -184,6 +217,17 @@ def without_times(value: object, table: str = "") -> object:
     return value
 
 
+def relative_difference(a: np.ndarray | None, b: np.ndarray | None) -> str:
+    """`` (largest relative difference ...)`` of two float arrays of one shape, else ''."""
+    if a is None or b is None or a.shape != b.shape or a.dtype.kind != "f" or (
+            b.dtype.kind != "f"):
+        return ""
+    scale = np.maximum(np.abs(a), np.abs(b))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        relative = np.where(scale > 0, np.abs(a - b) / scale, 0.0)
+    return f" (largest relative difference {np.nanmax(relative):.1e})"
+
+
 def compare(old: Path, new: Path, printed_old: dict[str, str],
             printed_new: dict[str, str]) -> list[str]:
     differences, compared = [], 0
@@ -200,7 +244,8 @@ def compare(old: Path, new: Path, printed_old: dict[str, str],
                 continue
             compared += 1
             if key not in a or key not in b or not same(a[key], b[key], old, new):
-                differences.append(f"{path.relative_to(old)}: {key} differs")
+                differences.append(f"{path.relative_to(old)}: {key} differs"
+                                   + relative_difference(a.get(key), b.get(key)))
     for path in sorted(old.rglob("*.csv")):
         compared += 1
         if path.read_text() != (new / path.relative_to(old)).read_text():
@@ -213,7 +258,9 @@ def main() -> int:
     if {"-h", "--help"} & set(sys.argv[1:]):
         print(__doc__)
         return 0
-    rev = sys.argv[1] if len(sys.argv) > 1 else "HEAD"
+    wide = "--wide" in sys.argv[1:]
+    positional = [arg for arg in sys.argv[1:] if arg != "--wide"]
+    rev = positional[0] if positional else "HEAD"
     with tempfile.TemporaryDirectory() as scratch:
         base = Path(scratch)
         tree = base / "tree"
@@ -222,13 +269,13 @@ def main() -> int:
         try:
             for side in ("old", "new"):
                 (base / side).mkdir()
-            printed_old = outputs(tree, base / "old")
-            printed_new = outputs(ROOT, base / "new")
+            printed_old = outputs(tree, base / "old", wide)
+            printed_new = outputs(ROOT, base / "new", wide)
             differences = compare(base / "old", base / "new", printed_old, printed_new)
         finally:
             subprocess.run(["git", "worktree", "remove", "--force", str(tree)], cwd=ROOT,
                            check=True)
-    for line in differences[:20]:
+    for line in differences[:40]:
         print(line)
     print(f"{rev} and the working tree: " + ("the same numbers, bit for bit" if not differences
                                              else f"{len(differences)} differences"))

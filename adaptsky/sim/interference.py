@@ -43,27 +43,37 @@ def interference_sum_w(gain: FloatArray, interferer: BoolArray, power_w: float) 
     return power_w * np.where(interferer, gain, 0.0).sum(axis=-2)
 
 
-def sic_rates(gain: FloatArray, interference_w: FloatArray, alpha_k: FloatArray,
+def sic_rates(gain: FloatArray, interference_w: FloatArray | None, alpha_k: FloatArray,
               is_first: BoolArray, partner: Callable[[np.ndarray], np.ndarray], *,
               power_w: float, noise_w: float, bandwidth_hz: float | FloatArray
               ) -> tuple[FloatArray, BoolArray, FloatArray]:
     """The rates stage, written once (eqs. 2-3; docs/model.md §9): every user's rate (bit/s),
     whether it is its cluster's strong user, and its share, each (..., N).
 
-    From each user's serving gain ``gain``, the interference it hears ``interference_w`` (W),
-    its cluster's first user's share ``alpha_k`` and ``is_first``; ``partner`` maps an array
-    over users to its values at each user's cluster partner. SIC by the effective gain
-    c_i = g_i / (I_i + sigma^2) (:func:`adaptsky.sim.noma.is_strong`); SINR of eq. 2 with
+    From each user's serving gain ``gain``, the interference it hears ``interference_w`` (W;
+    None where there is none: one UAV, orthogonal reuse), ``is_first`` and ``alpha_k``: its
+    cluster's first user's share (..., N), or every user's share and its partner's already
+    (2, ..., N); ``partner`` maps an array over users to its values at each user's cluster
+    partner. SIC by the effective gain c_i = g_i / (I_i + sigma^2)
+    (:func:`adaptsky.sim.noma.is_strong`; without interference, by g_i); SINR of eq. 2 with
     s_i = P_T G / (I_i + sigma^2) (``power_w`` = P_T G): with I = 0 the same floating-point
     operations as docs/model.md §1.
     """
-    noise_plus = interference_w + noise_w
-    effective = gain / noise_plus
-    strong = noma.is_strong(effective, partner(effective), gain, partner(gain), is_first)
-    second_share = 1.0 - alpha_k
-    alpha = np.where(is_first, alpha_k, second_share)
-    alpha_partner = np.where(is_first, second_share, alpha_k)
-    sinr = noma.user_sinr(alpha, alpha_partner, gain, strong, power_w / noise_plus)
+    if interference_w is None:
+        effective, snr_scale = gain, power_w / noise_w
+    else:
+        noise_plus = interference_w + noise_w
+        effective, snr_scale = gain / noise_plus, power_w / noise_plus
+    gain_partner = partner(gain)
+    strong = noma.is_strong(effective, gain_partner if effective is gain
+                            else partner(effective), gain, gain_partner, is_first)
+    if alpha_k.ndim == gain.ndim:
+        second_share = 1.0 - alpha_k
+        alpha = np.where(is_first, alpha_k, second_share)
+        alpha_partner = np.where(is_first, second_share, alpha_k)
+    else:
+        alpha, alpha_partner = alpha_k
+    sinr = noma.user_sinr(alpha, alpha_partner, gain, strong, snr_scale)
     return noma.rate_bps(sinr, bandwidth_hz), strong, alpha
 
 

@@ -58,30 +58,43 @@ def links_geometry(uav_m: FloatArray, users_m: FloatArray, *,
     [x, y, h], m, to the users ``users_m`` (B, N, 2) [x, y], m, of their environment; row
     b U + u holds UAV u of environment b (docs/model.md §2, eq. 1 and §9).
 
-    The numbers of :meth:`LinkGeometry.between` on the flattened links, computed from
-    offsets laid out (B, U, N); ``user_height_m`` is a number or every link's (B*U, N), and
-    ``repeated_users_m`` is ``users_m`` repeated U times along the first axis (B*U, N, 2),
-    where the caller keeps them from step to step.
+    The numbers of :meth:`LinkGeometry.between` on the flattened links
+    (:func:`offsets_geometry` of the offsets laid out (B, U, N)); ``user_height_m`` is a
+    number or every link's (B*U, N), and ``repeated_users_m`` is ``users_m`` repeated U times
+    along the first axis (B*U, N, 2), where the caller keeps them from step to step.
     """
     num_envs, num_uavs, _ = uav_m.shape
     n = users_m.shape[1]
     flat = (num_envs * num_uavs, n)
-    x_m, y_m = users_m[..., 0], users_m[..., 1]               # (B, N) each
-    dx_m = np.subtract(x_m[:, None, :], uav_m[:, :, 0:1])    # user - UAV, as between()
-    dy_m = np.subtract(y_m[:, None, :], uav_m[:, :, 1:2])
-    height_m = np.empty((num_envs, num_uavs, n))
-    height_m[...] = uav_m[:, :, 2:3]
-    height_m = height_m.reshape(flat)
+    link_uav_m = np.empty((3, num_envs, num_uavs, n))     # every link's UAV x, y and h
+    link_uav_m[...] = np.moveaxis(uav_m, 2, 0)[..., None]
+    link_uav_m = link_uav_m.reshape(3, *flat)
+    offsets_m = link_uav_m[:2].reshape(2, num_envs, num_uavs, n) - np.moveaxis(
+        users_m, 2, 0)[:, :, None, :]
     if isinstance(user_height_m, np.ndarray):
         user_height = user_height_m
     else:
         user_height = np.full(flat, user_height_m, dtype=np.float64)
     if repeated_users_m is None:
         repeated_users_m = np.repeat(users_m, num_uavs, axis=0)
+    return offsets_geometry(offsets_m.reshape(2, *flat), link_uav_m[2], user_height,
+                            np.reshape(uav_m, (num_envs * num_uavs, 3)), repeated_users_m,
+                            carrier_hz=carrier_hz, bandwidth_hz=bandwidth_hz,
+                            users_above_ground=bool(user_height.any()))
+
+
+def offsets_geometry(offsets_m: FloatArray, height_m: FloatArray, user_height_m: FloatArray,
+                     uav_m: FloatArray, users_m: FloatArray, *, carrier_hz: float,
+                     bandwidth_hz: float, users_above_ground: bool) -> LinkGeometry:
+    """The geometry of links (B', N) from the ground offsets between UAV and user
+    ``offsets_m`` (2, B', N) [x_UAV - x_i, y_UAV - y_i] (either sign: only their sizes count),
+    the UAV heights ``height_m`` and the user antenna heights ``user_height_m`` (B', N) each,
+    and the links' UAV and user positions (B', 3) and (B', N, 2): eq. 1's distance and the
+    elevation angle (docs/model.md §2), with h - h_UT = h where ``users_above_ground`` is
+    False (the same numbers as the subtraction)."""
     return LinkGeometry._from_offsets(
-        dx_m.reshape(flat), dy_m.reshape(flat), height_m, user_height,
-        np.reshape(uav_m, (num_envs * num_uavs, 3)), repeated_users_m, carrier_hz,
-        bandwidth_hz, height_m - user_height if user_height.any() else height_m)
+        offsets_m[0], offsets_m[1], height_m, user_height_m, uav_m, users_m, carrier_hz,
+        bandwidth_hz, height_m - user_height_m if users_above_ground else height_m)
 
 
 def scenario_geometry(scenario: Scenario, uav_m: FloatArray, users_m: FloatArray

@@ -51,6 +51,7 @@ from adaptsky.sim.links import (
     fading_active,
     link_gains,
     links_geometry,
+    offsets_geometry,
     scenario_geometry,
 )
 from adaptsky.sim.observation import FEATURES_PER_USER, MultiObserver, Observer
@@ -180,6 +181,7 @@ class NetworkBatch:
         self._link_user_height_m = np.full((num_envs * self.num_uavs, self.num_users),
                                            scenario.users.height_m)
         self._link_user_height_m.flags.writeable = False
+        self._users_above_ground = bool(scenario.users.height_m)
         self._fading = fading_active(self.channel)
         self._reward = RewardFromSums(self.weights, self.num_users, self.bandwidth_hz)
         self._num_users = np.array(float(self.num_users))
@@ -250,6 +252,16 @@ class NetworkBatch:
         uav_base = rows * (num_uavs * width) + serving * width
         self._alpha_source = uav_base + 3 + association.cluster
         self._is_first = association.is_first
+        # every user's share and its partner's, alpha_k and 1 - alpha_k in one step:
+        # offset + sign alpha_k, with (offset, sign) = (0, 1) for a first user, (1, -1) else
+        sign = np.where(self._is_first, 1.0, -1.0)
+        offset = np.where(self._is_first, 0.0, 1.0)
+        self._share_sign = np.stack([sign, -sign])
+        self._share_offset = np.stack([offset, 1.0 - offset])
+        self._share_source = np.stack([self._alpha_source, self._alpha_source])
+        # every link's UAV x, y and h in the configuration (3, B*U, N)
+        link_base = (np.arange(num_envs * num_uavs) * width)[:, None] + np.zeros(n, np.intp)
+        self._link_source = np.stack([link_base, link_base + 1, link_base + 2])
         self._interferer = interferers(association)
         order = (np.broadcast_to(np.arange(n), (num_envs, n)) if self.observation_order is None
                  else self.observation_order)
@@ -260,7 +272,9 @@ class NetworkBatch:
         observed_base = np.take_along_axis(uav_base, order, axis=1)
         self._observed_uav_xy = np.stack([observed_base, observed_base + 1])
         self._repeated_of: FloatArray | None = None    # see _repeated_users
-        self._repeated: FloatArray | None = None
+        self._repeated: tuple[FloatArray, FloatArray] | None = None
+        self._no_interference = np.zeros((num_envs, n))
+        self._no_interference.flags.writeable = False
 
     def set_layouts(self, users_m: FloatArray) -> None:
         """New home positions of the users (B, N, 2), associated anew; they take effect at the
@@ -441,13 +455,14 @@ class NetworkBatch:
 
     # ---- stages 3-8: the network at a state --------------------------------------------------
 
-    def _repeated_users(self, users_m: FloatArray) -> FloatArray:
+    def _repeated_users(self, users_m: FloatArray) -> tuple[FloatArray, FloatArray]:
         """``users_m`` (B, N, 2) repeated for every UAV (B*U, N, 2), the users of the links'
-        geometry: kept until the users move (made once per move, not once per step)."""
+        geometry, and their x and y (2, B*U, N): kept until the users move (made once per
+        move, not once per step)."""
         if users_m is not self._repeated_of:
             repeated = users_m if self.num_uavs == 1 else np.repeat(users_m, self.num_uavs,
                                                                     axis=0)
-            self._repeated_of, self._repeated = users_m, repeated
+            self._repeated_of, self._repeated = users_m, (repeated, users_xy(repeated))
         assert self._repeated is not None
         return self._repeated
 
@@ -458,9 +473,19 @@ class NetworkBatch:
         is set); also sets ``_obs``."""
         config, users_m = state.config, state.users_m
         uav_m = config[..., :3]
-        geometry = links_geometry(uav_m, users_m, user_height_m=self._link_user_height_m,
-                                  carrier_hz=self._carrier_hz, bandwidth_hz=self.bandwidth_hz,
-                                  repeated_users_m=self._repeated_users(users_m))
+        # stage 3: every link's UAV x, y, h (3, B*U, N) in one take; the offsets
+        # x_UAV - x_i, y_UAV - y_i go straight into the paper's observation features
+        link_uav_m = config.take(self._link_source)
+        repeated_m, repeated_xy = self._repeated_users(users_m)
+        features = (np.empty((FEATURES_PER_USER, *link_uav_m.shape[1:]))
+                    if self._one_in_order else None)
+        offsets_m = np.subtract(link_uav_m[:2], repeated_xy,
+                                out=None if features is None else features[:2])
+        geometry = offsets_geometry(offsets_m, link_uav_m[2], self._link_user_height_m,
+                                    uav_m.reshape(-1, 3), repeated_m,
+                                    carrier_hz=self._carrier_hz,
+                                    bandwidth_hz=self.bandwidth_hz,
+                                    users_above_ground=self._users_above_ground)
         gains, los, p_los = link_gains(self.channel, self._los_mode, geometry,
                                        self.rngs if self.rngs is not None else self.rng,
                                        num_uavs=self.num_uavs, fading=self._fading)
@@ -476,26 +501,32 @@ class NetworkBatch:
             interference = interference_sum_w(gains, self._interferer, self._power_w)
         else:
             self._interfering = None
-            interference = np.zeros(gain.shape)
-        rate_bps, strong, alpha = self._noma_rates(gain, interference, config)
+            interference = self._no_interference
+        rate_bps, strong, alpha = self._noma_rates(
+            gain, interference if self._full_reuse else None, config,
+            None if features is None else features[2:4])
         rewards, total, fairness = self._rewarded(rate_bps, gain)
         if energy_j is None:
             energy_j = self._energy.hover_j
         if self._energy.weighted:
             rewards = self._energy.rewarded(rewards, energy_j)
-        self._obs = self._observe(config, users_m, alpha, gain, interference)
+        self._obs = self._observe(config, users_m, alpha, gain, interference, features)
         return NetworkState._new(self._squeezed(uav_m).copy(), alpha, gain, interference,
                                  link_los, link_p_los, strong, rate_bps, total, fairness,
                                  rewards, energy_j)
 
-    def _noma_rates(self, gain: FloatArray, interference: FloatArray, config: FloatArray
+    def _noma_rates(self, gain: FloatArray, interference: FloatArray | None,
+                    config: FloatArray, out: FloatArray | None = None
                     ) -> tuple[FloatArray, NDArray[np.bool_], FloatArray]:
         """Stage 6: every user's rate (B, N), whether it is its cluster's strong user, and
-        its share, from its serving gain, the interference it hears (W) and the UAVs'
-        configuration: SIC by the effective gain c_i = g_i / (I_i + sigma^2)
-        (:func:`~adaptsky.sim.interference.sic_rates`)."""
+        its share, from its serving gain, the interference it hears (W; None: none) and the
+        UAVs' configuration: SIC by the effective gain c_i = g_i / (I_i + sigma^2)
+        (:func:`~adaptsky.sim.interference.sic_rates`). Every user's share and its
+        partner's are written into ``out`` (2, B, N) where given."""
         partner = self._partner_flat
-        return sic_rates(gain, interference, config.take(self._alpha_source), self._is_first,
+        shares = np.multiply(self._share_sign, config.take(self._share_source), out=out)
+        shares += self._share_offset
+        return sic_rates(gain, interference, shares, self._is_first,
                          lambda values: values.take(partner), power_w=self._power_w,
                          noise_w=self._noise_w, bandwidth_hz=self._bandwidth)
 
@@ -519,15 +550,18 @@ class NetworkBatch:
         return rewards, total, fairness
 
     def _observe(self, config: FloatArray, users_m: FloatArray, alpha: FloatArray,
-                 gain: FloatArray, interference: FloatArray) -> NDArray[np.float32]:
-        """Stage 8: the observations (B, size), users in observation order."""
+                 gain: FloatArray, interference: FloatArray,
+                 features: FloatArray | None = None) -> NDArray[np.float32]:
+        """Stage 8: the observations (B, size), users in observation order; ``features``
+        (4, B, N) the paper's features for one UAV in listed order, whose first three rows
+        the earlier stages filled (offsets and shares)."""
+        if features is not None:
+            assert isinstance(self._observer, Observer)
+            return self._observer(features, gain, config[:, 0, 2])
         observed = self._observed
         uav_xy = config.take(self._observed_uav_xy)              # (2, B, N)
-        if self._one_in_order:
-            users = users_xy(users_m)
-        else:
-            users = users_xy(users_m).reshape(2, -1).take(observed, axis=1)
-            alpha, gain = alpha.take(observed), gain.take(observed)
+        users = users_xy(users_m).reshape(2, -1).take(observed, axis=1)
+        alpha, gain = alpha.take(observed), gain.take(observed)
         if self._paper_observation:
             features = np.empty((FEATURES_PER_USER, *gain.shape))
             np.subtract(uav_xy, users, out=features[:2])

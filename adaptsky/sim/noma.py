@@ -31,6 +31,8 @@ def is_strong(effective: FloatArray, effective_partner: FloatArray, gain: FloatA
     is the larger; where those are equal too, where it is the cluster's first user. Without
     interference c is g over one positive number, so this is "the larger gain, the first user
     on a tie" (pass ``effective = gain`` there)."""
+    if effective is gain:   # the same rule, two comparisons fewer
+        return (gain > gain_partner) | ((gain == gain_partner) & is_first)
     return (effective > effective_partner) | ((effective == effective_partner) & (
         (gain > gain_partner) | ((gain == gain_partner) & is_first)))
 
