@@ -157,8 +157,13 @@ def test_import_adaptsky_reexports_the_public_api():
 
     assert adaptsky.NomaUavEnv is NomaUavEnv and adaptsky.train is train
     assert adaptsky.__version__ == adaptsky_cli.__version__
+    aliases = {"NomaUavBatch", "MultiUavBatch"}    # deprecated: they warn on every use
     for name in adaptsky.__all__:
-        assert getattr(adaptsky, name) is not None, name
+        if name in aliases:
+            with pytest.warns(DeprecationWarning, match="use adaptsky.NetworkBatch"):
+                assert getattr(adaptsky, name) is adaptsky.NetworkBatch, name
+        else:
+            assert getattr(adaptsky, name) is not None, name
     with pytest.raises(AttributeError, match="no attribute 'make'; it exports ENV_ID"):
         adaptsky.make  # noqa: B018
 
