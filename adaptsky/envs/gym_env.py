@@ -103,9 +103,10 @@ def with_actions(scenario: Scenario, actions: str | None) -> Scenario:
         return Scenario.model_validate(data)
     except ValidationError as error:
         first = error.errors(include_url=False)[0]
-        where = ".".join(str(part) for part in first["loc"])
+        field = ".".join(str(part) for part in first["loc"])
+        where = f"{field}: " if field else ""       # a rule of the whole scenario names none
         message = first["msg"].removeprefix("Value error, ")
-        raise ValueError(f"actions={actions!r}: {where}: {message}") from None
+        raise ValueError(f"actions={actions!r}: {where}{message}") from None
 
 
 def observation_space(scenario: Scenario, batch: NetworkBatch) -> spaces.Box:
