@@ -106,6 +106,8 @@ class AlgorithmSpec(Protocol):
     """The torch-free half of an algorithm (module docstring)."""
 
     name: str
+    action_kinds: tuple[str, ...]
+    """The ``uav.actions`` kinds it learns (the DQN and the BDQ: the dense ones)."""
     checkpoint_members: tuple[str, ...]
     """The groups of a checkpoint the algorithm writes and checks (the envelope holds the
     rest: attributes, ``rng``, ``best``)."""

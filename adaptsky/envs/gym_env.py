@@ -8,7 +8,9 @@ Action Space
     default: ``MultiDiscrete([base] * U (3 + K_u))``, one sub-action per component (x, y, h,
     alpha_1 .. alpha_K of UAV 0, then UAV 1, ...); ``action_space="discrete"`` gives the dense
     index over them up to 2^16 actions, ``"multi-discrete"`` also serves one UAV
-    (:mod:`adaptsky.envs.action_spaces`).
+    (:mod:`adaptsky.envs.action_spaces`). Continuous actions (``actions = "continuous"``):
+    ``Box([-1, 1]^D, float32)``, component j scaled onto its step, refused outside the box
+    or where not a number (:mod:`adaptsky.sim.controls`).
 Observation Space
     One UAV: ``Box`` of shape (4 N + 1,), float32: per user [dx, dy, alpha, g], then h; scaling
     in :mod:`adaptsky.sim.observation`. Several: ``Box`` of shape (5 N + 3 U,): per user
@@ -31,7 +33,10 @@ Arguments
     (B, N, 2)); ``render_mode``: ``None``, ``"ansi"`` (a text summary of the state) or,
     single env only, ``"rgb_array"`` (the picture of the episode so far,
     :mod:`adaptsky.drawing`);
-    ``action_space``: ``None`` (the default above), ``"discrete"`` or ``"multi-discrete"``;
+    ``actions``: the action kind, ``"paper"``, ``"with-hover"`` or ``"continuous"``, in
+    place of the scenario's ``uav.actions`` (None: the scenario's);
+    ``action_space``: ``None`` (the default above), ``"discrete"`` or ``"multi-discrete"``
+    (dense kinds), ``"box"`` (continuous);
     ``max_episode_steps``: the time limit, a whole number >= 1 (None: ``train.steps``;
     ``adaptsky eval`` runs 1000 steps, docs/environment.md, "Episodes");
     single env: ``layout_index``, which of the scenario's layouts (for ``placement =
@@ -50,12 +55,14 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
+from pydantic import ValidationError
 
 from adaptsky.drawing.episode import EpisodeBuffer
 from adaptsky.envs.action_spaces import action_space_kind, gym_action_space, to_dense
 from adaptsky.envs.registration import register_envs
 from adaptsky.scenario import Scenario, load_scenario
 from adaptsky.shipped_files import default_scenario_path
+from adaptsky.sim.controls import CONTROLS
 from adaptsky.sim.layout import uniform_layouts, user_layouts
 from adaptsky.sim.network import NetworkBatch, NetworkState
 from adaptsky.sim.observation import bounds_of
@@ -73,10 +80,33 @@ MAX_EPISODE_STEPS = 10**9
 """The largest ``max_episode_steps``, as for ``train.steps``."""
 
 
-def _resolve(scenario: Scenario | str | Path | None) -> Scenario:
+def resolve_scenario(scenario: Scenario | str | Path | None, actions: str | None = None
+                     ) -> Scenario:
+    """The scenario (None: the shipped default) with ``actions`` for its ``uav.actions``."""
     if scenario is None:
         scenario = default_scenario_path()
-    return scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+    scenario = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+    return with_actions(scenario, actions)
+
+
+def with_actions(scenario: Scenario, actions: str | None) -> Scenario:
+    """``scenario`` with the action kind ``actions`` (None: its own), validated again; a
+    ValueError of one line for an unknown kind or one the scenario does not allow."""
+    if actions is None or actions == scenario.uav.actions:
+        return scenario
+    if actions not in CONTROLS:
+        allowed = ", ".join(repr(kind) for kind in CONTROLS)
+        raise ValueError(f"actions {actions!r} is not an action kind; allowed: None, {allowed}")
+    data = scenario.model_dump()
+    data["uav"]["actions"] = actions
+    try:
+        return Scenario.model_validate(data)
+    except ValidationError as error:
+        first = error.errors(include_url=False)[0]
+        field = ".".join(str(part) for part in first["loc"])
+        where = f"{field}: " if field else ""       # a rule of the whole scenario names none
+        message = first["msg"].removeprefix("Value error, ")
+        raise ValueError(f"actions={actions!r}: {where}{message}") from None
 
 
 def observation_space(scenario: Scenario, batch: NetworkBatch) -> spaces.Box:
@@ -132,9 +162,9 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64 | np.ndarray]):
     def __init__(self, scenario: Scenario | str | Path | None = None,
                  users_m: np.ndarray | None = None, render_mode: str | None = None,
                  layout_index: int = 0, action_space: str | None = None,
-                 max_episode_steps: int | None = None) -> None:
+                 max_episode_steps: int | None = None, actions: str | None = None) -> None:
         self.render_mode = _check_render_mode(render_mode, RENDER_MODES)
-        self.scenario = _resolve(scenario)
+        self.scenario = resolve_scenario(scenario, actions)
         self.max_episode_steps = episode_steps(self.scenario, max_episode_steps)
         if layout_index < 0:
             raise ValueError(f"layout_index must be >= 0, got {layout_index}")
@@ -148,7 +178,7 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64 | np.ndarray]):
         self.batch = NetworkBatch(self.scenario, num_envs=1, users_m=layouts)
         self._fresh = users_m is None and self.scenario.users.placement == "fresh"
         self.observation_space = observation_space(self.scenario, self.batch)
-        self.action_space = gym_action_space(self.batch.actions, self.action_kind)
+        self.action_space = gym_action_space(self.batch.controls, self.action_kind)
         self._episode: EpisodeBuffer | None = None  # rgb_array: the episode so far
         self._picture: Any = None                    # rgb_array: its EpisodeFigure
 
@@ -163,15 +193,17 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64 | np.ndarray]):
 
     def step(self, action: np.int64 | np.ndarray
              ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        """One step; ``action`` a dense index, or the sub-actions (D,) of the MultiDiscrete
-        space."""
+        """One step; ``action`` a dense index, the sub-actions (D,) of the MultiDiscrete
+        space or the point (D,) of the Box."""
         if self.batch.t >= self.max_episode_steps:
             raise RuntimeError("episode is over: call reset()")
         if self.action_kind == "discrete":
-            dense = np.array([action])
+            actions = np.array([action])
+        elif self.action_kind == "box":
+            actions = np.asarray(action)[None]
         else:
-            dense = to_dense(self.batch.actions, np.asarray(action)[None])
-        obs, reward, _, state = self.batch.step(dense)  # (the batch's limit is train.steps)
+            actions = to_dense(self.batch.actions, np.asarray(action)[None])
+        obs, reward, _, state = self.batch.step(actions)  # (the batch's limit is train.steps)
         self._record(state)
         truncated = self.batch.t >= self.max_episode_steps
         return obs[0], float(reward[0]), False, truncated, state.for_env(0)
@@ -223,7 +255,8 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64 | np.ndarray]):
 
 class NomaUavVectorEnv(VectorEnv):
     """B networks (each of the scenario's UAVs) over B layouts, stepped together with numpy
-    (no sub-processes); actions (B,) dense indices or (B, D) sub-actions.
+    (no sub-processes); actions (B,) dense indices, (B, D) sub-actions or (B, D) points of
+    the Box.
 
     Autoreset mode is next-step (set explicitly): all B episodes end together, and the step
     after the end resets every environment and returns the first observation, reward 0.
@@ -238,10 +271,10 @@ class NomaUavVectorEnv(VectorEnv):
 
     def __init__(self, scenario: Scenario | str | Path | None = None, num_envs: int = 1,
                  users_m: np.ndarray | None = None, render_mode: str | None = None,
-                 action_space: str | None = None, max_episode_steps: int | None = None
-                 ) -> None:
+                 action_space: str | None = None, max_episode_steps: int | None = None,
+                 actions: str | None = None) -> None:
         self.render_mode = _check_render_mode(render_mode, VECTOR_RENDER_MODES)
-        self.scenario = _resolve(scenario)
+        self.scenario = resolve_scenario(scenario, actions)
         self.max_episode_steps = episode_steps(self.scenario, max_episode_steps)
         self.num_envs = num_envs
         self.action_kind = action_space_kind(self.scenario, action_space)
@@ -249,7 +282,7 @@ class NomaUavVectorEnv(VectorEnv):
         self._fresh = users_m is None and self.scenario.users.placement == "fresh"
         self._info_keys = MULTI_INFO_KEYS if self.batch.num_uavs > 1 else INFO_KEYS
         self.single_observation_space = observation_space(self.scenario, self.batch)
-        self.single_action_space = gym_action_space(self.batch.actions, self.action_kind)
+        self.single_action_space = gym_action_space(self.batch.controls, self.action_kind)
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self.action_space = batch_space(self.single_action_space, num_envs)
         self._needs_reset = True
@@ -286,11 +319,9 @@ class NomaUavVectorEnv(VectorEnv):
         if self._needs_reset:
             obs, info = self.reset()
             return obs, np.zeros(self.num_envs), terminated, terminated.copy(), info
-        if self.action_kind == "discrete":
-            dense = np.asarray(actions)
-        else:
-            dense = to_dense(self.batch.actions, np.asarray(actions))
-        obs, reward, _, state = self.batch.step(dense)  # (the batch's limit is train.steps)
+        if self.action_kind == "multi-discrete":
+            actions = to_dense(self.batch.actions, np.asarray(actions))
+        obs, reward, _, state = self.batch.step(np.asarray(actions))  # (limit: train.steps)
         truncated = self.batch.t >= self.max_episode_steps
         self._needs_reset = truncated
         return obs, reward, terminated, np.full(self.num_envs, truncated), self._info(state)

@@ -5,8 +5,9 @@ Agents
 Action Space
     Per agent ``MultiDiscrete([base] * (3 + K_u))``: its own UAV's components x, y, h,
     alpha_1 .. alpha_K, sub-action v meaning direction 2 v - 1 (``paper``) or v - 1
-    (``with-hover``). The agents' actions, in UAV order, are the sub-actions of the Gymnasium
-    env's MultiDiscrete action (:mod:`adaptsky.envs.action_spaces`).
+    (``with-hover``); for ``uav.actions = "continuous"`` per agent ``Box([-1, 1]^(3 + K_u))``.
+    The agents' actions, in UAV order, are the Gymnasium env's MultiDiscrete (or Box) action
+    (:mod:`adaptsky.envs.action_spaces`).
 Observation Space
     Every agent observes the whole network: the Gymnasium env's observation (U > 1: 5 N + 3 U
     values, U = 1: 4 N + 1), the same for all agents; ``state()`` is that observation too and
@@ -32,8 +33,8 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from adaptsky.envs.action_spaces import multi_discrete
-from adaptsky.envs.gym_env import RENDER_FPS, RENDER_MODES, NomaUavEnv
+from adaptsky.envs.action_spaces import per_component_kind, uav_action_space
+from adaptsky.envs.gym_env import RENDER_FPS, RENDER_MODES, NomaUavEnv, resolve_scenario
 from adaptsky.scenario import Scenario
 
 AgentID = str
@@ -49,14 +50,16 @@ class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
     def __init__(self, scenario: Scenario | str | Path | None = None,
                  users_m: np.ndarray | None = None, render_mode: str | None = None,
                  layout_index: int = 0) -> None:
+        scenario = resolve_scenario(scenario)
         self.env = NomaUavEnv(scenario, users_m=users_m, render_mode=render_mode,
-                              layout_index=layout_index, action_space="multi-discrete")
+                              layout_index=layout_index,
+                              action_space=per_component_kind(scenario))
         self.scenario = self.env.scenario
         self.render_mode = self.env.render_mode
         num_uavs = self.scenario.uav.count
         self.possible_agents: list[AgentID] = [f"uav_{u}" for u in range(num_uavs)]
         self.agents: list[AgentID] = []          # none until reset()
-        actions = self.env.batch.actions
+        actions = self.env.batch.controls
         # 3 + K_u sub-actions of every UAV (its own number of clusters)
         self.components = {agent: actions.components_of(u)
                            for u, agent in enumerate(self.possible_agents)}
@@ -65,7 +68,7 @@ class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
         self.observation_spaces = {agent: spaces.Box(box.low, box.high, dtype=np.float32)
                                    for agent in self.possible_agents}
         self.action_spaces = {
-            agent: multi_discrete(actions, self.components[agent])
+            agent: uav_action_space(self.env.action_space, self.components[agent])
             for agent in self.possible_agents}
         self._observation: np.ndarray | None = None
 
@@ -79,7 +82,7 @@ class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
         """The full observation's ``Box`` (every agent observes the whole network)."""
         return self.observation_spaces[self._known(agent)]
 
-    def action_space(self, agent: AgentID) -> spaces.MultiDiscrete:
+    def action_space(self, agent: AgentID) -> spaces.MultiDiscrete | spaces.Box:
         """The sub-actions of ``agent``'s UAV's 3 + K_u components."""
         return self.action_spaces[self._known(agent)]
 

@@ -25,12 +25,12 @@ from adaptsky.progress import Tick
 from adaptsky.rollouts import several_uavs
 from adaptsky.rollouts.metrics import Method
 from adaptsky.rollouts.oracle import oracle, require_deterministic_gains, require_static_users
-from adaptsky.rollouts.rollout import Trace, hold, random_policy, rollout
+from adaptsky.rollouts.rollout import Trace, hold, random_controls_policy, rollout
 from adaptsky.rollouts.several_uavs import SearchResult
 from adaptsky.rollouts.soa import soa_configuration
 from adaptsky.scenario import Scenario
 from adaptsky.scenario.variants import with_values
-from adaptsky.sim.actions import ActionSet
+from adaptsky.sim.controls import controls_of
 from adaptsky.sim.network import NetworkBatch
 
 BASELINES = ("soa", "oracle", "best-response", "oma", "random")
@@ -132,8 +132,8 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
                           np.full((1, *found.rate_bps.shape), OMA_POWER_SHARE),
                           hover_j[None].copy())
     else:
-        count = ActionSet.of(scenario).count
-        trace = rollout(scenario, random_policy(count, seed), steps, users_m, seed, on_progress)
+        policy = random_controls_policy(controls_of(scenario, len(users_m)), seed)
+        trace = rollout(scenario, policy, steps, users_m, seed, on_progress)
     return Method.of(method, scenario, trace, details)
 
 

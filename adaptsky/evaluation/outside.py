@@ -42,6 +42,7 @@ from adaptsky.scenario import Scenario
 from adaptsky.scenario.toml_writer import dumps
 from adaptsky.scenario.variants import eval_scenario
 from adaptsky.sim.actions import ActionSet
+from adaptsky.sim.controls import controls_of
 from adaptsky.store.eval_file import OUTSIDE, check_new_eval_file, write_eval
 
 Act = Callable[[NDArray[np.float32]], Any]
@@ -61,10 +62,10 @@ def evaluate_policy(act: Act, *, scenario_path: Path | str, compare_with: list[s
     JSON-able values and the methods (the policy first) with their traces.
 
     ``act`` takes one observation as the Gymnasium env gives it and returns one action of its
-    space (``action_space``: ``None``, ``"discrete"`` or ``"multi-discrete"``, as the env's
-    argument); an action outside it is refused in one line. ``label`` names the policy in the
-    results and the eval file, which is written atomically to ``out`` (None: no file). Every
-    input is checked before the first rollout."""
+    space (``action_space``: ``None``, ``"discrete"``, ``"multi-discrete"`` or ``"box"``, as
+    the env's argument); an action outside it is refused in one line. ``label`` names the
+    policy in the results and the eval file, which is written atomically to ``out`` (None:
+    no file). Every input is checked before the first rollout."""
     if not callable(act):
         raise EvaluationError(f"act: {type(act).__name__} is not callable; give a function from "
                               "an observation to an action")
@@ -98,21 +99,28 @@ def evaluate_policy(act: Act, *, scenario_path: Path | str, compare_with: list[s
 
 
 def batch_policy(act: Act, scenario: Scenario, kind: ActionSpaceKind) -> Policy:
-    """``act`` as a policy of the batched rollouts: observations (L, obs) to dense actions
-    (L,), one call of ``act`` per layout with a copy of its observation; every action is
-    checked to lie in the env's space of ``kind``."""
-    actions = ActionSet.of(scenario)
-    space = gym_action_space(actions, kind)
-    expected = (f"an int from 0 to {actions.count - 1}" if kind == "discrete" else
-                f"{actions.num_components} integers from 0 to {actions.base - 1}")
+    """``act`` as a policy of the batched rollouts: observations (L, obs) to the batch's
+    actions (dense indices (L,), or points (L, D) of the Box), one call of ``act`` per layout
+    with a copy of its observation; every action is checked to lie in the env's space of
+    ``kind`` (a Box action as float32, as the env's space holds it)."""
+    controls = controls_of(scenario, 1)
+    space = gym_action_space(controls, kind)
+    if kind == "box":
+        expected = f"{controls.num_components} numbers in [-1, 1]"
+    else:
+        actions = ActionSet.of(scenario)
+        expected = (f"an int from 0 to {actions.count - 1}" if kind == "discrete" else
+                    f"{actions.num_components} integers from 0 to {actions.base - 1}")
     step = 0
 
-    def policy(obs: NDArray[np.float32]) -> NDArray[np.int64]:
+    def policy(obs: NDArray[np.float32]) -> NDArray[np.int64] | NDArray[np.float32]:
         nonlocal step
         chosen = []
         for layout, row in enumerate(obs):
             action = act(row.copy())
             value = np.asarray(action) if isinstance(action, list | tuple) else action
+            if kind == "box":
+                value = _as_float32(value)
             if not space.contains(value):
                 raise EvaluationError(
                     f"act returned {action!r} for layout {layout} at step {step}: not an action "
@@ -121,10 +129,20 @@ def batch_policy(act: Act, scenario: Scenario, kind: ActionSpaceKind) -> Policy:
         step += 1
         if kind == "discrete":
             return np.array([int(value) for value in chosen], dtype=np.int64)
+        if kind == "box":
+            return np.stack(chosen)
         return to_dense(actions, np.stack([np.asarray(value, dtype=np.int64)
                                            for value in chosen]))
 
     return policy
+
+
+def _as_float32(value: object) -> object:
+    """A number array ``value`` as float32 (what the env's Box holds), anything else as it
+    is (for the space to refuse)."""
+    if isinstance(value, np.ndarray | np.generic) and value.dtype.kind in "iuf":
+        return np.asarray(value, dtype=np.float32)
+    return value
 
 
 def _action_kind(scenario: Scenario, action_space: str | None) -> ActionSpaceKind:

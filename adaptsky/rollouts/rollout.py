@@ -14,6 +14,7 @@ from adaptsky.algos.protocol import Policy
 from adaptsky.algos.registry import algorithm_of
 from adaptsky.arrays import Tree
 from adaptsky.scenario.models import Scenario
+from adaptsky.sim.controls import BOX_HIGH, BOX_LOW, Controls, DenseControls
 from adaptsky.sim.interference import oma_rates_bps
 from adaptsky.sim.network import NetworkBatch, NetworkState
 from adaptsky.sim.state import users_move
@@ -109,6 +110,16 @@ def oma_rates(scenario: Scenario, state: NetworkState) -> FloatArray:
 def random_policy(num_actions: int, seed: int = 0) -> Policy:
     rng = np.random.default_rng(seed)
     return lambda obs: rng.integers(0, num_actions, size=len(obs))
+
+
+def random_controls_policy(controls: Controls, seed: int = 0) -> Policy:
+    """Uniformly random actions of the adapter ``controls``' kind: an index of its dense set,
+    or a uniform point of [-1, 1]^D (docs/model.md §3)."""
+    if isinstance(controls, DenseControls):
+        return random_policy(controls.count, seed)
+    rng = np.random.default_rng(seed)
+    shape = (controls.num_components,)
+    return lambda obs: rng.uniform(BOX_LOW, BOX_HIGH, size=(len(obs), *shape))
 
 
 def greedy_policy(scenario: Scenario, policy: Tree) -> Policy:

@@ -136,9 +136,13 @@ class Uav(Section):
     power_step: float = Field(0.01, ge=1e-4, lt=0.5, description="change of alpha per step")
     start_alpha: float = Field(0.5, gt=0, lt=1, description="alpha of every cluster's first "
                                "user at the start of every episode")
-    actions: Literal["paper", "with-hover"] = Field(
-        "paper", description="'paper': each component in {-1,+1}; 'with-hover': in {-1,0,+1}"
-    )
+    actions: Literal["paper", "with-hover", "continuous"] = Field(
+        "paper", description="'paper': each component in {-1,+1}; 'with-hover': in {-1,0,+1}; "
+        "'continuous': each in [-1, 1], times its step (docs/model.md §3)")
+    power: Literal["change", "absolute"] = Field(
+        "change", description="what a cluster's action component does: 'change' its first "
+        "user's share by at most power_step; 'absolute' (continuous actions only) set it, "
+        "a = -1 .. +1 giving power_step .. 1 - power_step")
     step_s: float = Field(1.0, gt=0, le=3600, description="duration of a step, s: the speed "
                           "of a move and the energy of a step (docs/model.md §10)")
     count: int = Field(1, ge=1, le=MAX_UAVS, description="number of UAVs U (docs/model.md §9)")
@@ -160,6 +164,10 @@ class Uav(Section):
         if not self.power_step <= self.start_alpha <= 1 - self.power_step:
             raise ValueError(f"start_alpha {self.start_alpha} lies outside "
                              f"[power_step, 1 - power_step]")
+        if self.power == "absolute" and self.actions != "continuous":
+            raise ValueError(f"power = 'absolute' needs actions = 'continuous' (it sets each "
+                             f"share from a continuous action), not '{self.actions}'; with "
+                             f"'paper' or 'with-hover' use power = 'change'")
         starts = self.start_positions_m
         if starts is not None:
             if len(starts) != self.count:
@@ -292,7 +300,10 @@ class Scenario(Section):
     def _dense_actions(self) -> Scenario:
         """The users' action space must fit MAX_DENSE_ACTIONS for the DQN (its replay stores
         the dense index as float32), MAX_INDEX_ACTIONS for an agent that acts per component
-        (the BDQ: the environment's index is an int64); checked without computing it."""
+        (the BDQ: the environment's index is an int64); checked without computing it.
+        Continuous actions have no index."""
+        if self.uav.actions == "continuous":
+            return self  # no index: D components of [-1, 1], whatever their number
         count, dense = self.uav.count, self.agent.algorithm == "dqn"
         actions = MAX_DENSE_ACTIONS if dense else MAX_INDEX_ACTIONS
         limit, users = max_users(self.uav.actions, count, actions), self.num_users

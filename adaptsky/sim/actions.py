@@ -20,6 +20,7 @@ if TYPE_CHECKING:
     from adaptsky.scenario.models import Scenario
 
 ActionMode = Literal["paper", "with-hover"]
+DENSE_MODES: tuple[ActionMode, ...] = ("paper", "with-hover")
 
 # an action index is an int64: base^D <= 2^62 keeps every index, digit and draw exact
 # (docs/scenario-format.md, "Machine limits")
@@ -48,9 +49,14 @@ class ActionSet:
 
     @classmethod
     def of(cls, scenario: Scenario) -> ActionSet:
-        """The action set of ``scenario``: its UAVs, each with its K_u clusters."""
+        """The action set of ``scenario``: its UAVs, each with its K_u clusters; a ValueError
+        for continuous actions, which have none (:mod:`adaptsky.sim.controls`)."""
+        mode = scenario.uav.actions
+        if mode not in DENSE_MODES:
+            raise ValueError(f"uav.actions = '{mode}' has no dense action set; the dense "
+                             f"kinds are {', '.join(repr(m) for m in DENSE_MODES)}")
         clusters = scenario.clusters_of_uavs
-        return cls(scenario.clusters_per_uav, scenario.uav.actions, scenario.uav.count,
+        return cls(scenario.clusters_per_uav, mode, scenario.uav.count,
                    () if len(set(clusters)) == 1 else clusters)
 
     @property

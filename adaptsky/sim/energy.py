@@ -179,15 +179,23 @@ def episode_energy(sum_rate_bps: FloatArray, energy_j: FloatArray, step_s: float
         energy_efficiency_bpj(np.asarray(sum_rate_bps), total_j[None], step_s))}
 
 
+CONTINUOUS_SPEEDS = 1025
+"""Speeds from hover to a full diagonal move at which :func:`least_power_w` looks for the
+least power of continuous moves."""
+
+
 def least_power_w(scenario: Scenario) -> float:
     """The least power of one UAV over a step of the scenario's actions, W: P(V) at the
     speeds its moves can have (with hover: none, one axis, both axes; the paper's: both
-    axes) plus its transmitters; climbing only adds (docs/model.md §10)."""
+    axes; continuous: every speed up to both axes', on a grid of CONTINUOUS_SPEEDS) plus its
+    transmitters; climbing only adds (docs/model.md §10)."""
     uav = scenario.uav
     x_m, y_m = uav.step_m[0], uav.step_m[1]
     moves_m = [[x_m, y_m, 0.0]]
     if uav.actions == "with-hover":
         moves_m += [[0.0, 0.0, 0.0], [x_m, 0.0, 0.0], [0.0, y_m, 0.0]]
+    elif uav.actions == "continuous":
+        moves_m += [[t * x_m, t * y_m, 0.0] for t in np.linspace(0.0, 1.0, CONTINUOUS_SPEEDS)]
     return float(StepEnergy.of(scenario).power_w(np.array(moves_m)).min())
 
 

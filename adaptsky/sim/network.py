@@ -159,7 +159,8 @@ class NetworkBatch:
         self.num_clusters = scenario.clusters_per_uav
         self.channel = build_channel(scenario)
         self._dynamics = Dynamics.of(scenario, num_envs)
-        self.actions = self._dynamics.actions
+        self.actions = self._dynamics.actions        # the dense set (None: continuous)
+        self.controls = self._dynamics.controls      # the action kind's adapter
         if weights is not None and len(weights) != num_envs:
             raise ValueError(f"weights must have {num_envs} entries, got {len(weights)}")
         self.weights = reward_weights(scenario) if weights is None else stack_weights(weights)
@@ -399,7 +400,8 @@ class NetworkBatch:
 
     def step(self, actions: NDArray[np.integer]
              ) -> tuple[NDArray[np.float32], FloatArray, bool, NetworkState]:
-        """Apply B actions (dense indices over all UAVs' components, docs/model.md §3);
+        """Apply B actions (dense indices (B,) over all UAVs' components or continuous
+        points (B, D), as :attr:`controls` takes them, docs/model.md §3);
         return observations, rewards (eq. 13), truncated, and the state.
 
         Stages 1-2 (:func:`adaptsky.sim.state.step`, then the separation: position moves

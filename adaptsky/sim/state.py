@@ -18,7 +18,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from adaptsky.scenario.models import Scenario
-from adaptsky.sim.actions import TABLE_MAX_ACTIONS, ActionSet
+from adaptsky.sim.actions import ActionSet
+from adaptsky.sim.controls import Controls, DenseControls, controls_of
 
 FloatArray = NDArray[np.float64]
 
@@ -98,89 +99,53 @@ def users_xy(users_m: FloatArray) -> FloatArray:
 class Dynamics:
     """The rules of a step that do not change (docs/model.md §3) for B environments of U UAVs.
 
-    ``actions``: the action set of ``action_count`` actions; ``action_step`` (D,):
-    delta_x, delta_y, delta_h (m) and delta_alpha K_u times, for every UAV; ``slots`` (D,)
-    where the components sit in the flattened (U (3 + K),) configuration (None: in order,
-    every UAV with K clusters); ``action_moves``
-    (A, U, 3 + K): the change of the configuration by each of the A actions (None for sets over
-    ``TABLE_MAX_ACTIONS``, decoded instead); ``config_low`` and ``config_high``
-    (B, U, 3 + K): the feasible set (alg. 1 line 7), |x|, |y| <= L/2, h_min <= h <= h_max,
-    delta_alpha <= alpha <= 1 - delta_alpha, for ``num_envs`` B environments; users walk
-    ``speed_m_per_step`` per step inside |x|, |y| <= ``half_side_m``.
+    ``controls``: the adapter of the scenario's action kind (:mod:`adaptsky.sim.controls`),
+    which checks the actions and turns them into the configuration they aim at;
+    ``config_low`` and ``config_high`` (B, U, 3 + K): the feasible set (alg. 1 line 7),
+    |x|, |y| <= L/2, h_min <= h <= h_max, delta_alpha <= alpha <= 1 - delta_alpha, for
+    ``num_envs`` B environments; users walk ``speed_m_per_step`` per step inside
+    |x|, |y| <= ``half_side_m``.
     """
 
-    actions: ActionSet
-    action_count: int
-    action_step: FloatArray
-    action_moves: FloatArray | None
+    controls: Controls
     config_low: FloatArray
     config_high: FloatArray
     num_envs: int
     speed_m_per_step: float
     half_side_m: float
-    slots: NDArray[np.intp] | None = None
 
     @classmethod
     def of(cls, scenario: Scenario, num_envs: int) -> Dynamics:
         """The dynamics of ``scenario`` for ``num_envs`` environments of its U UAVs, each with
         its K_u clusters."""
         uav, k = scenario.uav, scenario.clusters_per_uav
-        num_uavs = uav.count
         half_m = scenario.area.side_m / 2
         power_step = uav.power_step
-        config_shape = (num_envs, num_uavs, 3 + k)
+        config_shape = (num_envs, uav.count, 3 + k)
         low = np.concatenate([[-half_m, -half_m, uav.min_height_m], np.full(k, power_step)])
         high = np.concatenate([[half_m, half_m, uav.max_height_m],
                                np.full(k, 1.0 - power_step)])
-        action_set = ActionSet.of(scenario)
-        clusters = action_set.clusters_of_uavs
-        # one UAV's steps, then every UAV's: the components of an action in order
-        action_step = np.concatenate([np.concatenate([np.array(uav.step_m, dtype=np.float64),
-                                                      np.full(k_u, power_step)])
-                                      for k_u in clusters])
-        # where UAVs serve different numbers of clusters, the configuration's slots of the
-        # components (a UAV with fewer than K_max has unused share slots no action moves)
-        slots = None
-        if len(set(clusters)) > 1:
-            slots = np.concatenate([u * (3 + k) + np.arange(3 + k_u)
-                                    for u, k_u in enumerate(clusters)])
-        moves = None
-        if action_set.count <= TABLE_MAX_ACTIONS:
-            moves = _in_slots(action_set.table() * action_step, slots, num_uavs * (3 + k)
-                              ).reshape(action_set.count, num_uavs, 3 + k)
-        return cls(action_set, action_set.count, action_step, moves,
+        return cls(controls_of(scenario, num_envs),
                    np.broadcast_to(low, config_shape).copy(),
                    np.broadcast_to(high, config_shape).copy(), num_envs,
-                   scenario.users.speed_m_per_step, half_m, slots)
+                   scenario.users.speed_m_per_step, half_m)
 
-    def checked(self, actions: NDArray[np.integer]) -> NDArray[np.integer]:
-        """``actions`` (B,) as an array, after checking their shape and range."""
-        actions = np.asarray(actions)
-        num_envs = self.num_envs
-        if actions.shape != (num_envs,):
-            raise ValueError(f"expected {num_envs} actions, got shape {actions.shape}")
-        count = self.action_count
-        if actions.dtype.kind in "iu" and num_envs <= 16:   # cheaper than two reductions
-            values = actions.tolist()
-            valid = min(values) >= 0 and max(values) < count
-        else:
-            valid = bool(actions.min() >= 0 and actions.max() < count)
-        if not valid:
-            raise ValueError(f"actions must lie in [0, {count})")
-        return actions
+    @property
+    def actions(self) -> ActionSet | None:
+        """The dense action set (None for continuous controls)."""
+        controls = self.controls
+        return controls.action_set if isinstance(controls, DenseControls) else None
 
-    def changes(self, actions: NDArray[np.integer]) -> FloatArray:
-        """Checked actions (B,) as changes (B, U, 3 + K) of the configuration."""
-        if self.action_moves is not None and actions.dtype.kind in "iu":
-            return self.action_moves.take(actions, axis=0)
-        shape = self.config_low.shape
-        return _in_slots(self.actions.decode(actions) * self.action_step, self.slots,
-                         shape[1] * shape[2]).reshape(shape)
+    def checked(self, actions: NDArray[np.generic]) -> NDArray[np.generic]:
+        """``actions`` of the B environments as an array, after the adapter's checks of
+        their shape and range (a ValueError of one line)."""
+        return self.controls.checked(actions)
 
-    def moved(self, config: FloatArray, actions: NDArray[np.integer]) -> FloatArray:
-        """The configuration (B, U, 3 + K) after checked ``actions`` (B,): every UAV moved and
-        every alpha changed by its action, clipped to the feasible set (alg. 1 line 7)."""
-        return np.minimum(np.maximum(config + self.changes(actions), self.config_low),
+    def moved(self, config: FloatArray, actions: NDArray[np.generic]) -> FloatArray:
+        """The configuration (B, U, 3 + K) after checked ``actions``: every UAV moved and
+        every alpha changed (or set) by its action, clipped to the feasible set (alg. 1
+        line 7)."""
+        return np.minimum(np.maximum(self.controls.targets(config, actions), self.config_low),
                           self.config_high)
 
     def walked(self, users_m: FloatArray, headings_rad: FloatArray) -> FloatArray:
@@ -197,21 +162,12 @@ class Dynamics:
         return moved.transpose(1, 2, 0)
 
 
-def _in_slots(changes: FloatArray, slots: NDArray[np.intp] | None, width: int) -> FloatArray:
-    """``changes`` (..., D) of the action components written into their ``slots`` of a
-    flattened configuration (..., width), 0 elsewhere (None: the components are the slots)."""
-    if slots is None:
-        return changes
-    placed = np.zeros((*changes.shape[:-1], width))
-    placed[..., slots] = changes
-    return placed
-
-
-def step(state: SimState, actions: NDArray[np.integer], dynamics: Dynamics,
+def step(state: SimState, actions: NDArray[np.generic], dynamics: Dynamics,
          headings_rad: FloatArray | None = None) -> SimState:
     """The state after one step (docs/model.md §3): UAVs and shares moved by the checked
-    ``actions`` (B,) and clipped (:meth:`Dynamics.moved`), users walked along
-    ``headings_rad`` (B, N) where they move (None: they stand), the step count plus one."""
+    ``actions`` (dense indices (B,) or continuous points (B, D)) and clipped
+    (:meth:`Dynamics.moved`), users walked along ``headings_rad`` (B, N) where they move
+    (None: they stand), the step count plus one."""
     users_m = state.users_m if headings_rad is None else dynamics.walked(state.users_m,
                                                                          headings_rad)
     return SimState._new(dynamics.moved(state.config, actions), users_m, state.t + 1)

@@ -20,7 +20,7 @@ import math
 import os
 from dataclasses import dataclass
 
-from adaptsky.algos.registry import algorithm_of
+from adaptsky.algos.registry import algorithm_of, check_actions
 from adaptsky.errors import ResourceError
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.actions import TABLE_MAX_ACTIONS, count_estimate
@@ -117,8 +117,11 @@ def format_bytes(size: float) -> str:
 
 def check_fits(scenario: Scenario, source: str, available: int | None = None,
                workers: int | None = None) -> Estimate:
-    """The estimate for ``scenario``; a one-line :class:`ResourceError` if it needs more than
-    ``available`` bytes (default: what this machine has now)."""
+    """The estimate for ``scenario``; a one-line :class:`ScenarioError` if its algorithm does
+    not learn its action kind (:func:`~adaptsky.algos.registry.check_actions`), a one-line
+    :class:`ResourceError` if it needs more than ``available`` bytes (default: what this
+    machine has now)."""
+    check_actions(scenario, source)
     needed = estimate(scenario, workers)
     if available is None:
         available = available_bytes()

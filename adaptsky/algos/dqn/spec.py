@@ -12,7 +12,7 @@ from adaptsky.algos.protocol import Algorithm, LayoutCheck, Node, Policy
 from adaptsky.arrays import Field, Tree
 from adaptsky.scenario.agents import DqnAgent
 from adaptsky.scenario.models import Scenario
-from adaptsky.sim.actions import ActionSet, count_estimate
+from adaptsky.sim.actions import DENSE_MODES, ActionSet, count_estimate
 from adaptsky.sim.observation import observation_size_of
 
 FLOAT32 = 4
@@ -77,6 +77,7 @@ class DqnSpec:
     """The dueling (or plain) DQN of sec. IV, stacked over seeds (``adaptsky.algos.dqn``)."""
 
     name = "dqn"
+    action_kinds = DENSE_MODES
     checkpoint_members = ("agent", "replay")
     config_keys = ("hidden_sizes", "dueling", "memory_size", "batch_size")
     fields = (*REPLAY, *ADAM_STATE)

@@ -101,8 +101,12 @@ def test_bad_action_spaces_and_actions_are_refused_in_one_line():
                                          r"actions, more than 65536 \(2\^16\); use "
                                          r"action_space='multi-discrete'$"):
         NomaUavEnv(SCENARIOS / "four_uavs_mmwave.toml", action_space="discrete")
-    with pytest.raises(ValueError, match=r"^action_space 'box' is not supported; allowed: None, "
-                                         r"'discrete', 'multi-discrete'$"):
+    with pytest.raises(ValueError, match=r"^action_space 'tuple' is not supported; allowed: "
+                                         r"None, 'discrete', 'multi-discrete', 'box'$"):
+        NomaUavEnv(two_uavs(), action_space="tuple")
+    with pytest.raises(ValueError, match=r"^action_space 'box' does not fit uav.actions = "
+                                         r"'paper'; its action spaces: 'discrete' or "
+                                         r"'multi-discrete' \(or None\)$"):
         NomaUavEnv(two_uavs(), action_space="box")
     env = NomaUavEnv(two_uavs())
     env.reset(seed=0)

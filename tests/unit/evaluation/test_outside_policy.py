@@ -173,7 +173,8 @@ def test_bad_inputs_are_one_line_before_any_rollout(tmp_path):
         ({"compare_with": ["orcale"]}, "--compare: unknown method 'orcale'"),
         ({"compare_with": ["oracle"], "scenario_path": TWO_UAVS},
          "the oracle is defined for one UAV"),
-        ({"action_space": "box"}, "action_space 'box' is not supported"),
+        ({"action_space": "tuple"}, "action_space 'tuple' is not supported"),
+        ({"action_space": "box"}, "action_space 'box' does not fit uav.actions = 'paper'"),
         ({"scenario_path": tmp_path / "missing.toml"}, "missing.toml"),
     ]
     for arguments, message in cases:

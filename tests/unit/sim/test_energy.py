@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from adaptsky.scenario import load_scenario, parse_scenario
-from adaptsky.sim.energy import ZENG_2019, StepEnergy, propulsion_power_w
+from adaptsky.sim.energy import ZENG_2019, StepEnergy, least_power_w, propulsion_power_w
 from adaptsky.sim.network import NetworkBatch
 from tests.conftest import ROOT
 from tests.helpers.scalar_models import scalar_power_w
@@ -36,6 +36,21 @@ def test_the_least_power_is_125_99_w_at_10_21_m_s():
     assert ZENG_2019.hover_induced_velocity_m_s == pytest.approx(4.03, abs=0.01)
     for v in (0.5, 4.0, 13.7, 25.0):
         assert float(propulsion_power_w(v)) == pytest.approx(scalar_power_w(v), rel=1e-12)
+
+
+def test_continuous_moves_reach_the_least_power_between_hover_and_a_full_move():
+    # moves up to 10 m per axis and second: the speeds reach 10.21 m/s (P = 125.99 W), which
+    # no discrete move has (paper: 14.1 m/s; with hover also 0 and 10 m/s)
+    powers = {}
+    for actions in ("paper", "with-hover", "continuous"):
+        scenario = parse_scenario({"name": "x", "uav": {"actions": actions,
+                                                        "step_m": [10.0, 10.0, 1.0]}}, "x")
+        transmitters_w = float(StepEnergy.of(scenario).power_w(np.zeros((1, 3)))[0]
+                               - propulsion_power_w(0.0))
+        powers[actions] = least_power_w(scenario) - transmitters_w
+    assert powers["paper"] == pytest.approx(float(propulsion_power_w(math.sqrt(200))))
+    assert powers["with-hover"] == pytest.approx(float(propulsion_power_w(10.0)))
+    assert powers["continuous"] == pytest.approx(125.99, abs=0.01)
 
 
 def test_a_steps_energy_counts_speed_climbing_and_transmitters():
