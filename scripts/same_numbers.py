@@ -3,11 +3,11 @@ inspections, evaluations and one reproduction, run with the code of a git revisi
 the working tree, compared bit for bit (every array of every run and eval file, the JSON that
 inspect and eval print, the CSV and figure data of reproduce).
 
-    .venv/bin/python scripts/same_numbers.py [REV] [--wide]     (default REV: HEAD)
+    .venv/bin/python scripts/same_numbers.py [REV] [--wide] [--all]     (default REV: HEAD)
 
 ``--wide`` adds three and four UAVs, two UAVs on sub-6, the energy term on for one and two
 UAVs, evaluations against the oracle, best response and OMA, and a small ``reproduce e4``
-(about four times as long).
+(about four times as long); ``--all`` lists every difference, not the first 40.
 
 Both run in this environment on this machine; the revision's code is checked out into a
 temporary worktree and put first on PYTHONPATH (with its built-in channel models). Prints one
@@ -117,7 +117,7 @@ def arrays(path: Path) -> dict[str, np.ndarray]:
     found: dict[str, np.ndarray] = {}
     skip = {"created_utc", "sessions", "command_line", "adaptsky_version", "platform",
             "python_version", "torch_version", "numpy_version", "h5py_version",
-            "wall_time_s", "format_version"}
+            "wall_time_s", "format_version", "seconds_per_layout"}
 
     def visit(name: str, item: h5py.HLObject) -> None:
         if isinstance(item, h5py.Dataset) and name.rsplit("/", 1)[-1] not in skip:
@@ -261,7 +261,7 @@ def main() -> int:
         print(__doc__)
         return 0
     wide = "--wide" in sys.argv[1:]
-    positional = [arg for arg in sys.argv[1:] if arg != "--wide"]
+    positional = [arg for arg in sys.argv[1:] if arg not in ("--wide", "--all")]
     rev = positional[0] if positional else "HEAD"
     with tempfile.TemporaryDirectory() as scratch:
         base = Path(scratch)
@@ -277,7 +277,7 @@ def main() -> int:
         finally:
             subprocess.run(["git", "worktree", "remove", "--force", str(tree)], cwd=ROOT,
                            check=True)
-    for line in differences[:40]:
+    for line in differences if "--all" in sys.argv[1:] else differences[:40]:
         print(line)
     print(f"{rev} and the working tree: " + ("the same numbers, bit for bit" if not differences
                                              else f"{len(differences)} differences"))
