@@ -1,4 +1,4 @@
-"""The network as a PettingZoo ``ParallelEnv``: one agent per UAV (SPEC.md 8.1).
+"""The network as a PettingZoo ``ParallelEnv``: one agent per UAV (docs/model.md §9).
 
 Agents
     ``"uav_0"`` .. ``"uav_{U-1}"`` (one for U = 1), all acting at every step.
@@ -9,9 +9,13 @@ Action Space
     The agents' actions, in UAV order, are the Gymnasium env's MultiDiscrete (or Box) action
     (:mod:`adaptsky.envs.action_spaces`).
 Observation Space
-    Every agent observes the whole network: the Gymnasium env's observation (U > 1: 5 N + 3 U
-    values, U = 1: 4 N + 1), the same for all agents; ``state()`` is that observation too and
-    ``state_space`` its ``Box`` (for centralised critics).
+    ``observation="global"`` (the default): every agent observes the whole network, the
+    Gymnasium env's observation (U > 1: 5 N + 3 U values, U = 1: 4 N + 1), the same for all
+    agents. ``"local"``: UAV u observes its own users and every UAV's position, 5 S + 3 U
+    values, S = 2 K_max user slots, zeros past its own users
+    (:class:`adaptsky.sim.observation.LocalObserver`); one ``Box`` for all agents. Either way
+    ``state()`` is the global observation and ``state_space`` its ``Box`` (for centralised
+    critics).
 Rewards
     Every agent gets the network's reward (eq. 13 over all users).
 Episode End
@@ -19,7 +23,8 @@ Episode End
     :meth:`reset`; never terminated.
 Arguments
     Those of :class:`adaptsky.envs.gym_env.NomaUavEnv` but ``action_space``: ``scenario``,
-    ``users_m``, ``render_mode`` (``None``, ``"ansi"`` or ``"rgb_array"``), ``layout_index``.
+    ``users_m``, ``render_mode`` (``None``, ``"ansi"`` or ``"rgb_array"``), ``layout_index``;
+    and ``observation``, ``"global"`` or ``"local"``.
     Seeds, layouts and ``info`` (the same dict for every agent, copied) are the Gymnasium
     env's.
 """
@@ -36,8 +41,10 @@ from pettingzoo import ParallelEnv
 from adaptsky.envs.action_spaces import per_component_kind, uav_action_space
 from adaptsky.envs.gym_env import RENDER_FPS, RENDER_MODES, NomaUavEnv, resolve_scenario
 from adaptsky.scenario import Scenario
+from adaptsky.sim.observation import LocalObserver, local_observation_bounds
 
 AgentID = str
+OBSERVATIONS = ("global", "local")
 
 
 class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
@@ -49,7 +56,9 @@ class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
 
     def __init__(self, scenario: Scenario | str | Path | None = None,
                  users_m: np.ndarray | None = None, render_mode: str | None = None,
-                 layout_index: int = 0) -> None:
+                 layout_index: int = 0, observation: str = "global") -> None:
+        if observation not in OBSERVATIONS:
+            raise ValueError(f"observation must be 'global' or 'local', got {observation!r}")
         scenario = resolve_scenario(scenario)
         self.env = NomaUavEnv(scenario, users_m=users_m, render_mode=render_mode,
                               layout_index=layout_index,
@@ -65,7 +74,10 @@ class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
                            for u, agent in enumerate(self.possible_agents)}
         box = self.env.observation_space
         self.state_space = spaces.Box(box.low, box.high, dtype=np.float32)
-        self.observation_spaces = {agent: spaces.Box(box.low, box.high, dtype=np.float32)
+        self._local = LocalObserver(self.scenario) if observation == "local" else None
+        low, high = ((box.low, box.high) if self._local is None else
+                     local_observation_bounds(self.scenario, self.env.batch.gain_bounds()))
+        self.observation_spaces = {agent: spaces.Box(low, high, dtype=np.float32)
                                    for agent in self.possible_agents}
         self.action_spaces = {
             agent: uav_action_space(self.env.action_space, self.components[agent])
@@ -79,7 +91,7 @@ class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
         return agent
 
     def observation_space(self, agent: AgentID) -> spaces.Box:
-        """The full observation's ``Box`` (every agent observes the whole network)."""
+        """The ``Box`` of every agent's observation, global or local (the same for all)."""
         return self.observation_spaces[self._known(agent)]
 
     def action_space(self, agent: AgentID) -> spaces.MultiDiscrete | spaces.Box:
@@ -91,8 +103,7 @@ class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
         observation, info = self.env.reset(seed=seed, options=options)
         self._observation = observation
         self.agents = list(self.possible_agents)
-        return ({agent: observation.copy() for agent in self.agents},
-                {agent: dict(info) for agent in self.agents})
+        return self._observations(self.agents), {agent: dict(info) for agent in self.agents}
 
     def step(self, actions: dict[AgentID, np.ndarray]) -> tuple[
             dict[AgentID, np.ndarray], dict[AgentID, float], dict[AgentID, bool],
@@ -117,9 +128,24 @@ class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
         agents = self.agents
         if terminated or truncated:
             self.agents = []
-        return ({agent: observation.copy() for agent in agents},
-                dict.fromkeys(agents, reward), dict.fromkeys(agents, terminated),
-                dict.fromkeys(agents, truncated), {agent: dict(info) for agent in agents})
+        return (self._observations(agents), dict.fromkeys(agents, reward),
+                dict.fromkeys(agents, terminated), dict.fromkeys(agents, truncated),
+                {agent: dict(info) for agent in agents})
+
+    def _observations(self, agents: list[AgentID]) -> dict[AgentID, np.ndarray]:
+        """Every agent's observation of the last state: the global one, or its own local one
+        (from the network's state and association, docs/model.md §9)."""
+        assert self._observation is not None
+        if self._local is None:
+            return {agent: self._observation.copy() for agent in agents}
+        batch = self.env.batch
+        state = batch.state
+        assert state is not None
+        local = self._local(state.uav_m.reshape(1, batch.num_uavs, 3), batch.users_m,
+                            batch.association.serving_uav, state.alpha, state.gain,
+                            state.interference_w, batch.observation_order)[0]
+        return {agent: local[u] for u, agent in enumerate(self.possible_agents)
+                if agent in agents}
 
     def state(self) -> np.ndarray:
         """The whole network's observation (``state_space``), for centralised critics."""

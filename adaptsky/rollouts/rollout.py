@@ -126,8 +126,3 @@ def greedy_policy(scenario: Scenario, policy: Tree) -> Policy:
     """argmax_a of a stored greedy policy (the arrays of a checkpoint's ``policy_of`` or of
     its best policy), by the scenario's algorithm."""
     return algorithm_of(scenario).greedy_policy(scenario, policy)
-
-
-def checkpoint_policy(scenario: Scenario, checkpoint: Tree) -> Policy:
-    """The greedy policy of a checkpoint's last weights."""
-    return greedy_policy(scenario, algorithm_of(scenario).policy_of(checkpoint))

@@ -1,5 +1,6 @@
 """The observation stage (docs/environment.md). One UAV: the paper's layout (sec. IV-B.1,
-:class:`Observer`), below; several UAVs: :class:`MultiObserver`.
+:class:`Observer`), below; several UAVs: :class:`MultiObserver`; every UAV's local part of
+it, for one agent per UAV: :class:`LocalObserver`.
 
 Sec. IV-B.1: per user [dx_i, dy_i, alpha_i, g_i], then h (size 4 N + 1).
 
@@ -238,3 +239,77 @@ def multi_observation_bounds(scenario: Scenario, gains: tuple[float, float] | No
     high = np.array([delta, delta, 1.0, gain_high, inr_high] * n + [position, position,
                                                                    height[1]] * u)
     return _float32_outward(low, -np.inf), _float32_outward(high, np.inf)
+
+
+class LocalObserver:
+    """Every UAV's local observation (B, U, 5 S + 3 U), float32 (docs/environment.md, "Local
+    observations"; docs/model.md §9): the part of the several-UAV observation
+    (:class:`MultiObserver`, with its scaling) that UAV u sees.
+
+    First S = 2 K_max user slots, its own users in observation order (``agent.user_order``),
+    each [x_u - x_i, y_u - y_i, alpha_i, g_{u,i}, I_i]; a UAV with fewer users (K_u < K_max)
+    has its last slots padded with zeros, so that every agent's observation has one size (one
+    actor shared by the UAVs); a padded slot has alpha = 0, which no user has. Then its own
+    [x_u, y_u, h_u] and the other UAVs' in UAV order.
+    """
+
+    def __init__(self, scenario: Scenario) -> None:
+        self._observer = MultiObserver(scenario)
+        self.num_slots = 2 * scenario.clusters_per_uav
+        num_uavs = scenario.uav.count
+        # row u: UAV u, then the others in UAV order
+        self._uav_rows = np.array([[u, *(v for v in range(num_uavs) if v != u)]
+                                   for u in range(num_uavs)], dtype=np.intp)
+
+    def __call__(self, uav_m: FloatArray, users_m: FloatArray, serving_uav: NDArray[np.intp],
+                 alpha: FloatArray, gain: FloatArray, interference_w: FloatArray,
+                 order: NDArray[np.intp] | None = None) -> NDArray[np.float32]:
+        """From the arrays :class:`MultiObserver` takes (users as listed, ``order`` (B, N)
+        the observation order, None: as listed)."""
+        network = self._observer(uav_m, users_m, serving_uav, alpha, gain, interference_w,
+                                 order)
+        if order is not None:
+            serving_uav = np.take_along_axis(serving_uav, order, axis=1)
+        num_envs, num_users = serving_uav.shape
+        num_uavs = self._uav_rows.shape[0]
+        width = MULTI_FEATURES_PER_USER * num_users
+        # each user's features, then a row of zeros (index N) for the padded slots
+        features = np.zeros((num_envs, num_users + 1, MULTI_FEATURES_PER_USER),
+                            dtype=np.float32)
+        features[:, :num_users] = network[:, :width].reshape(num_envs, num_users, -1)
+        slots = _user_slots(serving_uav, num_uavs, self.num_slots)        # (B, U, S)
+        users = features[np.arange(num_envs)[:, None, None], slots]       # (B, U, S, 5)
+        uavs = network[:, width:].reshape(num_envs, num_uavs, FEATURES_PER_UAV)
+        return np.concatenate([users.reshape(num_envs, num_uavs, -1),
+                               uavs[:, self._uav_rows].reshape(num_envs, num_uavs, -1)],
+                              axis=-1)
+
+
+def _user_slots(serving_uav: NDArray[np.intp], num_uavs: int, num_slots: int
+                ) -> NDArray[np.intp]:
+    """The users (B, U, S) of every UAV's slots: positions in ``serving_uav`` (B, N), in its
+    order, N for a padded slot."""
+    num_users = serving_uav.shape[1]
+    by_uav = np.argsort(serving_uav, axis=1, kind="stable")      # UAV 0's users, then 1's...
+    counts = np.stack([np.count_nonzero(serving_uav == u, axis=1) for u in range(num_uavs)],
+                      axis=1)                                     # (B, U)
+    slot = np.arange(num_slots)
+    first = np.cumsum(counts, axis=1) - counts
+    position = np.minimum(first[..., None] + slot, num_users - 1)
+    users = np.take_along_axis(by_uav, position.reshape(len(by_uav), -1), axis=1)
+    return np.where(slot < counts[..., None], users.reshape(position.shape), num_users)
+
+
+def local_observation_bounds(scenario: Scenario, gains: tuple[float, float] | None = None
+                             ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """Bounds of every UAV's local observation (the same for all): those of
+    :func:`multi_observation_bounds` for S user slots and the U UAVs, widened to hold 0 in the
+    slots a UAV with fewer users pads."""
+    low, high = multi_observation_bounds(scenario, gains)
+    users = MULTI_FEATURES_PER_USER * scenario.num_users
+    width = MULTI_FEATURES_PER_USER * 2 * scenario.clusters_per_uav
+    low, high = (np.concatenate([bound[:width], bound[users:]]) for bound in (low, high))
+    padded = slice(MULTI_FEATURES_PER_USER * 2 * min(scenario.clusters_of_uavs), width)
+    np.minimum(low[padded], 0.0, out=low[padded])
+    np.maximum(high[padded], 0.0, out=high[padded])
+    return low, high

@@ -7,8 +7,11 @@ from pathlib import Path
 
 import numpy as np
 
-from adaptsky.rollouts.rollout import checkpoint_policy, random_policy, rollout
-from adaptsky.scenario import load_scenario
+from adaptsky.algos.protocol import Policy
+from adaptsky.algos.registry import algorithm_of
+from adaptsky.arrays import Tree
+from adaptsky.rollouts.rollout import greedy_policy, random_policy, rollout
+from adaptsky.scenario import Scenario, load_scenario
 from adaptsky.scenario.toml_writer import dumps
 from adaptsky.sim.layout import user_layouts
 from adaptsky.store.run_file import RunReader
@@ -40,6 +43,11 @@ def assert_same_curves(a: dict, b: dict) -> None:
         assert a[seed].keys() == b[seed].keys()
         for name in a[seed]:
             assert np.array_equal(a[seed][name], b[seed][name], equal_nan=True), (seed, name)
+
+
+def checkpoint_policy(scenario: Scenario, checkpoint: Tree) -> Policy:
+    """The greedy policy of a checkpoint's last weights."""
+    return greedy_policy(scenario, algorithm_of(scenario).policy_of(checkpoint))
 
 
 def greedy_over_random(scenario_path: Path, out: Path, episodes: int) -> float:

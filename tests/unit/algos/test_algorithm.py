@@ -19,13 +19,13 @@ from adaptsky.algos.dqn.spec import DQN, DqnSpec
 from adaptsky.algos.dqn.stacked import StackedDqn
 from adaptsky.algos.protocol import Algorithm
 from adaptsky.errors import ScenarioError
-from adaptsky.rollouts.rollout import checkpoint_policy
 from adaptsky.scenario import parse_scenario
 from adaptsky.scenario.agents import AGENT_MODELS, DqnAgent
 from adaptsky.store.layout import validate_run
 from adaptsky.training.stack_run import Member, StackRun
 from adaptsky_cli.cli.main import main
 from tests.conftest import make_scenario
+from tests.helpers.training import checkpoint_policy
 
 TINY = {"agent": {"hidden_sizes": [8], "batch_size": 4, "memory_size": 40},
         "train": {"steps": 6, "episodes": 2, "eval_every": 0}}

@@ -19,7 +19,6 @@ from adaptsky.algos.bdq.spec import BDQ
 from adaptsky.algos.bdq.stacked import StackedBdq
 from adaptsky.algos.protocol import Algorithm
 from adaptsky.errors import ScenarioError
-from adaptsky.rollouts.rollout import checkpoint_policy
 from adaptsky.scenario import load_scenario, parse_scenario
 from adaptsky.scenario.agents import BdqAgent
 from adaptsky.scenario.toml_writer import dumps
@@ -33,6 +32,7 @@ from tests.helpers.training import (
     assert_same_checkpoints,
     assert_same_curves,
     assert_same_results,
+    checkpoint_policy,
     curves,
     greedy_over_random,
     small_scenario,

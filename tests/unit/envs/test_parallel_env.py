@@ -25,8 +25,9 @@ UNEVEN = make_scenario(
 @pytest.mark.parametrize("scenario", [two_uavs(steps=10, moving=True),
                                       make_scenario(train={"steps": 10}), UNEVEN],
                          ids=["two-uavs", "one-uav", "uneven-groups"])
-def test_parallel_api_test_passes(scenario):
-    env = NomaUavParallelEnv(scenario)
+@pytest.mark.parametrize("observation", ["global", "local"])
+def test_parallel_api_test_passes(scenario, observation):
+    env = NomaUavParallelEnv(scenario, observation=observation)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         parallel_api_test(env, num_cycles=30)

@@ -8,14 +8,13 @@ import numpy as np
 import pytest
 import torch
 
-from adaptsky.rollouts.rollout import checkpoint_policy
 from adaptsky.scenario import parse_scenario
 from adaptsky.store.run_file import RunReader
 from adaptsky.training import api
 from adaptsky.training.stack_run import Member, StackRun
 from adaptsky_cli.cli.main import main
 from tests.helpers.gpu import assert_graphs_replay_eager, cuda
-from tests.helpers.training import small_scenario, stack_scenario
+from tests.helpers.training import checkpoint_policy, small_scenario, stack_scenario
 
 
 @pytest.mark.skipif(torch.cuda.is_available(), reason="this machine has CUDA")
