@@ -65,7 +65,11 @@ def lattice(scenario: Scenario) -> tuple[FloatArray, FloatArray, FloatArray, Flo
 def _best_alpha_first(gain_first: FloatArray, gain_second: FloatArray, alphas: FloatArray,
                       scenario: Scenario, snr_scale: float) -> tuple[FloatArray, FloatArray]:
     """Per point and cluster: the grid alpha_first maximising the cluster's sum rate under
-    R_min, and that sum rate (-inf where no grid alpha meets R_min)."""
+    R_min, and that sum rate (-inf where no grid alpha meets R_min): the closed form of the
+    module doc under perfect SIC, every grid alpha under imperfect SIC (docs/model.md §13),
+    where the sum rate need not rise with the strong user's share."""
+    if scenario.radio.sic_residual:
+        return _best_alpha_on_grid(gain_first, gain_second, alphas, scenario, snr_scale)
     first_strong = noma.is_strong(gain_first, gain_second, gain_first, gain_second, True)
     weak_snr = snr_scale * np.minimum(gain_first, gain_second)
     threshold = 2.0 ** scenario.reward.min_se
@@ -86,6 +90,26 @@ def _best_alpha_first(gain_first: FloatArray, gain_second: FloatArray, alphas: F
         rate_second = noma.rate_bps(sinr_second, scenario.radio.bandwidth_hz)
         feasible = valid & (rate_first >= scenario.min_rate_bps) & (
             rate_second >= scenario.min_rate_bps)
+        total = np.where(feasible, rate_first + rate_second, -np.inf)
+        better = total > best_rate
+        best_rate = np.where(better, total, best_rate)
+        best_alpha = np.where(better, alpha, best_alpha)
+    return best_alpha, best_rate
+
+
+def _best_alpha_on_grid(gain_first: FloatArray, gain_second: FloatArray, alphas: FloatArray,
+                        scenario: Scenario, snr_scale: float) -> tuple[FloatArray, FloatArray]:
+    """:func:`_best_alpha_first` by trying every grid alpha of every cluster (exact for any
+    SIC residual; ties to the smallest alpha)."""
+    best_rate = np.full(gain_first.shape, -np.inf)
+    best_alpha = np.full(gain_first.shape, np.nan)
+    residual, bandwidth_hz = scenario.radio.sic_residual, scenario.radio.bandwidth_hz
+    for alpha in alphas:
+        sinr_first, sinr_second = noma.cluster_sinr(alpha, gain_first, gain_second, snr_scale,
+                                                    residual)
+        rate_first = noma.rate_bps(sinr_first, bandwidth_hz)
+        rate_second = noma.rate_bps(sinr_second, bandwidth_hz)
+        feasible = (rate_first >= scenario.min_rate_bps) & (rate_second >= scenario.min_rate_bps)
         total = np.where(feasible, rate_first + rate_second, -np.inf)
         better = total > best_rate
         best_rate = np.where(better, total, best_rate)

@@ -128,7 +128,8 @@ class _Search:
         return sic_rates(serving_gain, interference, alpha_first[..., self.serving, self.cluster],
                          self.is_first, lambda values: values[..., partner],
                          power_w=self.power, noise_w=self.noise_w,
-                         bandwidth_hz=self.bandwidth_hz)[0]
+                         bandwidth_hz=self.bandwidth_hz,
+                         sic_residual=self.scenario.radio.sic_residual)[0]
 
     def _serving(self, gain: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Each user's serving gain (..., N) and interference I_i (..., N), W

@@ -205,6 +205,10 @@ class Radio(Section):
     reuse: Literal["full", "orthogonal"] = Field(
         "full", description="spectrum of several UAVs (docs/model.md §9): 'full', cluster k of "
         "every UAV on subchannel k; 'orthogonal', every cluster its own (no interference)")
+    sic_residual: float = Field(
+        0.0, ge=0.0, le=1.0, description="imperfect SIC (docs/model.md §13): the fraction "
+        "epsilon of its partner's signal that a cluster's strong user keeps after cancelling "
+        "it, in [0, 1]; 0: perfect SIC (the paper), 1: no cancellation at all")
 
     @property
     def noise_w(self) -> float:

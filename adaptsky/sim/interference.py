@@ -45,8 +45,8 @@ def interference_sum_w(gain: FloatArray, interferer: BoolArray, power_w: float) 
 
 def sic_rates(gain: FloatArray, interference_w: FloatArray | None, alpha_k: FloatArray,
               is_first: BoolArray, partner: Callable[[np.ndarray], np.ndarray], *,
-              power_w: float, noise_w: float, bandwidth_hz: float | FloatArray
-              ) -> tuple[FloatArray, BoolArray, FloatArray]:
+              power_w: float, noise_w: float, bandwidth_hz: float | FloatArray,
+              sic_residual: float = 0.0) -> tuple[FloatArray, BoolArray, FloatArray]:
     """The rates stage, written once (eqs. 2-3; docs/model.md §9): every user's rate (bit/s),
     whether it is its cluster's strong user, and its share, each (..., N).
 
@@ -57,7 +57,8 @@ def sic_rates(gain: FloatArray, interference_w: FloatArray | None, alpha_k: Floa
     partner. SIC by the effective gain c_i = g_i / (I_i + sigma^2)
     (:func:`adaptsky.sim.noma.is_strong`; without interference, by g_i); SINR of eq. 2 with
     s_i = P_T G / (I_i + sigma^2) (``power_w`` = P_T G): with I = 0 the same floating-point
-    operations as docs/model.md §1.
+    operations as docs/model.md §1. ``sic_residual`` epsilon: the share of its partner's
+    signal the strong user keeps after SIC (docs/model.md §13; 0, perfect SIC).
     """
     if interference_w is None:
         effective, snr_scale = gain, power_w / noise_w
@@ -73,7 +74,7 @@ def sic_rates(gain: FloatArray, interference_w: FloatArray | None, alpha_k: Floa
         alpha_partner = np.where(is_first, second_share, alpha_k)
     else:
         alpha, alpha_partner = alpha_k
-    sinr = noma.user_sinr(alpha, alpha_partner, gain, strong, snr_scale)
+    sinr = noma.user_sinr(alpha, alpha_partner, gain, strong, snr_scale, sic_residual)
     return noma.rate_bps(sinr, bandwidth_hz), strong, alpha
 
 

@@ -170,6 +170,7 @@ class NetworkBatch:
         self.bandwidth_hz = radio.bandwidth_hz
         self._power_w = radio.tx_power_w * radio.antenna_gain        # P_T G
         self._noise_w = radio.noise_w
+        self._sic_residual = radio.sic_residual
         self._full_reuse = radio.reuse == "full" and self.num_uavs > 1
         self._los_mode = scenario.channel.los
         self._max_steps = scenario.train.steps
@@ -530,7 +531,8 @@ class NetworkBatch:
         shares += self._share_offset
         return sic_rates(gain, interference, shares, self._is_first,
                          lambda values: values.take(partner), power_w=self._power_w,
-                         noise_w=self._noise_w, bandwidth_hz=self._bandwidth)
+                         noise_w=self._noise_w, bandwidth_hz=self._bandwidth,
+                         sic_residual=self._sic_residual)
 
     def _rewarded(self, rate_bps: FloatArray, gain: FloatArray
                   ) -> tuple[FloatArray, FloatArray, FloatArray]:

@@ -38,30 +38,41 @@ def is_strong(effective: FloatArray, effective_partner: FloatArray, gain: FloatA
 
 
 def cluster_sinr(alpha_first: FloatArray, gain_first: FloatArray, gain_second: FloatArray,
-                 snr_scale: float) -> tuple[FloatArray, FloatArray]:
+                 snr_scale: float, sic_residual: float = 0.0) -> tuple[FloatArray, FloatArray]:
     """SINR of the two users of each cluster (eq. 2), with the SIC order set by the gains.
 
     ``alpha_first`` is the power share of each cluster's first user (the second gets
     1 - alpha_first); ``snr_scale`` = P_T G / sigma^2. The user with the larger gain (the
     first on a tie) is strong: it cancels the other's signal, SINR = alpha_s s g_s. The weak
     user sees the strong user's share as interference, SINR = alpha_w s g_w / (alpha_s s g_w + 1).
+    With imperfect SIC (``sic_residual`` epsilon > 0, docs/model.md §13) the strong user keeps
+    epsilon of the weak user's signal: SINR = alpha_s s g_s / (epsilon alpha_w s g_s + 1).
     """
     alpha_second = 1.0 - alpha_first
     first_strong = is_strong(gain_first, gain_second, gain_first, gain_second, True)
-    return (user_sinr(alpha_first, alpha_second, gain_first, first_strong, snr_scale),
-            user_sinr(alpha_second, alpha_first, gain_second, ~first_strong, snr_scale))
+    return (user_sinr(alpha_first, alpha_second, gain_first, first_strong, snr_scale,
+                      sic_residual),
+            user_sinr(alpha_second, alpha_first, gain_second, ~first_strong, snr_scale,
+                      sic_residual))
 
 
 def user_sinr(alpha: FloatArray, alpha_partner: FloatArray, gain: FloatArray,
-              strong: NDArray[np.bool_], snr_scale: float | FloatArray) -> FloatArray:
+              strong: NDArray[np.bool_], snr_scale: float | FloatArray,
+              sic_residual: float = 0.0) -> FloatArray:
     """SINR of eq. 2 in user order: the numbers of :func:`cluster_sinr`, every user at once.
 
     User i has power share ``alpha`` alpha_i, its cluster partner the share ``alpha_partner``
     alpha_p, and ``strong`` says whether i is its cluster's strong user (the first user on a
     tie). The strong user cancels its partner, SINR = alpha_i s g_i; the weak user sees the
     partner's share as interference, SINR = alpha_i s g_i / (alpha_p s g_i + 1).
+    Imperfect SIC (docs/model.md §13): the strong user keeps ``sic_residual`` epsilon of its
+    partner's signal, SINR = alpha_i s g_i / (epsilon alpha_p s g_i + 1); epsilon = 1 is the
+    weak user's formula (no cancellation), epsilon = 0 (the default) perfect SIC.
     """
     signal = snr_scale * gain
+    if sic_residual:
+        kept = np.where(strong, sic_residual, _ONE)    # the share of the partner heard
+        return alpha * signal / (alpha_partner * signal * kept + _ONE)
     return alpha * signal / np.where(strong, _ONE, alpha_partner * signal + _ONE)
 
 

@@ -36,11 +36,13 @@ def scalar_gain(uav, user, los):
     return p * g_los + (1 - p) * g_nlos
 
 
-def scalar_network(uavs, users, serving, clusters, alpha_first, reuse, los="always"):
+def scalar_network(uavs, users, serving, clusters, alpha_first, reuse, los="always",
+                   sic_residual=0.0):
     """Gains, interference, strong flags, SINR and rates of docs/model.md §9 with loops.
 
     ``clusters[u]`` lists UAV u's clusters as (first, second) user pairs; alpha_first[u][k]
-    is the share of cluster k's first user."""
+    is the share of cluster k's first user; ``sic_residual`` epsilon the share of its
+    partner's signal the strong user keeps (docs/model.md §13)."""
     gains = [[scalar_gain(uav, user, los) for user in users] for uav in uavs]
     cluster_of = {}
     for u, pairs in enumerate(clusters):
@@ -65,7 +67,8 @@ def scalar_network(uavs, users, serving, clusters, alpha_first, reuse, los="alwa
         strong.append(is_strong)
         signal = alpha * pg * gains[u][i]
         if is_strong:
-            value = signal / (interference[i] + NOISE_W)
+            residual = sic_residual * (1 - alpha) * pg * gains[u][i]
+            value = signal / (residual + interference[i] + NOISE_W)
         else:
             alpha_s = 1 - alpha
             value = signal / (alpha_s * pg * gains[u][i] + interference[i] + NOISE_W)
