@@ -20,7 +20,7 @@ def format_quantity(quantity: str, value: float) -> str:
         return f"{value:.3f}"
     if "min_se" in quantity:
         return f"{value:g} bit/s/Hz"
-    if quantity == "noma_over_oma_pct":
+    if quantity in ("noma_over_oma_pct", "bound_over_oma_pct"):
         return f"{value:+.1f}%"
     if quantity == "fairness_minus_soa":
         return f"{value:+.1f} points"

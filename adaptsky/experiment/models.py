@@ -14,11 +14,11 @@ from pydantic import Field, field_validator, model_validator
 from adaptsky.scenario.models import NAME_MAX_LENGTH, Section, safe_name
 
 FigureKind = Literal["learning-curves", "min-se-sweep", "layout-gains", "uav-count",
-                     "energy-front"]
+                     "energy-front", "conditions"]
 Baseline = Literal["soa", "oracle", "random", "best-response", "oma"]
 # figure kinds whose evaluated groups are each an x point of their own (their own scenario,
 # layouts and baselines) rather than rows over one set of layouts
-PER_GROUP_KINDS = ("uav-count",)
+PER_GROUP_KINDS = ("uav-count", "conditions")
 PolicyKind = Literal["last", "best"]
 
 # Quantities each figure kind measures; a claim names one (``vs_<method>`` stands for a
@@ -33,6 +33,8 @@ QUANTITIES: dict[str, tuple[str, ...]] = {
                   "noma_over_oma_pct"),
     "energy-front": ("sum_rate_bps", "energy_efficiency_bpj", "ee_ratio_vs_unweighted",
                      "sum_rate_pct_of_unweighted", "still_share_pct", "vertical_share_pct"),
+    "conditions": ("sum_rate_bps", "fairness", "pct_of_bound", "gain_vs_soa_pct",
+                   "noma_over_oma_pct", "bound_over_oma_pct"),
 }
 # the key an energy-front figure sweeps (its x points are reward weights)
 ENERGY_SWEEP_KEY = "reward.w_energy"
@@ -70,6 +72,8 @@ class Group(Section):
     set: list[str] = Field(default_factory=list, description="overrides section.key=value, "
                            "as train --set")
     sweep: Sweep | None = None
+    panel: str = Field("", max_length=80, description="the panel of a conditions figure "
+                       "that shows this group (groups of one panel side by side)")
 
     @property
     def title(self) -> str:
@@ -166,9 +170,14 @@ class Experiment(Section):
                 raise ValueError(f"groups.{swept[0]}.sweep: a {self.figure.kind} figure's "
                                  "groups are its x points; give each swept value a group of "
                                  "its own")
+        panelled = [group.name for group in self.groups if group.panel]
+        if panelled and self.figure.kind != "conditions":
+            raise ValueError(f"groups.{panelled[0]}.panel: panels are drawn in a conditions "
+                             f"figure only, not in a {self.figure.kind} one")
         if spec.also and self.figure.kind not in ("layout-gains", *PER_GROUP_KINDS):
-            raise ValueError(f"evaluation.also: other groups are measured in a layout-gains "
-                             f"or uav-count figure only, not in a {self.figure.kind} one")
+            raise ValueError("evaluation.also: other groups are measured in a layout-gains, "
+                             "uav-count or conditions figure only, not in a "
+                             f"{self.figure.kind} one")
         for claim in self.claims:
             if not quantity_known(claim.quantity, self):
                 allowed = ", ".join(QUANTITIES[self.figure.kind])

@@ -16,6 +16,7 @@ from adaptsky import __version__
 from adaptsky.experiment.analysis import Analysis, Outputs, done_runs
 from adaptsky.experiment.calls import read_calls
 from adaptsky.experiment.claims import beyond_reach, claims_table
+from adaptsky.experiment.conditions import conditions
 from adaptsky.experiment.curves import learning_curves, min_se_sweep
 from adaptsky.experiment.energy_front import energy_front
 from adaptsky.experiment.evaluation import Evaluations
@@ -36,7 +37,21 @@ def _window(episodes: int) -> str:
 
 ANALYSES: dict[str, Callable[[Plan, Evaluations, Outputs], Analysis]] = {
     "learning-curves": learning_curves, "min-se-sweep": min_se_sweep,
-    "layout-gains": layout_gains, "uav-count": uav_count, "energy-front": energy_front}
+    "layout-gains": layout_gains, "uav-count": uav_count, "energy-front": energy_front,
+    "conditions": conditions}
+
+
+REACHABLE: dict[str, tuple[str, str]] = {
+    "learning-curves": ("oracle", "the same quantity for the oracle, the best sum rate over "
+                        "every reachable position and power split (docs/model.md, section 6)."),
+    "uav-count": ("best response", "the same quantity for best response, our reference of "
+                  "several UAVs (docs/model.md, section 9)."),
+    "conditions": ("bound", "the same quantity for each condition's bound: the oracle for one "
+                   "UAV (docs/model.md, section 6), best response for several (section 9)."),
+}
+"""The reachable column of a figure kind's claims table: its header and what the report says
+of it (a kind not listed: the uav-count one where its groups are x points, else the
+oracle)."""
 
 
 def command_line(plan: Plan) -> str:
@@ -78,8 +93,9 @@ def write_report(plan: Plan, evaluations: Evaluations, wall_s: float | None = No
         lines += [f"![{experiment.id}]({analysis.files[0].name})", "",
                   f"Plotted numbers: [{analysis.files[1].name}]({analysis.files[1].name}).", ""]
     per_group = experiment.figure.kind in PER_GROUP_KINDS
-    table = claims_table(experiment.claims, analysis,
-                         "best response" if per_group else "oracle")
+    reference, reach = REACHABLE.get(experiment.figure.kind, REACHABLE["uav-count"]
+                                     if per_group else REACHABLE["learning-curves"])
+    table = claims_table(experiment.claims, analysis, reference)
     lines += [*table, ""]
     notes = _notes(plan, evaluations, analysis)
     if notes:
@@ -87,11 +103,7 @@ def write_report(plan: Plan, evaluations: Evaluations, wall_s: float | None = No
     lines += ["Runs are in `runs/` (one HDF5 run file each), evaluations in `evals/`. "
               f"R_e^tot and J_e are the means of the last {_window(first['episodes'])} "
               "per-episode means (docs/model.md, section 5); ours: mean ± population "
-              "standard deviation (ddof = 0) over the runs; reachable: the same quantity "
-              + ("for best response, our reference of several UAVs (docs/model.md, section "
-                 "9)." if per_group else
-                 "for the oracle, the best sum rate over every reachable position and power "
-                 "split (docs/model.md, section 6)."), ""]
+              f"standard deviation (ddof = 0) over the runs; reachable: {reach}", ""]
     report = out / "report.md"
     write_text_atomic(report, "\n".join(lines))
     return WrittenReport(report, [*analysis.files, report], table)

@@ -233,3 +233,48 @@ def uav_count(rates: list[Series], fairness: list[Series], *, title: str,
     figure.suptitle(title)
     legend_below(figure, [left])
     return figure
+
+
+@dataclass(frozen=True)
+class Bars:
+    """One method's bars over a panel's conditions: ``mean``, ``low`` and ``high`` (C,) in the
+    figure's base unit (NaN where the method has no value there); ``runs`` in the legend
+    (1 for a baseline)."""
+
+    label: str
+    mean: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    runs: int
+
+
+def conditions(panels: list[tuple[str, list[str], list[Bars]]], *, title: str,
+               ylabel: str = "sum rate (Gbit/s)", scale: float = 1e9) -> Figure:
+    """Ours (E6): per panel ``(name, conditions, bars)`` grouped bars, one group per condition
+    and one bar per method (value / ``scale``, the runs' spread as an error bar); panels side
+    by side, wide as their number of conditions; one colour per method label in every
+    panel; the legend below."""
+    if not panels:
+        raise ValueError("no panel to draw")
+    widths = [max(2, len(names)) for _, names, _ in panels]
+    figure = _new_figure((min(14.0, 2.0 + 1.1 * sum(widths)), 4.8))
+    grid = figure.subplots(1, len(panels), squeeze=False, width_ratios=widths)[0]
+    labels = dict.fromkeys(bar.label for _, _, bars in panels for bar in bars)
+    colors = {label: f"C{i}" for i, label in enumerate(labels)}
+    for axes, (name, names, bars) in zip(grid, panels, strict=True):
+        axes.grid(True, axis="y", alpha=0.3)
+        width = 0.8 / max(1, len(bars))
+        x = np.arange(len(names))
+        for i, bar in enumerate(bars):
+            mean, low, high = (np.asarray(a, dtype=np.float64) / scale
+                               for a in (bar.mean, bar.low, bar.high))
+            error = np.vstack([mean - low, high - mean])
+            legend = bar.label if bar.runs <= 1 else f"{bar.label} (n = {bar.runs})"
+            axes.bar(x - 0.4 + width * (i + 0.5), mean, width, yerr=error, capsize=2,
+                     color=colors[bar.label], label=legend)
+        axes.set_xticks(x, names, rotation=20, ha="right", fontsize=FONT_SMALL)
+        axes.set_title(name, fontsize=FONT_SMALL + 1)
+    grid[0].set_ylabel(ylabel)
+    figure.suptitle(title)
+    legend_below(figure, list(grid), columns=4)
+    return figure

@@ -66,7 +66,7 @@ GOOD = (ROOT / "experiments" / "e1a.toml").read_text()
     (lambda t: t.replace('[[claims]]', '[[groups]]\nname = "b"\nscenario = '
                          '"../scenarios/nyc_mmwave.toml"\nruns = 1\n\n[[claims]]', 1)
      .replace('policy = "adaptsky"', 'policy = "adaptsky"\nalso = ["b"]'),
-     "other groups are measured in a layout-gains or uav-count figure only"),
+     "other groups are measured in a layout-gains, uav-count or conditions figure only"),
     (lambda t: t.replace('policy = "adaptsky"', 'policy = "adaptsky"\n'
                          'policies = ["best", "best"]'), "policies must be distinct"),
     (lambda t: t.replace('policy = "adaptsky"', 'policy = "adaptsky"\npolicies = ["first"]'),
