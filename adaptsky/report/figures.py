@@ -268,10 +268,11 @@ def conditions(panels: list[tuple[str, list[str], list[Bars]]], *, title: str,
         for i, bar in enumerate(bars):
             mean, low, high = (np.asarray(a, dtype=np.float64) / scale
                                for a in (bar.mean, bar.low, bar.high))
-            error = np.vstack([mean - low, high - mean])
-            legend = bar.label if bar.runs <= 1 else f"{bar.label} (n = {bar.runs})"
-            axes.bar(x - 0.4 + width * (i + 0.5), mean, width, yerr=error, capsize=2,
-                     color=colors[bar.label], label=legend)
+            spread = bar.runs > 1
+            legend = f"{bar.label} (n = {bar.runs})" if spread else bar.label
+            axes.bar(x - 0.4 + width * (i + 0.5), mean, width, color=colors[bar.label],
+                     label=legend, yerr=np.vstack([mean - low, high - mean]) if spread
+                     else None, capsize=2)
         axes.set_xticks(x, names, rotation=20, ha="right", fontsize=FONT_SMALL)
         axes.set_title(name, fontsize=FONT_SMALL + 1)
     grid[0].set_ylabel(ylabel)
