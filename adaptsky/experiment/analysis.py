@@ -104,6 +104,19 @@ def write_csv(path: Path, header: list[str], rows: list[list[Any]]) -> None:
     write_text_atomic(path, text.getvalue())
 
 
+def steady_states(plan: Plan, measured: Evaluations, group: str) -> list[tuple[float, float]]:
+    """(steady sum rate, fairness) of each evaluated run of ``group`` in ``measured`` (its
+    last or best policies): the means over layouts of the greedy steady state and of Jain's
+    index."""
+    states = []
+    for run in plan.group_runs(group):
+        mine = measured.runs.get(run.name)
+        if mine is not None:
+            states.append((float(np.mean(mine["steady_sum_rate_bps"])),
+                           float(np.mean(mine["fairness"]))))
+    return states
+
+
 def baseline_mean(evaluations: Evaluations, name: str, value: Any, metric: str) -> float | None:
     """The mean of baseline ``name``'s ``metric`` at sweep value ``value``; None if absent."""
     metrics = evaluations.baselines.get((name, value))

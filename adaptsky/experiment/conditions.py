@@ -9,7 +9,14 @@ from typing import Any
 
 import numpy as np
 
-from adaptsky.experiment.analysis import Analysis, Outputs, figure_title, row_label, write_csv
+from adaptsky.experiment.analysis import (
+    Analysis,
+    Outputs,
+    figure_title,
+    row_label,
+    steady_states,
+    write_csv,
+)
 from adaptsky.experiment.evaluation import Evaluations, Metrics
 from adaptsky.experiment.plan import Plan
 from adaptsky.report import figures
@@ -145,14 +152,10 @@ def _policy_rates(plan: Plan, measured: Evaluations, analysis: Analysis, group: 
     spec = plan.experiment.evaluation
     row = row_label(plan.experiment.group(group).title, policy, spec.policies)
     rates = []
-    for run in plan.group_runs(group):
-        mine = measured.runs.get(run.name)
-        if mine is None:
-            continue
-        steady = float(np.mean(mine["steady_sum_rate_bps"]))
+    for steady, fairness in steady_states(plan, measured, group):
         rates.append(steady)
         analysis.add(row, "sum_rate_bps", steady, bound)
-        analysis.add(row, "fairness", float(np.mean(mine["fairness"])))
+        analysis.add(row, "fairness", fairness)
         if bound:
             analysis.add(row, "pct_of_bound", 100 * steady / bound, 100.0)
         if soa:

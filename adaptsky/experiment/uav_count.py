@@ -8,7 +8,14 @@ from typing import Any
 
 import numpy as np
 
-from adaptsky.experiment.analysis import Analysis, Outputs, figure_title, row_label, write_csv
+from adaptsky.experiment.analysis import (
+    Analysis,
+    Outputs,
+    figure_title,
+    row_label,
+    steady_states,
+    write_csv,
+)
 from adaptsky.experiment.evaluation import Evaluations, Metrics
 from adaptsky.experiment.plan import Plan
 from adaptsky.report import figures
@@ -135,15 +142,11 @@ def _measure_policy(plan: Plan, measured: Evaluations, analysis: Analysis, group
     spec = plan.experiment.evaluation
     row = row_label(plan.experiment.group(group).title, policy, spec.policies)
     rates, fairness = [], []
-    for run in plan.group_runs(group):
-        mine = measured.runs.get(run.name)
-        if mine is None:
-            continue
-        steady = float(np.mean(mine["steady_sum_rate_bps"]))
+    for steady, jain in steady_states(plan, measured, group):
         rates.append(steady)
-        fairness.append(float(np.mean(mine["fairness"])))
+        fairness.append(jain)
         analysis.add(row, "sum_rate_bps", steady, best_bps)
-        analysis.add(row, "fairness", fairness[-1])
+        analysis.add(row, "fairness", jain)
         if best_bps:
             analysis.add(row, "pct_of_best_response", 100 * steady / best_bps, 100.0)
         if soa_bps:

@@ -10,8 +10,9 @@ from adaptsky_cli.cli.main import main
 from tests.conftest import ROOT
 
 # runs per shipped experiment: E1a and E1b 10, E2 6 x 8 thresholds, E3 6 + 6 + 6
-# (docs/model.md §5); ours: E4 6 per number of UAVs, 1 to 4; bdq 6 + 6 + 6
-RUNS = {"e1a": 10, "e1b": 10, "e2": 48, "e3": 18, "e4": 24, "e5": 30, "bdq": 18}
+# (docs/model.md §5); ours: E4 6 per number of UAVs, 1 to 4; E5 6 x 5 weights; E6 6 x 5
+# SIC residuals; bdq 6 + 6 + 6
+RUNS = {"e1a": 10, "e1b": 10, "e2": 48, "e3": 18, "e4": 24, "e5": 30, "e6": 30, "bdq": 18}
 
 
 def test_every_shipped_experiment_validates_and_plans(tmp_path):
@@ -69,6 +70,8 @@ GOOD = (ROOT / "experiments" / "e1a.toml").read_text()
      "other groups are measured in a layout-gains, uav-count or conditions figure only"),
     (lambda t: t.replace('policy = "adaptsky"', 'policy = "adaptsky"\n'
                          'policies = ["best", "best"]'), "policies must be distinct"),
+    (lambda t: t.replace("runs = 10", 'runs = 10\npanel = "cities"', 1),
+     "groups.adaptsky.panel: panels are drawn in a conditions figure only"),
     (lambda t: t.replace('policy = "adaptsky"', 'policy = "adaptsky"\npolicies = ["first"]'),
      "evaluation.policies.0: Input should be 'last' or 'best'"),
 ])
