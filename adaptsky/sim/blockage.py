@@ -69,7 +69,6 @@ class Blockage:
     def _blocked(self, uav_m: FloatArray, users_m: FloatArray, walls: FloatArray,
                  roof_m: FloatArray, tall: BoolArray) -> BoolArray:
         """The slab test (module doc) of every link of a few environments: (b, U, N)."""
-        b, num_uavs = uav_m.shape[:2]
         # 1 / (UAV - user) along x, y and h of every link (3, b, U, N, 1)
         inverse = 1.0 / (np.moveaxis(uav_m, 2, 0)[..., None]
                          - np.concatenate([np.moveaxis(users_m, 2, 0),

@@ -437,7 +437,6 @@ class NetworkBatch:
         actions = dynamics.checked(actions)    # before anything is drawn
         before = self.sim_state
         moved = step(before, actions, dynamics, self._headings() if self._speed_m else None)
-        config = moved.config
         if self.num_uavs > 1 or self.city is not None:
             moved = self._kept_apart(before, moved)
         self.sim_state = moved
