@@ -21,8 +21,9 @@ from adaptsky.sim.city import City, on_footprints
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 
-CHUNK_ELEMENTS = 1 << 17
-"""Links times buildings tested at once: (chunk, M) arrays of float64 stay in the cache."""
+CHUNK_ELEMENTS = 1 << 14
+"""Links times buildings tested at once: arrays of 128 kB, which numpy takes from its cache of
+small blocks rather than from the system (and which stay in the CPU's cache)."""
 
 
 class Blockage:
@@ -40,6 +41,7 @@ class Blockage:
         # H - h_UT of every building (B, 1, M): the climb from a user's antenna to the roof
         self._roof_m = (city.heights_m - user_height_m)[:, None, :]
         self._tall = self._roof_m > 0      # only a roof above the antenna can block
+        self._all_tall = bool(self._tall.all())
 
     def _walls(self, users_m: FloatArray) -> FloatArray:
         """The footprints' walls seen from every user (4, B, N, M): x_min - x_i, x_max - x_i,
@@ -76,16 +78,28 @@ class Blockage:
                                                    self.user_height_m)])[:, :, None])
         inverse = inverse[..., None]
         walls = walls[:, :, None]                                     # (4, b, 1, N, M)
-        x_lo, x_hi = walls[0] * inverse[0], walls[1] * inverse[0]
-        y_lo, y_hi = walls[2] * inverse[1], walls[3] * inverse[1]
-        enter = np.maximum(np.minimum(x_lo, x_hi), np.minimum(y_lo, y_hi))
+        shape = (*inverse.shape[1:-1], walls.shape[-1])
+        first, last, enter, y_first, y_last = (np.empty(shape) for _ in range(5))
+        # the x slab: t between (x_min - x_i) / dx and (x_max - x_i) / dx; then the y slab
+        np.multiply(walls[0], inverse[0], out=first)
+        np.multiply(walls[1], inverse[0], out=last)
+        np.minimum(first, last, out=enter)
+        np.maximum(first, last, out=last)
+        np.multiply(walls[2], inverse[1], out=first)
+        np.multiply(walls[3], inverse[1], out=y_last)
+        np.minimum(first, y_last, out=y_first)
+        np.maximum(first, y_last, out=y_last)
+        np.maximum(enter, y_first, out=enter)      # the later start, not before the user
         np.maximum(enter, 0.0, out=enter)
-        leave = np.minimum(np.maximum(x_lo, x_hi), np.maximum(y_lo, y_hi))
-        np.minimum(leave, 1.0, out=leave)
-        np.minimum(leave, roof_m[:, :, None] * inverse[2], out=leave)
+        np.minimum(last, y_last, out=last)         # the earlier end, not after the UAV
+        np.minimum(last, 1.0, out=last)
+        # below the roof: t < (H - h_UT) / dh
+        np.multiply(roof_m[:, :, None], inverse[2], out=first)
+        np.minimum(last, first, out=last)
         # NaN (a link in the plane of a wall) compares False: touching is not blocking
-        inside = enter < leave
-        inside &= tall[:, :, None]
+        inside = np.less(enter, last)
+        if not self._all_tall:
+            inside &= tall[:, :, None]
         return inside.any(axis=-1)
 
 

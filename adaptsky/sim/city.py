@@ -6,8 +6,9 @@ environment of a batch, and the heights (B, M), m, of environment b's buildings.
 
 A generated city has square buildings of side 1000 sqrt(alpha / beta) m on a regular grid of
 pitch 1000 / sqrt(beta) m (streets between), every building whose footprint meets the area.
-The grid's offset is uniform, drawn from ``world.seed`` (conditioned on every UAV's start and
-every listed user standing in a street): the footprints are the scenario's. The heights are
+The grid's offset is uniform, drawn from ``world.seed``; the squares that would stand on a UAV's
+start or a listed user are left out (open squares): the footprints are the scenario's. The
+heights are
 Rayleigh(gamma), drawn anew for every layout of users from a generator seeded by
 ``world.seed`` and the layout's own numbers (a hash of its positions): the same scenario and
 layout give the same city wherever the layout goes (training, evaluation, baselines, pictures)
@@ -24,14 +25,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from adaptsky.errors import ScenarioError
 from adaptsky.scenario.models import Scenario, World
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 
-OFFSET_DRAWS = 4096
-"""Grid offsets drawn at once to find one that leaves the fixed points in the streets."""
 _OFFSET_STREAM = 3    # generator streams of a world's seed: [seed, 3] the grid offset,
 _HEIGHT_STREAM = 4    # [seed, 4, layout hash...] the heights of one layout
 
@@ -72,16 +70,8 @@ def grid_footprints(side_m: float, pitch_m: float, offset_m: FloatArray,
     return np.stack([x0, x0 + side_m, y0, y0 + side_m], axis=1)
 
 
-def on_grid(points_m: FloatArray, offsets_m: FloatArray, side_m: float, pitch_m: float
-            ) -> BoolArray:
-    """Whether each of the points (P, 2) stands on a footprint (closed) of the grid of each
-    offset (D, 2): (D, P)."""
-    local = np.mod(points_m[None] - offsets_m[:, None], pitch_m)       # (D, P, 2)
-    return ((local <= side_m) | np.isclose(local, pitch_m, rtol=0, atol=1e-9)).all(axis=-1)
-
-
 def _fixed_points(scenario: Scenario) -> FloatArray:
-    """The points (P, 2) a generated city must leave in the streets: every UAV's start and,
+    """The points (P, 2) no building of a generated city stands on: every UAV's start and,
     for listed users, every user."""
     points = [start[:2] for start in scenario.uav_start_positions_m]
     if scenario.users.placement == "listed":
@@ -105,20 +95,17 @@ def scenario_footprints(scenario: Scenario) -> FloatArray | None:
 def _generated_footprints(world_json: str, area_side_m: float,
                           points: tuple[tuple[float, float], ...]) -> FloatArray:
     """The footprints of a generated city (module doc), cached per world, area and fixed
-    points."""
+    points: the grid at its uniform offset, less the squares standing on a fixed point."""
     world = World.model_validate_json(world_json)
     alpha, beta, _ = world.city_parameters
     side_m, pitch_m = grid_geometry_m(alpha, beta)
-    rng = np.random.default_rng([world.seed, _OFFSET_STREAM])
-    offsets = rng.uniform(0.0, pitch_m, size=(OFFSET_DRAWS, 2))
-    free = ~on_grid(np.asarray(points, dtype=np.float64).reshape(-1, 2), offsets, side_m,
-                    pitch_m).any(axis=1)
-    if not free.any():
-        raise ScenarioError([f"world: no grid offset of the generated city (seed {world.seed}) "
-                             f"leaves all {len(points)} UAV starts and listed users in the "
-                             "streets; move them, choose another world.seed or a sparser "
-                             "city"])
-    return grid_footprints(side_m, pitch_m, offsets[int(np.argmax(free))], area_side_m / 2)
+    offset_m = np.random.default_rng([world.seed, _OFFSET_STREAM]).uniform(0.0, pitch_m, 2)
+    footprints = grid_footprints(side_m, pitch_m, offset_m, area_side_m / 2)
+    fixed = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    x, y = fixed[:, 0, None], fixed[:, 1, None]
+    f = footprints
+    on_one = ((x >= f[:, 0]) & (x <= f[:, 1]) & (y >= f[:, 2]) & (y <= f[:, 3])).any(axis=0)
+    return footprints[~on_one]
 
 
 def layout_words(layout_m: FloatArray) -> list[int]:
