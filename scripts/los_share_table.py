@@ -24,9 +24,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from adaptsky.scenario.models import CITY_PRESETS  # noqa: E402
-from adaptsky.sim.blockage import Blockage, inside_buildings  # noqa: E402
-from adaptsky.sim.city import City, grid_footprints, grid_geometry_m, street_layouts  # noqa: E402
+from adaptsky.scenario.models import CITY_PRESETS
+from adaptsky.sim.blockage import Blockage, inside_buildings
+from adaptsky.sim.city import City, grid_footprints, grid_geometry_m, street_layouts
 
 SIGMOID = {"suburban": (4.88, 0.43), "urban": (9.61, 0.16), "dense-urban": (12.08, 0.11),
            "high-rise": (27.23, 0.08)}
