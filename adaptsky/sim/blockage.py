@@ -112,6 +112,22 @@ def inside_buildings(points_m: FloatArray, city: City) -> BoolArray:
             & (h <= city.heights_m[:, None, :])).any(axis=-1)
 
 
+def above_buildings(points_m: FloatArray, city: City, clearance_m: float = 1.0) -> FloatArray:
+    """The points (B, K, 3), m, each inside a building of its environment raised to
+    ``clearance_m`` above the highest roof it stands under (docs/model.md §12); the others
+    as they are (``points_m`` itself where none is inside)."""
+    inside = inside_buildings(points_m, city)
+    if not inside.any():
+        return points_m
+    f = city.footprints_m
+    x, y = points_m[..., 0, None], points_m[..., 1, None]
+    under = (x >= f[:, 0]) & (x <= f[:, 1]) & (y >= f[:, 2]) & (y <= f[:, 3])
+    roof_m = np.where(under, city.heights_m[:, None, :], 0.0).max(axis=-1)
+    raised = points_m.copy()
+    raised[..., 2] = np.where(inside, roof_m + clearance_m, points_m[..., 2])
+    return raised
+
+
 def kept_out(before_m: FloatArray, moved_m: FloatArray, city: City) -> FloatArray:
     """The UAV positions (B, U, 3) after moves from ``before_m`` to ``moved_m`` (both
     (B, U, 3), m) that keep out of the buildings: a move that ends inside one does not happen
