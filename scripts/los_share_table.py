@@ -101,13 +101,20 @@ def _links(city: City, height_m: float, per_user: int, rng: np.random.Generator
     return los, r_m
 
 
+def random_links(name: str, height_m: float, links: int, seed: int
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """LoS states and ground distances, m, of about ``links`` random links of a city of preset
+    ``name`` with the UAVs at ``height_m`` (module doc), flat."""
+    rng = np.random.default_rng([seed, int(height_m), list(CITY_PRESETS).index(name)])
+    per_user = math.ceil(links / USERS_PER_CITY)
+    los, r_m = _links(_city(CITY_PRESETS[name], rng), height_m, per_user, rng)
+    return los.ravel(), r_m.ravel()
+
+
 def measure(name: str, height_m: float, links: int, seed: int) -> Row:
     """The row of one preset and UAV height (module doc)."""
     params = CITY_PRESETS[name]
-    rng = np.random.default_rng([seed, int(height_m), list(CITY_PRESETS).index(name)])
-    per_user = math.ceil(links / USERS_PER_CITY)
-    los, r_m = _links(_city(params, rng), height_m, per_user, rng)
-    los, r_m = los.ravel(), r_m.ravel()
+    los, r_m = random_links(name, height_m, links, seed)
     a, b = SIGMOID[name]
     formula = np.array([p1410(r, height_m, USER_HEIGHT_M, *params) for r in r_m])
     theta = np.degrees(np.arctan2(height_m - USER_HEIGHT_M, r_m))
