@@ -1,5 +1,5 @@
 """Geometric line of sight and the buildings' volumes (docs/model.md §12): which links a
-building blocks (:func:`los_mask`, the channel stage of ``los = "geometric"``), and the moves
+building blocks (:meth:`Blockage.los`, the channel stage of ``los = "geometric"``), and the moves
 that would take a UAV or a user into a building (:func:`kept_out`, the controls stage).
 
 A building is the box [x_min, x_max] x [y_min, y_max] x [0, H]. A link is the segment from the
@@ -8,7 +8,9 @@ passes through the inside of a box. A segment that only touches a box (runs alon
 grazes an edge or the roof) is not blocked. The test is the slab test: along the segment
 p(t) = user + t (UAV - user), t in [0, 1], the inside of the box is the interval of t where x
 and y lie inside the footprint, cut at the roof, t < (H - h_UT) / (h - h_UT), since the segment
-climbs; the link is blocked when that interval is not empty.
+climbs; the link is blocked when that interval is not empty. It is computed in heights above
+the antenna, t (h - h_UT): the walls' offsets times (h - h_UT) / (x - x_i) (and y), the roof's
+cut H - h_UT the same for every link.
 """
 
 from __future__ import annotations
@@ -21,9 +23,13 @@ from adaptsky.sim.city import City, on_footprints
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 
-CHUNK_ELEMENTS = 1 << 14
-"""Links times buildings tested at once: arrays of 128 kB, which numpy takes from its cache of
-small blocks rather than from the system (and which stay in the CPU's cache)."""
+CHUNK_ELEMENTS = 1 << 17
+"""Link-building pairs tested at once: work arrays of 1 MB, kept from call to call."""
+MIN_ENVS = 32
+"""The fewest environments of a chunk: the environments' axis is the arrays' inner loop."""
+GRID_CELLS_PER_BUILDING = 2
+"""Footprints that share their x-extents (columns) and y-extents (rows), as a generated city's
+do, are tested as a grid when it has at most this many cells per building."""
 
 
 class Blockage:
@@ -32,75 +38,124 @@ class Blockage:
 
     ``city`` the buildings (M footprints, heights (B, M)); ``user_height_m`` h_UT of every
     user, m.
+
+    The slab test's x interval of a link depends only on a footprint's x-extent, its y interval
+    only on the y-extent: they are computed once per link and column (distinct x-extent) and
+    per link and row, and combined for every building. Where the footprints form a grid (a
+    generated city: C columns x R rows, about M cells) every cell is combined, a cell without a
+    building having height 0 (it blocks nothing); otherwise each building is its own column and
+    row. The numbers are those of the slab test building by building.
     """
 
     def __init__(self, city: City, user_height_m: float) -> None:
         self.city = city
         self.user_height_m = user_height_m
         self._users_of: FloatArray | None = None
-        # H - h_UT of every building (B, 1, M): the climb from a user's antenna to the roof
-        self._roof_m = (city.heights_m - user_height_m)[:, None, :]
-        self._tall = self._roof_m > 0      # only a roof above the antenna can block
-        self._all_tall = bool(self._tall.all())
+        self._buffers: dict[tuple[str, tuple[int, ...]], np.ndarray] = {}
+        f, count = city.footprints_m, city.count
+        columns, column_of = np.unique(f[:, :2], axis=0, return_inverse=True)
+        rows, row_of = np.unique(f[:, 2:], axis=0, return_inverse=True)
+        self._grid = len(columns) * len(rows) <= GRID_CELLS_PER_BUILDING * count
+        if self._grid:
+            cell = column_of.ravel() * len(rows) + row_of.ravel()
+            heights = np.zeros((len(city.heights_m), len(columns) * len(rows)))
+            for index in range(count):    # equal footprints: the tallest counts
+                np.maximum(heights[:, cell[index]], city.heights_m[:, index],
+                           out=heights[:, cell[index]])
+            self._columns_m, self._rows_m = columns, rows
+        else:
+            heights = city.heights_m
+            self._columns_m, self._rows_m = f[:, :2], f[:, 2:]
+        # H - h_UT of every cell or building, (C, R, B) or (M, B): a roof at or below the
+        # antenna gives t <= 0 and blocks nothing
+        shape = (len(columns), len(rows)) if self._grid else (count,)
+        self._roof_m = np.ascontiguousarray((heights - user_height_m).T).reshape(
+            *shape, len(heights))
 
-    def _walls(self, users_m: FloatArray) -> FloatArray:
-        """The footprints' walls seen from every user (4, B, N, M): x_min - x_i, x_max - x_i,
-        y_min - y_i, y_max - y_i, m; kept until the users move."""
+    def _walls(self, users_m: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The columns' and rows' walls seen from every user, (2, N, C, B) [x_min - x_i,
+        x_max - x_i] and (2, N, R, B) [y_min - y_i, y_max - y_i], m; kept until the users
+        move. The environments' axis is the last (the long, contiguous one) in every array
+        of the test."""
         if users_m is not self._users_of:
-            f = self.city.footprints_m
-            x, y = users_m[..., 0, None], users_m[..., 1, None]
-            self._walls_m = np.stack([f[:, 0] - x, f[:, 1] - x, f[:, 2] - y, f[:, 3] - y])
+            x, y = users_m[:, :, 0].T[:, None, :], users_m[:, :, 1].T[:, None, :]   # (N, 1, B)
+            columns, rows = self._columns_m[:, :, None], self._rows_m[:, :, None]
+            self._x_walls = np.ascontiguousarray(np.stack([columns[:, 0] - x,
+                                                           columns[:, 1] - x]))
+            self._y_walls = np.ascontiguousarray(np.stack([rows[:, 0] - y, rows[:, 1] - y]))
+            self._users_xy = np.ascontiguousarray(users_m.transpose(2, 1, 0)[:, None])
             self._users_of = users_m
-        return self._walls_m
+        return self._x_walls, self._y_walls
 
     def los(self, uav_m: FloatArray, users_m: FloatArray) -> BoolArray:
         """Whether every link from the UAVs ``uav_m`` (B, U, 3) to the users ``users_m``
         (B, N, 2) of their environment is free of buildings: (B, U, N)."""
-        walls = self._walls(users_m)
+        x_walls, y_walls = self._walls(users_m)
         num_envs, num_uavs = uav_m.shape[:2]
         num_users = users_m.shape[1]
-        blocked = np.empty((num_envs, num_uavs, num_users), dtype=bool)
-        per_env = max(1, CHUNK_ELEMENTS // max(1, num_uavs * num_users * self.city.count))
+        blocked = np.empty((num_uavs, num_users, num_envs), dtype=bool)
+        cells = int(np.prod(self._roof_m.shape[:-1]))
+        per_env = max(MIN_ENVS, CHUNK_ELEMENTS // max(1, num_uavs * num_users * cells))
         with np.errstate(divide="ignore", invalid="ignore"):
+            # the links' climb h - h_UT over their extents along x and y, (2, U, N, B), and
+            # the climb itself (U, N, B): the test runs in heights, t (h - h_UT)
+            climb = np.ascontiguousarray(uav_m[..., 2].T[:, None, :]) - self.user_height_m
+            slopes = climb / (uav_m[..., :2].transpose(2, 1, 0)[:, :, None, :]
+                              - self._users_xy)
             for start in range(0, num_envs, per_env):
-                rows = slice(start, start + per_env)
-                blocked[rows] = self._blocked(uav_m[rows], users_m[rows], walls[:, rows],
-                                              self._roof_m[rows], self._tall[rows])
-        return ~blocked
+                envs = slice(start, start + per_env)
+                blocked[..., envs] = self._blocked(slopes[..., envs], climb[..., envs],
+                                                   x_walls[..., envs], y_walls[..., envs],
+                                                   self._roof_m[..., envs])
+        return ~blocked.transpose(2, 0, 1)
 
-    def _blocked(self, uav_m: FloatArray, users_m: FloatArray, walls: FloatArray,
-                 roof_m: FloatArray, tall: BoolArray) -> BoolArray:
-        """The slab test (module doc) of every link of a few environments: (b, U, N)."""
-        # 1 / (UAV - user) along x, y and h of every link (3, b, U, N, 1)
-        inverse = 1.0 / (np.moveaxis(uav_m, 2, 0)[..., None]
-                         - np.concatenate([np.moveaxis(users_m, 2, 0),
-                                           np.full((1, *users_m.shape[:2]),
-                                                   self.user_height_m)])[:, :, None])
-        inverse = inverse[..., None]
-        walls = walls[:, :, None]                                     # (4, b, 1, N, M)
-        shape = (*inverse.shape[1:-1], walls.shape[-1])
-        first, last, enter, y_first, y_last = (np.empty(shape) for _ in range(5))
-        # the x slab: t between (x_min - x_i) / dx and (x_max - x_i) / dx; then the y slab
-        np.multiply(walls[0], inverse[0], out=first)
-        np.multiply(walls[1], inverse[0], out=last)
+    def _buffer(self, name: str, shape: tuple[int, ...], dtype: type = np.float64
+                ) -> np.ndarray:
+        """A work array of this shape, kept from call to call (no new memory per step)."""
+        key = (name, shape)
+        if key not in self._buffers:
+            self._buffers[key] = np.empty(shape, dtype=dtype)
+        return self._buffers[key]
+
+    def _blocked(self, slopes: FloatArray, climb: FloatArray, x_walls: FloatArray,
+                 y_walls: FloatArray, roof_m: FloatArray) -> BoolArray:
+        """The slab test (module doc) of every link of a few environments b, (U, N, b), in
+        heights above the antenna: the segment is inside a footprint between the climbs
+        t (h - h_UT) where it enters and leaves it, and blocked where it enters below the
+        roof, H - h_UT."""
+        x_enter, x_leave = self._slab("x", x_walls, slopes[0], climb)   # (U, N, C, b) each
+        y_enter, y_leave = self._slab("y", y_walls, slopes[1], climb)   # (U, N, R, b) each
+        if self._grid:
+            x_enter, x_leave = x_enter[:, :, :, None], x_leave[:, :, :, None]
+            y_enter, y_leave = y_enter[:, :, None], y_leave[:, :, None]
+        shape = np.broadcast_shapes(x_enter.shape, y_enter.shape)
+        # inside where the later start, max(x_enter, y_enter), comes before the earliest end
+        # (of the x slab, the y slab and the climb to the roof)
+        leave = self._buffer("leave", shape)
+        np.minimum(x_leave, y_leave, out=leave)
+        np.minimum(leave, roof_m, out=leave)
+        # NaN (a link in the plane of a wall) compares False: touching is not blocking
+        inside = np.less(x_enter, leave, out=self._buffer("inside", shape, np.bool_))
+        inside &= np.less(y_enter, leave, out=self._buffer("inside_y", shape, np.bool_))
+        return inside.reshape(*shape[:2], -1, shape[-1]).any(axis=2)
+
+    def _slab(self, axis: str, walls: FloatArray, slopes: FloatArray, climb: FloatArray
+              ) -> tuple[FloatArray, FloatArray]:
+        """Where links cross slabs between two walls, as climbs t (h - h_UT) cut to t in
+        [0, 1], from the walls' offsets from the users (2, N, K, b), the links' climbs over
+        their extents along the axis (U, N, b) and their climbs (U, N, b): (U, N, K, b)
+        each."""
+        slopes, climb = slopes[:, :, None], climb[:, :, None]
+        shape = np.broadcast_shapes(walls.shape[1:], slopes.shape)
+        first, last = self._buffer(axis + "first", shape), self._buffer(axis + "last", shape)
+        enter = self._buffer(axis + "enter", shape)
+        np.multiply(walls[0], slopes, out=first)
+        np.multiply(walls[1], slopes, out=last)
         np.minimum(first, last, out=enter)
         np.maximum(first, last, out=last)
-        np.multiply(walls[2], inverse[1], out=first)
-        np.multiply(walls[3], inverse[1], out=y_last)
-        np.minimum(first, y_last, out=y_first)
-        np.maximum(first, y_last, out=y_last)
-        np.maximum(enter, y_first, out=enter)      # the later start, not before the user
         np.maximum(enter, 0.0, out=enter)
-        np.minimum(last, y_last, out=last)         # the earlier end, not after the UAV
-        np.minimum(last, 1.0, out=last)
-        # below the roof: t < (H - h_UT) / dh
-        np.multiply(roof_m[:, :, None], inverse[2], out=first)
-        np.minimum(last, first, out=last)
-        # NaN (a link in the plane of a wall) compares False: touching is not blocking
-        inside = np.less(enter, last)
-        if not self._all_tall:
-            inside &= tall[:, :, None]
-        return inside.any(axis=-1)
+        np.minimum(last, climb, out=last)
+        return enter, last
 
 
 def inside_buildings(points_m: FloatArray, city: City) -> BoolArray:
@@ -133,10 +188,17 @@ def kept_out(before_m: FloatArray, moved_m: FloatArray, city: City) -> FloatArra
     (B, U, 3), m) that keep out of the buildings: a move that ends inside one does not happen
     (that UAV keeps ``before_m``, as with the separation, docs/model.md §9 and §12).
     ``moved_m`` itself where no move ends inside a building."""
-    blocked = inside_buildings(moved_m, city)
+    low = np.nonzero(moved_m[..., 2] <= city.tallest_m[:, None])   # the UAVs to test
+    if not len(low[0]):
+        return moved_m
+    env = low[0]
+    blocked = inside_buildings(moved_m[low][:, None], City(city.footprints_m,
+                                                          city.heights_m[env]))[:, 0]
     if not blocked.any():
         return moved_m
-    return np.where(blocked[..., None], before_m, moved_m)
+    kept = moved_m.copy()
+    kept[env[blocked], low[1][blocked]] = before_m[env[blocked], low[1][blocked]]
+    return kept
 
 
 def users_kept_out(before_m: FloatArray, walked_m: FloatArray, footprints_m: FloatArray

@@ -42,6 +42,11 @@ class City:
     footprints_m: FloatArray
     heights_m: FloatArray
 
+    @functools.cached_property
+    def tallest_m(self) -> FloatArray:
+        """The height of every environment's tallest building (B,), m (0 without any)."""
+        return self.heights_m.max(axis=1, initial=0.0)
+
     @property
     def count(self) -> int:
         """M, the buildings of every environment."""
