@@ -217,14 +217,17 @@ class EpisodeBuffer:
         self.rows += 1
 
     def episode(self, users_m: FloatArray, serving_uav: IntArray, cluster: IntArray,
-                first_step: int = 0, label: str = "") -> EpisodeData:
+                first_step: int = 0, label: str = "", buildings_m: FloatArray | None = None
+                ) -> EpisodeData:
         """The rows so far (views of the buffer: valid until the next :meth:`record`), with
         users at ``users_m`` (N, 2); where the users walk (:attr:`walks`), with their track
-        and starting at the first row's positions instead."""
+        and starting at the first row's positions instead; among ``buildings_m`` (M, 5)
+        where given (:class:`EpisodeData`)."""
         rows = self.rows
         track = self.users_m[:rows] if self.walks and self._placed and rows else None
         return EpisodeData(users_m if track is None else track[0], self.uav_m[:rows],
                            self.alpha[:rows], self.rate_bps[:rows], serving_uav, cluster,
                            self.los[:rows] if self.with_los else None,
                            power_w=self.power_w[:rows] if self._powered else None,
-                           first_step=first_step, label=label, user_track_m=track)
+                           first_step=first_step, label=label, user_track_m=track,
+                           buildings_m=buildings_m)
