@@ -80,6 +80,32 @@ def test_the_slab_test_agrees_with_a_walk_along_every_segment():
                 assert los[b, u, n] == (not inside.any()), (b, u, n)
 
 
+def test_boxes_off_any_grid_agree_with_a_walk_along_every_segment():
+    # listed boxes of every size and place (each its own column and row, not a grid)
+    rng = np.random.default_rng(5)
+    centre = rng.uniform(-80, 80, (9, 2))
+    size = rng.uniform(5, 30, (9, 2))
+    footprints = np.column_stack([centre[:, 0] - size[:, 0], centre[:, 0] + size[:, 0],
+                                  centre[:, 1] - size[:, 1], centre[:, 1] + size[:, 1]])
+    city = City(footprints, rng.uniform(5, 60, (1, 9)))
+    blockage = Blockage(city, 0.0)
+    assert not blockage._grid
+    users = rng.uniform(-100, 100, (1, 40, 2))
+    users = users[:, ~on_footprints(users[0], footprints)]
+    uav = np.concatenate([rng.uniform(-100, 100, (1, 6, 2)), rng.uniform(10, 90, (1, 6, 1))],
+                         axis=-1)
+    los = blockage.los(uav, users)
+    t = np.linspace(0, 1, 4001)[1:-1, None]
+    f = footprints
+    for u in range(6):
+        for n in range(users.shape[1]):
+            start, end = np.array([*users[0, n], 0.0]), uav[0, u]
+            p = start + t * (end - start)
+            inside = ((p[:, :1] > f[:, 0]) & (p[:, :1] < f[:, 1]) & (p[:, 1:2] > f[:, 2])
+                      & (p[:, 1:2] < f[:, 3]) & (p[:, 2:] < city.heights_m[0]))
+            assert los[0, u, n] == (not inside.any()), (u, n)
+
+
 def test_many_links_are_tested_in_chunks_with_the_same_answer(monkeypatch):
     rng = np.random.default_rng(4)
     footprints = grid_footprints(24.5, 44.7, rng.uniform(0, 44.7, 2), 100.0)
@@ -88,6 +114,7 @@ def test_many_links_are_tested_in_chunks_with_the_same_answer(monkeypatch):
     uav = np.concatenate([rng.uniform(-100, 100, (6, 3, 2)), np.full((6, 3, 1), 40.0)], -1)
     whole = Blockage(city, 0.0).los(uav, users)
     monkeypatch.setattr("adaptsky.sim.blockage.CHUNK_ELEMENTS", 1)
+    monkeypatch.setattr("adaptsky.sim.blockage.MIN_ENVS", 1)     # one environment a chunk
     assert np.array_equal(Blockage(city, 0.0).los(uav, users), whole)
 
 
