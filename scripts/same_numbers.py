@@ -173,7 +173,15 @@ ADDED_SECTION_DEFAULTS = {("uav", "count"): 1, ("uav", "start_positions_m"): Non
                           # what a cluster's action component does (continuous actions)
                           ("uav", "power"): "change",
                           # imperfect SIC (docs/model.md §13): 0, perfect, as before
-                          ("radio", "sic_residual"): 0.0}
+                          ("radio", "sic_residual"): 0.0,
+                          # buildings (docs/model.md §12): none
+                          ("world", "buildings"): "none", ("world", "city"): None,
+                          ("world", "built_up_ratio"): None,
+                          ("world", "buildings_per_km2"): None,
+                          ("world", "height_scale_m"): None, ("world", "seed"): 0,
+                          ("world", "building"): []}
+# tables a newer adaptsky adds: left out where every key in them is at its default
+ADDED_TABLES = {"world"}
 # names a newer adaptsky adds beside the numbers it had (JSON keys, HDF5 datasets with their
 # attributes): compared where both sides have them, left out where only the newer one does.
 # Each user's steady-state rate of eval (steady_user_rate_bps) and last-episode rate of
@@ -210,12 +218,13 @@ def without_times(value: object, table: str = "") -> object:
         except ValueError:
             return value
     if isinstance(value, dict):
-        return {k: without_times(v, k) for k, v in value.items()
+        kept = {k: without_times(v, k) for k, v in value.items()
                 if "wall" not in k and "seconds" not in k and k != "format_version"
                 and k not in {"created_utc", "started_utc"}
                 and not (k in ADDED_DEFAULTS and v == ADDED_DEFAULTS[k])
                 and not ((table, k) in ADDED_SECTION_DEFAULTS
                          and v == ADDED_SECTION_DEFAULTS[table, k])}
+        return {k: v for k, v in kept.items() if not (k in ADDED_TABLES and v == {})}
     if isinstance(value, list):
         return [without_times(v) for v in value]
     return value

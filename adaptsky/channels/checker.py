@@ -81,13 +81,31 @@ def call_problems(model: type[ChannelModel]) -> list[str]:
         value = _call(failures, method, lambda m=method: getattr(instance, m)(geometry))
         if value is not None:
             _array(failures, method, value, geometry.shape)
+    if not failures and contract_version_of(model) >= 3:
+        failures += _los_mask_problems(instance, geometry)
+    return failures
+
+
+def _los_mask_problems(instance: ChannelModel, geometry: LinkGeometry) -> list[str]:
+    """Contract 3: the LoS and NLoS gains of links that carry the buildings' LoS states
+    (``geometry.los``, docs/plugins.md §2) are float64 arrays of the links' shape."""
+    failures: list[str] = []
+    mask = np.zeros(geometry.shape, dtype=bool)
+    mask[:, ::2] = True
+    with_mask = geometry.with_los(mask)
+    for method in ("gain_los", "gain_nlos"):
+        value = _call(failures, method,
+                      lambda m=method: getattr(instance, m)(with_mask))
+        if value is not None:
+            _array(failures, method, value, geometry.shape)
     return failures
 
 
 def _contract_problems(model: type[ChannelModel]) -> list[str]:
     """The declared contract version, and hooks that need a later one."""
     declared = model.contract_version
-    supported = " and ".join(str(v) for v in SUPPORTED_CONTRACT_VERSIONS)
+    versions = [str(v) for v in SUPPORTED_CONTRACT_VERSIONS]
+    supported = f"{', '.join(versions[:-1])} and {versions[-1]}"
     if declared is not None and (type(declared) is not int
                                  or declared not in SUPPORTED_CONTRACT_VERSIONS):
         if type(declared) is int and declared > CONTRACT_VERSION:
@@ -237,8 +255,10 @@ def checked_conditions(model: type[ChannelModel], params: ChannelParams | None =
     supports = "; ".join(supported_text(setting, value_range) for setting in SHARED_SETTINGS
                          if model.supports is not None
                          and (value_range := getattr(model.supports, setting)) is not None)
+    geometric = (", gains of links with LoS states (geometric LoS) checked"
+                 if contract_version_of(model) >= 3 else "")
     return (f"f_c {_carrier_hz(instance, carrier_hz) / 1e9:g} GHz, users {heights}, "
-            f"{fading}, parameters: {given or 'defaults'}"
+            f"{fading}{geometric}, parameters: {given or 'defaults'}"
             + (f", supports {supports}" if supports else ""))
 
 

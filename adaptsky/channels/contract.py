@@ -24,9 +24,9 @@ from pydantic import BaseModel, ConfigDict
 
 SPEED_OF_LIGHT_M_PER_S = 299_792_458.0
 
-CONTRACT_VERSION = 2
+CONTRACT_VERSION = 3
 """The plugin contract this adaptsky defines (docs/plugins.md §2, "Contract versions")."""
-SUPPORTED_CONTRACT_VERSIONS = (1, 2)
+SUPPORTED_CONTRACT_VERSIONS = (1, 2, 3)
 """The versions a plugin may declare; 1 is what a class that declares none is taken as."""
 DEFAULT_CARRIER_HZ = 28e9
 """f_c of a geometry built without one: the paper's mmWave carrier (Table I), Hz."""
@@ -54,6 +54,9 @@ class LinkGeometry:
     elevation_deg: theta = asin((h - h_UT) / d), degrees.
     Positions: uav_m (B, 3) [x, y, h]; users_m (B, N, 2) [x, y]. carrier_hz and bandwidth_hz
     are the scenario's ``[radio]`` f_c and W (contract 2; a contract-1 plugin ignores them).
+    los (contract 3): with ``channel.los = "geometric"`` each link's LoS state (B, N), bool,
+    from the buildings (docs/model.md §12), which the environment uses to pick the model's
+    LoS or NLoS gain and a model may read; None otherwise.
 
     A geometry built from distances alone (``LinkGeometry(horizontal_m, height_m, distance_m,
     elevation_deg)``) puts each UAV at (0, 0, h) and its users at (d2D, 0) on the ground.
@@ -68,6 +71,7 @@ class LinkGeometry:
     users_m: FloatArray = field(default=None)  # type: ignore[assignment]
     carrier_hz: float = DEFAULT_CARRIER_HZ
     bandwidth_hz: float = DEFAULT_BANDWIDTH_HZ
+    los: BoolArray | None = None
 
     def __post_init__(self) -> None:
         """Fill what a geometry built from distances alone leaves out (see the class doc)."""
@@ -124,7 +128,7 @@ class LinkGeometry:
         geometry.__dict__.update(horizontal_m=horizontal_m, height_m=height_m,
                                  distance_m=distance_m, elevation_deg=elevation_deg,
                                  user_height_m=user_height_m, uav_m=uav_m, users_m=users_m,
-                                 carrier_hz=carrier_hz, bandwidth_hz=bandwidth_hz)
+                                 carrier_hz=carrier_hz, bandwidth_hz=bandwidth_hz, los=None)
         return geometry
 
     @property
@@ -137,7 +141,14 @@ class LinkGeometry:
         return LinkGeometry(self.horizontal_m[rows], self.height_m[rows],
                             self.distance_m[rows], self.elevation_deg[rows],
                             self.user_height_m[rows], self.uav_m[rows], self.users_m[rows],
-                            self.carrier_hz, self.bandwidth_hz)
+                            self.carrier_hz, self.bandwidth_hz,
+                            None if self.los is None else self.los[rows])
+
+    def with_los(self, los: BoolArray) -> LinkGeometry:
+        """This geometry with the LoS states ``los`` (B, N) of its links (contract 3)."""
+        geometry = object.__new__(type(self))
+        geometry.__dict__.update(self.__dict__, los=los)
+        return geometry
 
 
 SHARED_SETTINGS = ("carrier_hz", "bandwidth_hz", "user_height_m")

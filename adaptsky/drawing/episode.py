@@ -34,7 +34,8 @@ class EpisodeData:
     ``user_track_m`` (T, N, 2) every user's position at every row, m, where the users move
     (``users_m`` is then where they started), or None where they stand at ``users_m``;
     ``step_s`` the duration of a step, s, or None (the steps are counted, not timed);
-    ``label`` the title of its picture.
+    ``label`` the title of its picture; ``buildings_m`` (M, 5) every building's
+    [x_min, x_max, y_min, y_max, height], m, or None (no buildings, docs/model.md §12).
     """
 
     users_m: FloatArray
@@ -49,6 +50,7 @@ class EpisodeData:
     first_step: int = 1
     label: str = ""
     user_track_m: FloatArray | None = None
+    buildings_m: FloatArray | None = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__  # frozen: normalise the arrays once, here
@@ -61,7 +63,7 @@ class EpisodeData:
             set_(self, name, np.asarray(getattr(self, name), dtype=np.intp))
         if self.los is not None:
             set_(self, "los", np.asarray(self.los, dtype=bool))
-        for name in ("power_w", "user_track_m"):
+        for name in ("power_w", "user_track_m", "buildings_m"):
             if getattr(self, name) is not None:
                 set_(self, name, np.asarray(getattr(self, name), dtype=np.float64))
         self._check_shapes()
@@ -72,7 +74,9 @@ class EpisodeData:
         expected = {"users_m": (n, 2), "uav_m": (steps, uavs, 3), "alpha": (steps, n),
                     "rate_bps": (steps, n), "serving_uav": (n,), "cluster": (n,),
                     "los": (steps, n), "power_w": (steps, uavs),
-                    "user_track_m": (steps, n, 2)}
+                    "user_track_m": (steps, n, 2),
+                    "buildings_m": (len(self.buildings_m) if self.buildings_m is not None
+                                    else 0, 5)}
         for name, shape in expected.items():
             value = getattr(self, name)
             if value is not None and value.shape != shape:
@@ -213,14 +217,17 @@ class EpisodeBuffer:
         self.rows += 1
 
     def episode(self, users_m: FloatArray, serving_uav: IntArray, cluster: IntArray,
-                first_step: int = 0, label: str = "") -> EpisodeData:
+                first_step: int = 0, label: str = "", buildings_m: FloatArray | None = None
+                ) -> EpisodeData:
         """The rows so far (views of the buffer: valid until the next :meth:`record`), with
         users at ``users_m`` (N, 2); where the users walk (:attr:`walks`), with their track
-        and starting at the first row's positions instead."""
+        and starting at the first row's positions instead; among ``buildings_m`` (M, 5)
+        where given (:class:`EpisodeData`)."""
         rows = self.rows
         track = self.users_m[:rows] if self.walks and self._placed and rows else None
         return EpisodeData(users_m if track is None else track[0], self.uav_m[:rows],
                            self.alpha[:rows], self.rate_bps[:rows], serving_uav, cluster,
                            self.los[:rows] if self.with_los else None,
                            power_w=self.power_w[:rows] if self._powered else None,
-                           first_step=first_step, label=label, user_track_m=track)
+                           first_step=first_step, label=label, user_track_m=track,
+                           buildings_m=buildings_m)

@@ -26,7 +26,7 @@ from matplotlib.artist import Artist
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.cm import ScalarMappable
-from matplotlib.collections import LineCollection, PathCollection
+from matplotlib.collections import LineCollection, PatchCollection, PathCollection
 from matplotlib.colors import Normalize, to_rgba
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
@@ -53,6 +53,9 @@ CLUSTER_MARKERS = ("o", "s", "D", "v", "P", "X", "h", "<", ">", "p", "d", "H")
 """The marker of cluster k (its subchannel under full reuse) of every UAV; a UAV is a "^",
 its start a "*"."""
 PATH_CMAP = "viridis"
+BUILDING_CMAP = "Greys"
+"""Buildings shaded by height: light low, dark tall."""
+BUILDING_CMAP_COLOUR = "0.55"
 LOS_CMAP = "RdYlBu"
 """Users coloured by the share of their steps in LoS so far: red never, blue always."""
 AREA_MARGIN = 0.05
@@ -65,6 +68,21 @@ HEADROOM = 0.25
 """A panel whose lines leave its limits (the env's growing episode) gets this much room more."""
 LABEL_PT = 8
 TICK_PT = 7
+
+
+def buildings_collection(buildings_m: FloatArray) -> PatchCollection:
+    """The footprints (M, 5) [x_min, x_max, y_min, y_max, height], m, as grey squares, darker
+    the taller (docs/pictures.md), under everything else."""
+    tallest = max(float(buildings_m[:, 4].max(initial=0.0)), 1.0)
+    shades = matplotlib.colormaps[BUILDING_CMAP](0.25 + 0.65 * buildings_m[:, 4] / tallest)
+    return PatchCollection([Rectangle((x0, y0), x1 - x0, y1 - y0)
+                            for x0, x1, y0, y1, _ in buildings_m],
+                           facecolors=shades, edgecolors="0.35", linewidths=0.4, zorder=1)
+
+
+def _links_by_los(episode: EpisodeData) -> bool:
+    """Whether the serving links are drawn LoS (solid) or NLoS (dashed): with buildings."""
+    return episode.buildings_m is not None and episode.los is not None
 
 
 def uav_colour(u: int, num_uavs: int) -> str:
@@ -324,6 +342,8 @@ class EpisodeFigure:
         top.grid(True, alpha=0.3)
         num_uavs = episode.num_uavs
         several = num_uavs > 1
+        if episode.buildings_m is not None:
+            top.add_collection(buildings_collection(episode.buildings_m))
         for k in sorted(set(episode.cluster.tolist())):
             members = np.flatnonzero(episode.cluster == k).tolist()
             serving = episode.serving_uav[members]
@@ -347,10 +367,11 @@ class EpisodeFigure:
         for i, (x, y) in enumerate(episode.users_m):
             block.user_labels.append(top.annotate(str(i + 1), (x, y), xytext=(5, 4),
                                                   textcoords="offset points", fontsize=TICK_PT))
-        if several:  # a thin line from every user to its serving UAV
+        if several or _links_by_los(episode):  # a thin line from every user to its UAV
             block.serving = LineCollection(
                 [], colors=[uav_colour(u, num_uavs) for u in episode.serving_uav],
-                linewidths=0.8, alpha=0.45, zorder=2)
+                linewidths=0.8 if several else 1.0, alpha=0.45 if several else 0.7,
+                zorder=2)
             top.add_collection(block.serving)
         top.add_collection(block.paths)
         if not block.held:  # every UAV's start
@@ -394,6 +415,14 @@ class EpisodeFigure:
         if episode.num_uavs > 1:
             handles += [Line2D([], [], color=uav_colour(u, episode.num_uavs), linewidth=3,
                                label=f"UAV {u + 1}") for u in range(episode.num_uavs)]
+        if episode.buildings_m is not None:
+            tallest = float(episode.buildings_m[:, 4].max(initial=0.0))
+            handles.append(Rectangle((0, 0), 1, 1, facecolor=BUILDING_CMAP_COLOUR,
+                                     edgecolor="0.3", label=f"building (darker: taller, "
+                                     f"up to {tallest:.0f} m)"))
+        if _links_by_los(episode):
+            handles += [Line2D([], [], color="0.3", linestyle=style, label=label)
+                        for style, label in (("-", "LoS link"), ("--", "NLoS link"))]
         return handles
 
     def _panels(self, axes: list[Axes], block: _Block) -> list[_Panel]:
@@ -480,6 +509,7 @@ class EpisodeFigure:
                 and np.array_equal(new.cluster, old.cluster)
                 and (new.los is None) == (old.los is None)
                 and (new.power_w is None) == (old.power_w is None)
+                and (new.buildings_m is None) == (old.buildings_m is None)
                 and new.users_move == old.users_move)
 
     def _move_users(self, block: _Block, users_m: FloatArray) -> None:
@@ -511,6 +541,10 @@ class EpisodeFigure:
         if block.serving is not None:
             uavs = episode.uav_m[last, episode.serving_uav, :2]
             block.serving.set_segments(np.stack([users_m, uavs], axis=1))
+            if _links_by_los(episode):
+                assert episode.los is not None
+                block.serving.set_linestyles(["-" if los else "--"
+                                              for los in episode.los[last]])
         if episode.los is not None:
             colours = matplotlib.colormaps[LOS_CMAP](episode.los[:last + 1].mean(axis=0))
             for collection, members in block.users:

@@ -216,7 +216,8 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64 | np.ndarray]):
             batch = self.batch
             self._episode = EpisodeBuffer(self.max_episode_steps + 1, batch.num_uavs,
                                           batch.num_users,
-                                          with_los=self.scenario.channel.los == "sampled")
+                                          with_los=self.scenario.channel.los in (
+                                              "sampled", "geometric"))
         if self.batch.t == 0:
             self._episode.clear()
         self._episode.record(state.uav_m[0], state.alpha[0], state.rate_bps[0], state.los[0],
@@ -241,8 +242,11 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64 | np.ndarray]):
         if self._episode is None or self._episode.rows == 0:
             raise RuntimeError("call reset() before render()")
         serving, cluster = self.batch.roles()
-        episode = self._episode.episode(self.batch.users_m[0].copy(), serving[0], cluster[0],
-                                        first_step=0, label=self.scenario.name)
+        city = self.batch.city
+        episode = self._episode.episode(
+            self.batch.users_m[0].copy(), serving[0], cluster[0], first_step=0,
+            label=self.scenario.name, buildings_m=None if city is None else np.column_stack(
+                [city.footprints_m, city.heights_m[0]]))
         if self._picture is not None and EpisodeFigure.fits(self._picture.blocks[0].episode,
                                                             episode):
             self._picture.update([episode])

@@ -15,6 +15,8 @@ from adaptsky.errors import AdaptskyError
 from adaptsky.rollouts.rollout import Trace
 from adaptsky.scenario import Scenario
 from adaptsky.scenario.loading import parse_scenario, parse_toml
+from adaptsky.sim.blockage import Blockage
+from adaptsky.sim.city import City
 from adaptsky.sim.network import NetworkBatch
 from adaptsky.store.eval_file import (
     OUTSIDE,
@@ -43,11 +45,37 @@ def episode_of(scenario: Scenario, users_m: FloatArray, uav_m: FloatArray, alpha
     ``rate_bps`` (T, N); ``los`` (T, N) is kept where the scenario draws LoS states;
     ``power_w`` (T, U), every UAV's propulsion power (W) where a model gives one, adds its
     panel; ``user_track_m`` (T, N, 2), every user's position at every step where the users
-    move (None: they stand at ``users_m``, the layout, where moving users start)."""
-    serving, cluster = layout_roles(scenario, users_m)
+    move (None: they stand at ``users_m``, the layout, where moving users start). With
+    buildings (docs/model.md §12) the layout's city comes along, and the serving links' LoS
+    states of every step, computed from the positions where ``los`` is not given."""
+    env = NetworkBatch(scenario, num_envs=1, users_m=users_m[None])
+    serving, cluster = (roles[0] for roles in env.roles())
+    buildings = None
+    if env.city is not None:
+        buildings = np.column_stack([env.city.footprints_m, env.city.heights_m[0]])
+        if los is None:
+            los = serving_los(env, np.asarray(uav_m, dtype=np.float64), users_m,
+                              user_track_m, serving)
     return EpisodeData(users_m, uav_m, alpha, rate_bps, serving, cluster,
-                       los=los if scenario.channel.los == "sampled" else None,
-                       power_w=power_w, label=label, user_track_m=user_track_m)
+                       los=los if scenario.channel.los in ("sampled", "geometric") else None,
+                       power_w=power_w, label=label, user_track_m=user_track_m,
+                       buildings_m=buildings)
+
+
+def serving_los(env: NetworkBatch, uav_m: FloatArray, users_m: FloatArray,
+                user_track_m: FloatArray | None, serving: NDArray[np.intp]
+                ) -> NDArray[np.bool_]:
+    """The LoS state (T, N) of every user's serving link at every step, by the buildings of
+    ``env``'s one layout: UAVs ``uav_m`` (T, 3) or (T, U, 3), users at ``users_m`` (N, 2) or
+    along ``user_track_m`` (T, N, 2)."""
+    assert env.city is not None
+    uav_m = uav_m[:, None] if uav_m.ndim == 2 else uav_m
+    steps = len(uav_m)
+    track = (np.broadcast_to(users_m, (steps, *users_m.shape)) if user_track_m is None
+             else np.asarray(user_track_m, dtype=np.float64))
+    city = City(env.city.footprints_m, np.repeat(env.city.heights_m, steps, axis=0))
+    los = Blockage(city, env.scenario.users.height_m).los(uav_m, np.ascontiguousarray(track))
+    return np.take_along_axis(los, serving[None, None, :], axis=1)[:, 0]
 
 
 def power_of(scenario: Scenario, energy_j: FloatArray) -> FloatArray:

@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 from adaptsky.errors import AdaptskyError
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim import noma
+from adaptsky.sim.blockage import inside_buildings
 from adaptsky.sim.lattice import axis_lattice, share_lattice
 from adaptsky.sim.links import build_channel, deterministic_gain, fading_active
 from adaptsky.sim.network import NetworkBatch
@@ -177,13 +178,16 @@ def oracle(scenario: Scenario, users_m: FloatArray,
         for start in range(0, len(grid), POINTS_PER_CHUNK):
             points = grid[start:start + POINTS_PER_CHUNK]
             users = np.broadcast_to(users_m[layout], (len(points), *users_m.shape[1:]))
-            geometry = env.geometry(points, users)
+            geometry = env.geometry(points, users, layout=layout)
             gain = deterministic_gain(channel, scenario.channel.los, geometry)
             gain_first = gain[:, env.first_user[layout]]
             gain_second = gain[:, env.second_user[layout]]
             alpha, rate = _best_alpha_first(gain_first, gain_second, alphas, scenario,
                                             snr_scale)
             total = rate.sum(axis=1)
+            if env.city is not None:     # a UAV never stands inside a building
+                total = np.where(inside_buildings(points[None], env.city.environment(layout))[0],
+                                 -np.inf, total)
             best = int(np.argmax(total))
             if total[best] > objective[layout]:
                 objective[layout] = total[best]

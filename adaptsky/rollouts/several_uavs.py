@@ -30,6 +30,7 @@ from adaptsky.rollouts.oracle import (
 )
 from adaptsky.rollouts.soa import soa_per_uav_configuration
 from adaptsky.scenario.models import Scenario
+from adaptsky.sim.blockage import inside_buildings
 from adaptsky.sim.interference import interference_sum_w, interferers, oma_rates_bps, sic_rates
 from adaptsky.sim.lattice import axis_lattice, share_lattice
 from adaptsky.sim.links import deterministic_gain, scenario_geometry
@@ -83,6 +84,8 @@ class _Search:
         self.env, self.scenario, self.oma = env, scenario, oma
         self.association = a = env.association
         self.users_m = env.layouts_m[layout]
+        self.layout = layout
+        self.city = None if env.city is None else env.city.environment(layout)
         self.serving = a.serving_uav[layout]
         self.cluster = a.cluster[layout]
         self.first = a.first_user[layout]       # (U, K_max), -1 in unused slots
@@ -110,11 +113,13 @@ class _Search:
         self.min_separation_m = uav.min_separation_m
 
     def gains(self, points_m: FloatArray) -> FloatArray:
-        """Deterministic gains (M, N) from UAV positions ``points_m`` (M, 3) to every user."""
+        """Deterministic gains (M, N) from UAV positions ``points_m`` (M, 3) to every user
+        (through the layout's buildings, docs/model.md §12)."""
         scenario = self.scenario
         users = np.broadcast_to(self.users_m, (len(points_m), *self.users_m.shape))
-        return deterministic_gain(self.env.channel, scenario.channel.los,
-                                  scenario_geometry(scenario, points_m, users))
+        geometry = (scenario_geometry(scenario, points_m, users) if self.city is None
+                    else self.env.geometry(points_m, users, layout=self.layout))
+        return deterministic_gain(self.env.channel, scenario.channel.los, geometry)
 
     def rates(self, gain: FloatArray, alpha_first: FloatArray) -> FloatArray:
         """Every user's rate (..., N) with the gains (..., U, N) of every UAV and the shares
@@ -157,7 +162,7 @@ class _Search:
         for v in np.flatnonzero(others):   # the separation from every other UAV
             apart &= np.hypot(*(plane - uav_m[v, :2]).T) >= self.min_separation_m
         plane = plane[apart]
-        best = (-np.inf, uav_m[u], alpha_first[u])
+        best: tuple[float, FloatArray, FloatArray] = (-np.inf, uav_m[u], alpha_first[u])
         per_chunk = max(1, POINTS_PER_CHUNK // max(1, len(plane)))
         heights = self.heights[u]
         for start in range(0, len(heights), per_chunk):
@@ -171,6 +176,8 @@ class _Search:
                 shares[:, u] = self._best_shares(u, gain)
             rates = self.rates(gain, shares)
             feasible = (rates >= self.min_rate_bps).all(axis=-1)
+            if self.city is not None:     # a UAV never stands inside a building
+                feasible &= ~inside_buildings(points[None], self.city)[0]
             total = np.where(feasible, rates.sum(axis=-1), -np.inf)
             index = int(np.argmax(total))
             if total[index] > best[0]:

@@ -1,7 +1,8 @@
 """The SoA baseline (Chen et al. 2019 as the paper uses it; docs/model.md §6).
 
 The UAV stays at the users' 2D centroid at the start height (for several UAVs, each at its
-group's: SoA per UAV, docs/model.md §9). Planning assumes LoS: in each
+group's: SoA per UAV, docs/model.md §9), or 1 m above the roof of a building standing there
+(docs/model.md §12). Planning assumes LoS: in each
 cluster the user with the smaller LoS gain is weak and gets the least power that meets R_min,
 
     alpha_w = min(1, (2^(R_min/W) - 1) / 2^(R_min/W) * (1 + sigma^2 / (P_T G g_w))),
@@ -17,6 +18,7 @@ from numpy.typing import NDArray
 
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim import noma
+from adaptsky.sim.blockage import above_buildings
 from adaptsky.sim.network import NetworkBatch
 
 FloatArray = NDArray[np.float64]
@@ -41,6 +43,8 @@ def soa_per_uav_configuration(env: NetworkBatch) -> tuple[FloatArray, FloatArray
         axis=2)[..., None]                                                     # (B, U, 2)
     height = np.broadcast_to(env.start_m[:, 2], centroid.shape[:2])[..., None]
     uav_m = np.concatenate([centroid, height], axis=-1)
+    if env.city is not None:
+        uav_m = above_buildings(uav_m, env.city)
     gain = env.channel.gain_los(env.geometry(uav_m, layouts)).reshape(
         len(layouts), env.num_uavs, env.num_users)
     rows = np.arange(len(layouts))[:, None, None]

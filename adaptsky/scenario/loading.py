@@ -106,6 +106,11 @@ def parse_scenario(data: dict[str, Any], source: str = "<scenario>") -> Scenario
             f"plugin contract {contract_version_of(model_class)}, where users are on the "
             "ground; a user height needs a contract-2 model (docs/plugins.md, contract "
             "versions), or users.height_m = 0"])
+    if scenario.channel.los == "geometric" and contract_version_of(model_class) < 3:
+        raise ScenarioError([
+            f"{source}: channel.los: 'geometric' needs a channel model of plugin contract 3, "
+            f"which takes the buildings' LoS states; '{scenario.channel.model}' follows "
+            f"contract {contract_version_of(model_class)} (docs/plugins.md, contract versions)"])
     radio, table_carrier_hz = _default_radio(scenario, model_class, source)
     scenario = scenario.model_copy(update={"radio": radio})
     _refuse_unsupported(scenario, model_class, scenario.radio.carrier_hz, source)

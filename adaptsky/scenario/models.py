@@ -227,11 +227,96 @@ class Radio(Section):
 
 class Channel(Section):
     model: str = Field("mmwave-nyc", min_length=1, description="name of a channel-model plugin")
-    los: Literal["always", "sampled", "expected"] = Field(
-        "always", description="LoS handling: always LoS, drawn per user per step, or expected gain"
+    los: Literal["always", "sampled", "expected", "geometric"] = Field(
+        "always", description="LoS handling: always LoS, drawn per user per step, expected "
+        "gain, or 'geometric': LoS where no building of [world] blocks the link "
+        "(docs/model.md §12)"
     )
     params: dict[str, Any] = Field(default_factory=dict,
                                    description="the plugin's parameters (its own Params model)")
+
+
+CITY_PRESETS: dict[str, tuple[float, float, float]] = {
+    "suburban": (0.1, 750.0, 8.0),
+    "urban": (0.3, 500.0, 15.0),
+    "dense-urban": (0.5, 300.0, 20.0),
+    "high-rise": (0.5, 300.0, 50.0),
+}
+"""ITU-R P.1410's environments (docs/model.md §12): built-up ratio alpha, buildings per km^2
+beta, Rayleigh scale gamma of the buildings' heights, m."""
+
+
+class Building(Section):
+    """An axis-aligned box standing on the ground (``world.buildings = "listed"``)."""
+
+    x_m: CoordinateM = Field(description="x of the footprint's centre, m")
+    y_m: CoordinateM = Field(description="y of the footprint's centre, m")
+    width_m: float = Field(gt=0, le=AREA_MAX_SIDE_M, description="extent along x, m")
+    depth_m: float = Field(gt=0, le=AREA_MAX_SIDE_M, description="extent along y, m")
+    height_m: float = Field(gt=0, le=MAX_HEIGHT_M, description="height of the roof, m")
+
+    @property
+    def box_m(self) -> tuple[float, float, float, float, float]:
+        """(x_min, x_max, y_min, y_max, height), m."""
+        half_w, half_d = self.width_m / 2, self.depth_m / 2
+        return (self.x_m - half_w, self.x_m + half_w, self.y_m - half_d, self.y_m + half_d,
+                self.height_m)
+
+
+class World(Section):
+    """Buildings (docs/model.md §12): none, an ITU-R P.1410 city, or listed boxes."""
+
+    buildings: Literal["none", "generated", "listed"] = Field(
+        "none", description="'none'; 'generated', ITU-R P.1410's statistical city (city, or "
+        "built_up_ratio, buildings_per_km2 and height_scale_m); 'listed', the [[world.building]] "
+        "boxes")
+    city: Literal["suburban", "urban", "dense-urban", "high-rise"] | None = Field(
+        None, description="preset (alpha, beta, gamma) of a generated city")
+    built_up_ratio: float | None = Field(
+        None, gt=0, lt=1, description="alpha, the share of the ground under buildings")
+    buildings_per_km2: float | None = Field(
+        None, gt=0, le=1e5, description="beta, buildings per km^2")
+    height_scale_m: float | None = Field(
+        None, gt=0, le=1000.0, description="gamma, the Rayleigh scale of building heights, m")
+    seed: int = Field(0, ge=0, le=MAX_SEED, description="seed of the generated city's grid "
+                      "offset (the heights come from each layout, docs/model.md §12)")
+    building: list[Building] = Field(default_factory=list,
+                                     description="the boxes of world.buildings = 'listed'")
+
+    @model_validator(mode="after")
+    def _consistent(self) -> World:
+        explicit = {key: getattr(self, key) for key in
+                    ("built_up_ratio", "buildings_per_km2", "height_scale_m")}
+        given = [key for key, value in explicit.items() if value is not None]
+        if self.buildings != "generated" and (given or self.city is not None):
+            keys = ", ".join(given + (["city"] if self.city is not None else []))
+            raise ValueError(f"{keys} describe a generated city; set buildings = 'generated' "
+                             f"(not '{self.buildings}') or remove them")
+        if self.buildings != "listed" and self.building:
+            raise ValueError(f"[[world.building]] boxes need buildings = 'listed', not "
+                             f"'{self.buildings}'")
+        if self.buildings == "listed" and not self.building:
+            raise ValueError("buildings = 'listed' needs at least one [[world.building]] box")
+        if self.buildings == "generated":
+            if self.city is not None and given:
+                raise ValueError(f"city = '{self.city}' and {', '.join(given)}: give a preset "
+                                 "or the three numbers, not both")
+            if self.city is None and len(given) < 3:
+                missing = [key for key in explicit if key not in given]
+                raise ValueError(f"buildings = 'generated' needs city (suburban, urban, "
+                                 f"dense-urban, high-rise) or all of built_up_ratio, "
+                                 f"buildings_per_km2, height_scale_m (missing: "
+                                 f"{', '.join(missing)})")
+        return self
+
+    @property
+    def city_parameters(self) -> tuple[float, float, float]:
+        """(alpha, beta per km^2, gamma m) of a generated city: the preset's or the keys'."""
+        if self.city is not None:
+            return CITY_PRESETS[self.city]
+        assert self.built_up_ratio is not None and self.buildings_per_km2 is not None
+        assert self.height_scale_m is not None
+        return self.built_up_ratio, self.buildings_per_km2, self.height_scale_m
 
 
 class Reward(Section):
@@ -294,6 +379,7 @@ class Scenario(Section):
     uav: Uav = Field(default_factory=Uav)
     radio: Radio = Field(default_factory=Radio)
     channel: Channel = Field(default_factory=Channel)
+    world: World = Field(default_factory=World)
     reward: Reward = Field(default_factory=Reward)
     agent: AgentConfig = Field(default_factory=DqnAgent)
     train: Train = Field(default_factory=Train)
@@ -385,6 +471,37 @@ class Scenario(Section):
                     raise ValueError(f"uav.start_positions_m: UAVs {u} and {v} start "
                                      f"{apart_m:.4g} m apart, closer than uav.min_separation_m "
                                      f"= {uav.min_separation_m:g} m")
+        return self
+
+    @model_validator(mode="after")
+    def _buildings(self) -> Scenario:
+        """Buildings go with geometric LoS and only with it; listed boxes lie in the area,
+        with no UAV start inside one and no listed user on one (docs/model.md §12)."""
+        world, los = self.world, self.channel.los
+        if (world.buildings == "none") != (los != "geometric"):
+            if los == "geometric":
+                raise ValueError("channel.los = 'geometric' needs buildings: set "
+                                 "world.buildings = 'generated' or 'listed'")
+            raise ValueError(f"world.buildings = '{world.buildings}' needs channel.los = "
+                             f"'geometric' (with los = '{los}' the buildings would block "
+                             "nothing)")
+        half_m = self.area.side_m / 2
+        for i, building in enumerate(world.building):
+            x_lo, x_hi, y_lo, y_hi, height_m = building.box_m
+            if x_lo < -half_m or x_hi > half_m or y_lo < -half_m or y_hi > half_m:
+                raise ValueError(f"world.building {i}: x [{x_lo:g}, {x_hi:g}] m, y "
+                                 f"[{y_lo:g}, {y_hi:g}] m reaches outside the area |x|, |y| "
+                                 f"<= {half_m:g} m")
+            for u, (x, y, h) in enumerate(self.uav_start_positions_m):
+                if x_lo <= x <= x_hi and y_lo <= y <= y_hi and h <= height_m:
+                    raise ValueError(f"uav: UAV {u} starts at ({x:g}, {y:g}, {h:g}) inside "
+                                     f"world.building {i} (roof at {height_m:g} m)")
+            if self.users.placement == "listed":
+                for j, (x, y) in enumerate(self.users.positions_m or []):
+                    if x_lo <= x <= x_hi and y_lo <= y <= y_hi:
+                        raise ValueError(f"users.positions_m: user {j + 1} at ({x:g}, {y:g}) "
+                                         f"stands inside world.building {i}; users stand "
+                                         "in the streets")
         return self
 
     @model_validator(mode="after")

@@ -6,6 +6,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from adaptsky.scenario.models import Scenario
+from adaptsky.sim.city import scenario_footprints, street_layouts
 
 
 def user_layouts(scenario: Scenario, num_layouts: int, layout_seed: int | None = None
@@ -28,8 +29,12 @@ def user_layouts(scenario: Scenario, num_layouts: int, layout_seed: int | None =
 def uniform_layouts(scenario: Scenario, rng: np.random.Generator, count: int
                     ) -> NDArray[np.float64]:
     """``count`` layouts (count, N, 2) drawn from ``rng``, every user uniform over the area
-    (layout after layout, user after user, x before y)."""
+    (layout after layout, user after user, x before y); with buildings, uniform over the
+    streets (:func:`~adaptsky.sim.city.street_layouts`, docs/model.md §12)."""
     half_m = scenario.area.side_m / 2
+    footprints_m = scenario_footprints(scenario)
+    if footprints_m is not None:
+        return street_layouts(rng, count, scenario.num_users, half_m, footprints_m)
     return rng.uniform(-half_m, half_m, size=(count, scenario.num_users, 2))
 
 

@@ -46,9 +46,22 @@ def fading_active(channel: ChannelModel) -> bool:
 
 
 def deterministic_gain(channel: ChannelModel, los: str, geometry: LinkGeometry) -> FloatArray:
-    """The gain planning uses: the LoS gain for ``los = "always"``, else the expected gain
-    (never with fading)."""
-    return channel.gain_los(geometry) if los == "always" else channel.expected_gain(geometry)
+    """The gain planning uses: the LoS gain for ``los = "always"``, the LoS or NLoS gain by
+    the buildings for ``"geometric"`` (the geometry's ``los``, docs/model.md §12), else the
+    expected gain (never with fading)."""
+    if los == "always":
+        return channel.gain_los(geometry)
+    if los == "geometric":
+        return geometric_gain(channel, geometry)
+    return channel.expected_gain(geometry)
+
+
+def geometric_gain(channel: ChannelModel, geometry: LinkGeometry) -> FloatArray:
+    """The LoS gain of the links the buildings leave in sight, the NLoS gain of the others
+    (docs/model.md §12), by the geometry's ``los`` (contract 3)."""
+    if geometry.los is None:
+        raise ValueError("geometric LoS needs the links' LoS states (LinkGeometry.los)")
+    return np.where(geometry.los, channel.gain_los(geometry), channel.gain_nlos(geometry))
 
 
 def links_geometry(uav_m: FloatArray, users_m: FloatArray, *,
@@ -120,12 +133,30 @@ def link_gains(channel: ChannelModel, los_mode: str, geometry: LinkGeometry,
 
     ``los_mode`` (docs/model.md §2): ``"always"`` the LoS gain; ``"sampled"`` LoS drawn per
     link (the plugin's ``sample_los``), the LoS or NLoS gain; ``"expected"``
-    P g_LoS + (1 - P) g_NLoS (LoS state: P > 0.5). A contract-2 model with fading enabled
-    multiplies the gain by its ``sample_fading``, drawn after the LoS states. Draws come from
+    P g_LoS + (1 - P) g_NLoS (LoS state: P > 0.5); ``"geometric"`` the LoS or NLoS gain by
+    the buildings (the geometry's ``los``, docs/model.md §12; its P_LoS is 1 or 0). A
+    contract-2 model with fading enabled multiplies the gain by its ``sample_fading``, drawn
+    after the LoS states. Draws come from
     ``rng``: one generator for every link, or a list of B, environment b's links (U rows)
     drawn from generator b (so its numbers do not depend on B or on its neighbours).
     ``fading``: :func:`fading_active` of the channel where the caller has it.
     """
+    if los_mode == "geometric":
+        gain, los = geometric_gain(channel, geometry), geometry.los
+        assert los is not None
+        p_los = los.astype(np.float64)
+    else:
+        gain, los, p_los = _drawn_los(channel, los_mode, geometry, rng, num_uavs)
+    if fading_active(channel) if fading is None else fading:
+        gain = gain * _drawn(channel.sample_fading, geometry, los, rng, num_uavs)
+    shape = (geometry.shape[0] // num_uavs, num_uavs, geometry.shape[1])
+    return gain.reshape(shape), los.reshape(shape), p_los.reshape(shape)
+
+
+def _drawn_los(channel: ChannelModel, los_mode: str, geometry: LinkGeometry,
+               rng: Generators, num_uavs: int) -> tuple[FloatArray, BoolArray, FloatArray]:
+    """Gain, LoS state and P_LoS of every link (B*U, N) by the model's LoS probability
+    (``los_mode`` always, sampled or expected; :func:`link_gains`)."""
     p_los = channel.los_probability(geometry)
     if los_mode == "always":
         gain, los = channel.gain_los(geometry), np.ones(geometry.shape, dtype=bool)
@@ -146,11 +177,9 @@ def link_gains(channel: ChannelModel, los_mode: str, geometry: LinkGeometry,
             gain = channel.expected_gain(geometry)
         los = p_los > 0.5
     else:
-        raise ValueError(f"unknown LoS mode {los_mode!r}; use always, sampled or expected")
-    if fading_active(channel) if fading is None else fading:
-        gain = gain * _drawn(channel.sample_fading, geometry, los, rng, num_uavs)
-    shape = (geometry.shape[0] // num_uavs, num_uavs, geometry.shape[1])
-    return gain.reshape(shape), los.reshape(shape), p_los.reshape(shape)
+        raise ValueError(f"unknown LoS mode {los_mode!r}; use always, sampled, expected or "
+                         "geometric")
+    return gain, los, p_los
 
 
 def _uniforms(shape: tuple[int, ...], rng: Generators, num_uavs: int) -> FloatArray:

@@ -8,9 +8,12 @@ the new state, each a named stage, called in this order (docs/architecture.md):
 1. mobility: the users walk (:meth:`~adaptsky.sim.state.Dynamics.walked`);
 2. controls: every UAV's move and every share's change, clipped to the feasible set
    (:meth:`~adaptsky.sim.state.Dynamics.moved`), moves that break the separation held back
-   (:func:`~adaptsky.sim.separation.separated`);
+   (:func:`~adaptsky.sim.separation.separated`), then moves into a building
+   (:func:`~adaptsky.sim.blockage.kept_out`, docs/model.md §12);
 3. geometry of every UAV-user link (:func:`~adaptsky.sim.links.links_geometry`);
-4. channel: the plugin's gains, LoS and fading (:func:`~adaptsky.sim.links.link_gains`);
+4. channel: the plugin's gains, LoS and fading (:func:`~adaptsky.sim.links.link_gains`),
+   with ``los = "geometric"`` the buildings' LoS states
+   (:meth:`~adaptsky.sim.blockage.Blockage.los`);
 5. association and clusters, fixed per layout (:mod:`adaptsky.sim.association`);
 6. rates: interference (:func:`~adaptsky.sim.interference.interference_sum_w`), SIC order
    (:func:`~adaptsky.sim.noma.is_strong`), SINR and rates (eqs. 2-3);
@@ -35,6 +38,8 @@ from adaptsky.channels.contract import LinkGeometry
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim import noma
 from adaptsky.sim.association import Association, associate, serving_groups
+from adaptsky.sim.blockage import Blockage, kept_out, users_kept_out
+from adaptsky.sim.city import City, city_of
 from adaptsky.sim.energy import EnergyAccount
 from adaptsky.sim.gain_bounds import gain_range, reachable_heights
 from adaptsky.sim.interference import (
@@ -210,6 +215,9 @@ class NetworkBatch:
             raise ValueError(f"users_m must have shape {expected}, got {users_m.shape}")
         self.layouts_m = np.array(users_m, dtype=np.float64)
         scenario = self.scenario
+        self.city: City | None = city_of(scenario, self.layouts_m)
+        self._blockage = (None if self.city is None
+                          else Blockage(self.city, scenario.users.height_m))
         serving = (np.zeros(expected[:2], dtype=np.intp) if self.num_uavs == 1 else
                    serving_groups(self.layouts_m, self.start_m, scenario.users.association,
                                   scenario.users.uav))
@@ -317,15 +325,28 @@ class NetworkBatch:
 
     # ---- geometry --------------------------------------------------------------------------
 
-    def geometry(self, uav_m: FloatArray, users_m: FloatArray) -> LinkGeometry:
+    def geometry(self, uav_m: FloatArray, users_m: FloatArray, layout: int | None = None
+                 ) -> LinkGeometry:
         """The links from UAVs ``uav_m`` to the users ``users_m`` (B', N, 2) of their
         environment: (B'*U, N) for ``uav_m`` (B', U, 3), (B', N) for one UAV per row
-        ``uav_m`` (B', 3) (:func:`~adaptsky.sim.links.links_geometry`)."""
+        ``uav_m`` (B', 3) (:func:`~adaptsky.sim.links.links_geometry`). With buildings, the
+        links' LoS states by the city of environment b for row b, or, with ``layout``, by the
+        city of that environment for every row (docs/model.md §12)."""
         uav_m = np.asarray(uav_m, dtype=np.float64)
         if uav_m.ndim == 2:
             uav_m = uav_m[:, None]
-        return links_geometry(uav_m, users_m, user_height_m=self._user_height_m,
-                              carrier_hz=self._carrier_hz, bandwidth_hz=self.bandwidth_hz)
+        geometry = links_geometry(uav_m, users_m, user_height_m=self._user_height_m,
+                                  carrier_hz=self._carrier_hz, bandwidth_hz=self.bandwidth_hz)
+        if self._blockage is None:
+            return geometry
+        if layout is None:
+            los = self._blockage.los(uav_m, np.asarray(users_m, dtype=np.float64))
+        else:
+            assert self.city is not None
+            blockage = Blockage(self.city.environment(layout), self._user_height_m)
+            los = blockage.los(uav_m.reshape(1, -1, 3),
+                               np.asarray(users_m, dtype=np.float64)[:1])
+        return geometry.with_los(los.reshape(geometry.shape))
 
     def gain_bounds(self) -> tuple[float, float] | None:
         """The smallest and largest gain of a link, linear (``gain_bounds.gain_range``: the
@@ -417,18 +438,31 @@ class NetworkBatch:
         actions = dynamics.checked(actions)    # before anything is drawn
         before = self.sim_state
         moved = step(before, actions, dynamics, self._headings() if self._speed_m else None)
-        config = moved.config
-        if self.num_uavs > 1:
-            moved_m = config[..., :3]
-            positions = separated(before.uav_m, moved_m, self._min_separation_m)
-            if positions is not moved_m:
-                config = np.concatenate([positions, config[..., 3:]], axis=-1)
-                moved = SimState._new(config, moved.users_m, moved.t)
+        if self.num_uavs > 1 or self.city is not None:
+            moved = self._kept_apart(before, moved)
         self.sim_state = moved
         energy_j = self._energy.of_move(self._squeezed(before.uav_m),
                                         self._squeezed(moved.uav_m))
         state = self.state = self._evaluate(moved, energy_j)
         return self._obs, state.reward, moved.t >= self._max_steps, state
+
+    def _kept_apart(self, before: SimState, moved: SimState) -> SimState:
+        """The controls stage's rules of the UAVs' positions: moves that break the separation
+        held back (several UAVs), then moves into a building, and the users' steps onto a
+        footprint (docs/model.md §9 and §12)."""
+        moved_m = positions = moved.config[..., :3]
+        if self.num_uavs > 1:
+            positions = separated(before.uav_m, moved_m, self._min_separation_m)
+        users_m = moved.users_m
+        if self.city is not None:
+            positions = kept_out(before.uav_m, positions, self.city)
+            if users_m is not before.users_m:
+                users_m = users_kept_out(before.users_m, users_m, self.city.footprints_m)
+        if positions is moved_m and users_m is moved.users_m:
+            return moved
+        config = (moved.config if positions is moved_m
+                  else np.concatenate([positions, moved.config[..., 3:]], axis=-1))
+        return SimState._new(config, users_m, moved.t)
 
     def evaluate_at(self, uav_m: FloatArray, alpha_first: FloatArray) -> NetworkState:
         """The network with the UAVs at ``uav_m`` and first users' shares ``alpha_first``
@@ -446,6 +480,8 @@ class NetworkBatch:
         users_m = state.users_m
         if self._speed_m:
             users_m = self._dynamics.walked(users_m, self._headings())
+            if self.city is not None:
+                users_m = users_kept_out(state.users_m, users_m, self.city.footprints_m)
         return self._held(uav_m, alpha_first, users_m, state.t + 1)
 
     def _held(self, uav_m: FloatArray, alpha_first: FloatArray, users_m: FloatArray, t: int
@@ -489,6 +525,9 @@ class NetworkBatch:
                                     carrier_hz=self._carrier_hz,
                                     bandwidth_hz=self.bandwidth_hz,
                                     users_above_ground=self._users_above_ground)
+        if self._blockage is not None:
+            geometry = geometry.with_los(self._blockage.los(uav_m, users_m).reshape(
+                geometry.shape))
         gains, los, p_los = link_gains(self.channel, self._los_mode, geometry,
                                        self.rngs if self.rngs is not None else self.rng,
                                        num_uavs=self.num_uavs, fading=self._fading)

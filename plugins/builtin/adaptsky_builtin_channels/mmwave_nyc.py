@@ -37,7 +37,7 @@ class MmWaveNycParams(ChannelParams):
 
 class MmWaveNyc(ChannelModel):
     Params = MmWaveNycParams
-    contract_version = 2
+    contract_version = 3
     # the constants of eq. 4-5 are measured at 28 GHz (Table I): no other carrier is modelled
     supports = Supports(carrier_hz=(28e9, 28e9))
     # the paper's Table I, mmWave column: what a scenario's [radio] leaves out

@@ -34,7 +34,7 @@ class Sub6AlHouraniParams(ChannelParams):
 
 class Sub6AlHourani(ChannelModel):
     Params = Sub6AlHouraniParams
-    contract_version = 2
+    contract_version = 3
     # the paper's Table I, sub-6 column: what a scenario's [radio] leaves out
     default_radio = MappingProxyType({
         "carrier_hz": 2e9, "tx_power_dbm": 30.0, "bandwidth_hz": 50e6,

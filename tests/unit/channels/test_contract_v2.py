@@ -263,7 +263,7 @@ class V1WithFading(Undeclared):
 
 
 class FromTheFuture(FreeSpace28):
-    contract_version = 3
+    contract_version = 4
 
 
 class TextVersion(FreeSpace28):
@@ -278,9 +278,9 @@ class EnabledWithoutFading(FreeSpace28):
 @pytest.mark.parametrize(("model", "line"), [
     (V1WithFading, "contract: sample_fading() is a contract-2 hook; declare contract_version "
                    "= 2 in the class to use it"),
-    (FromTheFuture, "contract: written for plugin contract 3; this adaptsky supports "
-                    "contracts 1 and 2: upgrade adaptsky"),
-    (TextVersion, "contract: contract_version must be one of 1 and 2 (got '2')"),
+    (FromTheFuture, "contract: written for plugin contract 4; this adaptsky supports "
+                    "contracts 1, 2 and 3: upgrade adaptsky"),
+    (TextVersion, "contract: contract_version must be one of 1, 2 and 3 (got '2')"),
     (EnabledWithoutFading, "fading: fading_enabled() is overridden but sample_fading() is not "
                            "implemented"),
 ])

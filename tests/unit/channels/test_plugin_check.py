@@ -313,7 +313,7 @@ def test_plugins_show_prints_the_contract_and_markup_free_text(capsys):
                        "path loss"}
 
 
-FUTURE = UNDECLARED + "    contract_version = 3\n"
+FUTURE = UNDECLARED + "    contract_version = 4\n"
 
 
 def test_contract_versions_at_discovery_and_in_plugins_check(tmp_path):
@@ -322,9 +322,9 @@ def test_contract_versions_at_discovery_and_in_plugins_check(tmp_path):
     assert listed["old-channel"]["contract_version"] == 1
     assert listed["future-channel"]["status"] == "broken"
     assert listed["future-channel"]["error"] == (
-        "future_channel:Model: contract: written for plugin contract 3; this adaptsky supports "
-        "contracts 1 and 2: upgrade adaptsky")
-    assert listed["mmwave-nyc"]["contract_version"] == 2
+        "future_channel:Model: contract: written for plugin contract 4; this adaptsky supports "
+        "contracts 1, 2 and 3: upgrade adaptsky")
+    assert listed["mmwave-nyc"]["contract_version"] == 3
     old = _run(tmp_path, "plugins", "check", "old-channel")
     assert old.returncode == 0
     assert old.stdout.splitlines()[0] == (

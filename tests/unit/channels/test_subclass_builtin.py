@@ -82,7 +82,7 @@ def test_the_subclass_draws_the_builtins_numbers_with_its_override(installed):
     p = model.los_probability(geo)
     np.testing.assert_allclose(model.expected_gain(geo), p * model.gain_los(geo)
                                + (1 - p) * model.gain_nlos(geo), rtol=1e-12)
-    assert DenseNyc.supports == MmWaveNyc.supports and DenseNyc.contract_version == 2
+    assert DenseNyc.supports == MmWaveNyc.supports and DenseNyc.contract_version == 3
 
 
 def test_registered_listed_checked_and_trained(installed, tmp_path):
@@ -90,13 +90,13 @@ def test_registered_listed_checked_and_trained(installed, tmp_path):
                                                         "--json").stdout)}
     dense = listed["mmwave-nyc-dense"]
     assert (dense["status"], dense["package"], dense["contract_version"]) == (
-        "ok", "my-channels", 2)
+        "ok", "my-channels", 3)
     assert dense["description"].startswith("28 GHz mmWave, NYC path loss with an extra NLoS")
     assert listed["mmwave-nyc"]["status"] == "ok"  # the built-in is untouched
     checked = adaptsky(installed, "plugins", "check", "mmwave-nyc-dense", "--param",
                        "nlos_extra_loss_db=12")
     assert checked.returncode == 0, checked.stderr
-    assert checked.stdout.startswith("ok  mmwave-nyc-dense: follows plugin contract 2")
+    assert checked.stdout.startswith("ok  mmwave-nyc-dense: follows plugin contract 3")
     shown = json.loads(adaptsky(installed, "plugins", "show", "mmwave-nyc-dense",
                                 "--json").stdout)["params"]
     assert shown["los_c"]["default"] == 12.0 and shown["los_c"]["limits"] == {"gt": 0,
