@@ -171,7 +171,9 @@ ADDED_SECTION_DEFAULTS = {("uav", "count"): 1, ("uav", "start_positions_m"): Non
                           # exploring starts (docs/training.md)
                           ("train", "exploring_starts"): "none",
                           # what a cluster's action component does (continuous actions)
-                          ("uav", "power"): "change"}
+                          ("uav", "power"): "change",
+                          # the built-in small-scale fading (docs/model.md §11), off
+                          ("channel", "fading"): {"model": "none"}}
 # names a newer adaptsky adds beside the numbers it had (JSON keys, HDF5 datasets with their
 # attributes): compared where both sides have them, left out where only the newer one does.
 # Each user's steady-state rate of eval (steady_user_rate_bps) and last-episode rate of

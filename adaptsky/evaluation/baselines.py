@@ -8,9 +8,11 @@ found for one step, as gains are deterministic; OMA's rates are its own (each us
 cluster on half the band with half the power), held as the search computed them, since the
 environment computes NOMA rates. Under sampled LoS best response and OMA search the expected
 gains and hold what they found for every step, their rates taken under the policy's own LoS
-draws (:data:`SAMPLED_LOS_NOTE`). Where the users walk, every rollout moves them with the same
-draws as the policy's; the searches, which find one configuration for the users' home
-positions, are refused there.
+draws (:data:`SAMPLED_LOS_NOTE`); under the built-in fading (docs/model.md §11) they search
+the mean gains, without fading, and hold what they found under the policy's own fading draws
+(:data:`FADING_NOTE`): a reference for static policies, not a bound. Where the users walk,
+every rollout moves them with the same draws as the policy's; the searches, which find one
+configuration for the users' home positions, are refused there.
 """
 
 from __future__ import annotations
@@ -51,6 +53,15 @@ SAMPLED_LOS_NOTE = ("searched on the expected gains (channel.los = 'expected'), 
                     "under the policy's own LoS draws (channel.los = 'sampled'): a reference, "
                     "not a bound")
 """What best response and OMA are under sampled LoS (their label in tables and files)."""
+FADING_NOTE = ("searched on the mean gains, without fading (channel.fading.model = 'none': "
+               "E|h|^2 = 1), its rates under the policy's own fading draws: a reference for "
+               "static policies, not a bound")
+"""What best response and OMA are under the built-in fading (docs/model.md §11)."""
+SAMPLED_LOS_FADING_NOTE = ("searched on the expected gains without fading (channel.los = "
+                           "'expected', channel.fading.model = 'none'), its rates under the "
+                           "policy's own LoS and fading draws: a reference for static policies, "
+                           "not a bound")
+"""What best response and OMA are under sampled LoS and the built-in fading."""
 
 
 def require_applies(scenario: Scenario, method: str, option: str = "") -> None:
@@ -71,12 +82,29 @@ def require_applies(scenario: Scenario, method: str, option: str = "") -> None:
 
 
 def searched_scenario(scenario: Scenario) -> Scenario:
-    """The scenario best response and OMA search on: as it is, or under sampled LoS, the
-    same with every link at its expected gain (``channel.los = "expected"``)."""
-    if scenario.channel.los != "sampled":
+    """The scenario best response and OMA search on: as it is, or under sampled LoS the
+    same with every link at its expected gain (``channel.los = "expected"``), and under the
+    built-in fading at its mean gain (``channel.fading.model = "none"``: E|h|^2 = 1)."""
+    values: dict[str, Any] = {}
+    if scenario.channel.los == "sampled":
+        values["los"] = "expected"
+    if scenario.channel.fading.model != "none":
+        values["fading"] = {"model": "none"}
+    if not values:
         return scenario
-    return with_values(scenario, "channel", {"los": "expected"},
-                       f"{scenario.name} with channel.los = 'expected'")
+    shown = ", ".join(f"channel.{key} = 'expected'" if key == "los" else
+                      "channel.fading.model = 'none'" for key in values)
+    return with_values(scenario, "channel", values, f"{scenario.name} with {shown}")
+
+
+def searched_note(scenario: Scenario) -> str | None:
+    """What best response and OMA are on ``scenario`` where they search another one
+    (:func:`searched_scenario`): the note of their results, else None."""
+    sampled = scenario.channel.los == "sampled"
+    fading = scenario.channel.fading.model != "none"
+    if sampled and fading:
+        return SAMPLED_LOS_FADING_NOTE
+    return SAMPLED_LOS_NOTE if sampled else FADING_NOTE if fading else None
 
 
 def baseline_work(method: str, steps: int, users_m: np.ndarray) -> tuple[int, str]:
@@ -90,7 +118,8 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
     units of :func:`baseline_work` done (the searches: within a layout too, with where they
     are). The searches' details: ``seconds_per_layout`` and
     ``objective_bps`` (L,); best response and OMA also ``rounds`` and ``converged`` (L,),
-    and under sampled LoS a ``note`` (:data:`SAMPLED_LOS_NOTE`). Every rollout moves the
+    and under sampled LoS or the built-in fading a ``note`` (:func:`searched_note`). Every
+    rollout moves the
     users as the policy's does, with the same draws (:func:`~adaptsky.rollouts.rollout.hold`):
     SoA plans once and its rates are taken at each step's positions."""
     if method not in BASELINES:
@@ -116,9 +145,9 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
         found = search(searched, method, users_m, on_progress)
         details |= search_details(found)
         uav_m = found.uav_m[:, 0] if one_uav else found.uav_m
-        drawn = searched is not scenario   # rates under the policy's LoS draws, every step
+        drawn = searched is not scenario   # rates under the policy's draws, every step
         if drawn:
-            details["note"] = SAMPLED_LOS_NOTE
+            details["note"] = searched_note(scenario)
         if method == "best-response":
             alpha_first = found.alpha_first[:, 0] if one_uav else found.alpha_first
             trace = hold(scenario, uav_m, alpha_first, steps if drawn else 1, users_m, seed)
