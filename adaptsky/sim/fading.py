@@ -15,10 +15,10 @@ for LoS links of model ``rician`` the K-factor of the elevation angle theta
 
     s_t = rho s_{t-1} + sqrt(1 - rho^2) w_t,   w_t ~ CN(0, 1)           (eq. 11.3)
 
-with s drawn fresh at every reset. Each w is two standard normals (its real and imaginary
-parts times sqrt(1/2)); environment b's come from its generator (or all from one shared
-generator), drawn in blocks of several steps' worth (docs/model.md §11, the draws): a step's
-fading then costs numpy work on arrays, not a call per environment.
+with s drawn fresh at every reset. Each w is a pair of uniforms through the Box-Muller
+transform (:func:`complex_normals`); environment b's uniforms come from its generator (or all
+from one shared generator), drawn in blocks of several steps' worth (docs/model.md §11, the
+draws): a step's fading then costs numpy work on arrays, not a call per environment.
 """
 
 from __future__ import annotations
@@ -35,12 +35,11 @@ BoolArray = NDArray[np.bool_]
 ComplexArray = NDArray[np.complex128]
 Generators = np.random.Generator | list[np.random.Generator]
 
-BLOCK_NORMALS = 4096
-"""Normals an environment draws from its generator at once, at most (a block of steps)."""
+BLOCK_UNIFORMS = 4096
+"""Uniforms an environment draws from its generator at once, at most (a block of steps)."""
 MAX_BLOCK_STEPS = 64
 """Steps of fading drawn at once, at most (docs/model.md §11, the draws)."""
 _DB_TO_LOG_ROOT = math.log(10) / 20      # ln sqrt(10^(x / 10)) per dB x
-_HALF_ROOT = math.sqrt(0.5)              # the scale of each part of CN(0, 1)
 
 
 # ---- the maths -------------------------------------------------------------------------------
@@ -78,14 +77,45 @@ def power_gain(real: FloatArray, imag: FloatArray, root_k: FloatArray | None) ->
     return gain
 
 
-def ar1(previous: FloatArray, innovation: FloatArray, correlation: float,
+def innovation_scale(correlation: float) -> float:
+    """sqrt(1 - rho^2), the weight of w_t in eq. 11.3 (so that E|s_t|^2 stays 1)."""
+    return math.sqrt(1.0 - correlation ** 2)
+
+
+def ar1(previous: FloatArray, scaled_innovation: FloatArray, correlation: float,
         out: FloatArray | None = None) -> FloatArray:
     """s_t of eq. 11.3, ``rho s_{t-1} + sqrt(1 - rho^2) w_t``, for each part of s (real
-    arrays); written into ``out`` where given (it may be ``previous``)."""
-    update = np.multiply(innovation, math.sqrt(1.0 - correlation ** 2))
+    arrays), given ``sqrt(1 - rho^2) w_t`` (:func:`innovation_scale` times w_t, as the
+    stage makes it); written into ``out`` where given (it may be ``previous``)."""
     scattered = np.multiply(previous, correlation, out=out)
-    scattered += update
+    scattered += scaled_innovation
     return scattered
+
+
+def complex_normals(first: FloatArray, second: FloatArray, scale: float = 1.0,
+                    out: FloatArray | None = None,
+                    work: NDArray[np.float32] | None = None) -> FloatArray:
+    """``scale`` times CN(0, 1) draws (2, ...), real and imaginary parts, from uniforms
+    u1 = ``first`` and u2 = ``second`` in [0, 1) (both shaped ...): the Box-Muller transform,
+    ``sqrt(-ln(1 - u1))`` times ``cos`` and ``sin`` of ``2 pi u2``, each part N(0, 1/2) and
+    ``|s|^2 = -ln(1 - u1) ~ Exp(1)`` exactly. 1 - u1 is taken in double precision, the rest
+    in single precision (relative error below 1e-6; numpy's double-precision cosine and sine
+    cost twenty times as much). ``out`` and ``work`` (3, ...), float32, are workspace kept
+    by the caller (a fresh large array costs its page faults)."""
+    if out is None:
+        out = np.empty((2, *first.shape))
+    if work is None:
+        work = np.empty((3, *first.shape), dtype=np.float32)
+    radius = np.subtract(1.0, first, out=work[2], casting="same_kind")
+    np.log(radius, out=radius)
+    np.multiply(radius, -scale * scale, out=radius)
+    np.sqrt(radius, out=radius)
+    angle = np.multiply(second, 2 * np.pi, out=work[0], casting="same_kind")
+    np.sin(angle, out=work[1])
+    np.cos(angle, out=angle)
+    np.multiply(work[0], radius, out=out[0])
+    np.multiply(work[1], radius, out=out[1])
+    return out
 
 
 # ---- the stage's state -----------------------------------------------------------------------
@@ -93,16 +123,17 @@ def ar1(previous: FloatArray, innovation: FloatArray, correlation: float,
 class FadingStage:
     """The fading of B environments of U UAVs and N users (docs/model.md §11): the scattered
     part s of every link, (2, B, U, N) real and imaginary parts, drawn fresh by the first
-    evaluation after :meth:`reset` and carried through eq. 11.3 at every later one.
+    evaluation after :meth:`reset` and carried through eq. 11.3 at every later one (the
+    block keeps w times sqrt(1 - rho^2), the weight eq. 11.3 gives it).
 
-    Draws: each environment's normals come from its own generator (a list of B) or every
+    Draws: each environment's uniforms come from its own generator (a list of B) or every
     environment's from one shared generator, a block of ``block_steps`` steps at a time (at
-    most :data:`MAX_BLOCK_STEPS`, at most :data:`BLOCK_NORMALS` normals per environment, so
+    most :data:`MAX_BLOCK_STEPS`, at most :data:`BLOCK_UNIFORMS` uniforms per environment, so
     the block depends on U and N, never on B), drawn when a step finds the block used up, after
-    that step's LoS draws: environment b's block is
-    ``generator_b.standard_normal((steps, 2, U, N))``, step by step the real and imaginary
-    parts of w (times sqrt(1/2)). :meth:`reset` throws away what is left of a block: an
-    episode's numbers depend only on the generators' states at its reset.
+    that step's LoS draws: environment b's block is ``generator_b.random((2, steps, U, N))``,
+    u1 then u2 of every link and step (:func:`complex_normals`). :meth:`reset` throws away
+    what is left of a block: an episode's numbers depend only on the generators' states at
+    its reset.
     """
 
     def __init__(self, fading: Fading, num_envs: int, num_uavs: int, num_users: int) -> None:
@@ -114,9 +145,15 @@ class FadingStage:
         self.correlation = fading.correlation or 0.0
         self.shape = (num_envs, num_uavs, num_users)
         links = num_uavs * num_users
-        self.block_steps = steps = max(1, min(MAX_BLOCK_STEPS, BLOCK_NORMALS // (2 * links)))
-        # environment by environment as drawn, and step by step as used
-        self._drawn = np.empty((num_envs, steps, 2, num_uavs, num_users))
+        self.block_steps = steps = max(1, min(MAX_BLOCK_STEPS, BLOCK_UNIFORMS // (2 * links)))
+        # the uniforms environment by environment, as drawn; w part by part, as made; w step
+        # by step, as used (each made once per block, so that the elementwise work runs over
+        # long contiguous rows)
+        self._drawn = np.empty((num_envs, 2, steps, num_uavs, num_users))
+        self._made = np.empty((2, num_envs, steps, num_uavs, num_users))
+        self._work = np.empty((3, *self._made.shape[1:]), dtype=np.float32)
+        # w is kept times sqrt(1 - rho^2), the weight eq. 11.3 gives it
+        self._scale = innovation_scale(self.correlation)
         self._steps = np.empty((steps, 2, num_envs, num_uavs, num_users))
         self._scattered: FloatArray | None = None
         self.reset()
@@ -127,18 +164,20 @@ class FadingStage:
         self._scattered = None
 
     def _draw_block(self, rng: Generators) -> None:
-        """The next ``block_steps`` steps' w, into ``_steps`` (each part N(0, 1/2))."""
+        """The next ``block_steps`` steps' w, into ``_steps``."""
         if isinstance(rng, list):
             for drawn, generator in zip(self._drawn, rng, strict=True):
-                generator.standard_normal(out=drawn)
-            np.multiply(self._drawn.transpose(1, 2, 0, 3, 4), _HALF_ROOT, out=self._steps)
+                generator.random(out=drawn)
         else:
-            rng.standard_normal(out=self._steps)
-            self._steps *= _HALF_ROOT
+            rng.random(out=self._drawn)
+        complex_normals(self._drawn[:, 0], self._drawn[:, 1], self._scale, out=self._made,
+                        work=self._work)
+        np.copyto(self._steps, self._made.transpose(2, 0, 1, 3, 4))
         self._used = 0
 
     def _innovation(self, rng: Generators) -> FloatArray:
-        """The step's w (2, B, U, N), a view of the block (drawn first where used up)."""
+        """The step's sqrt(1 - rho^2) w (2, B, U, N), a view of the block (drawn first where
+        used up)."""
         if self._used == self.block_steps:
             self._draw_block(rng)
         self._used += 1
@@ -149,8 +188,8 @@ class FadingStage:
         innovation = self._innovation(rng)
         if self.correlation == 0.0:
             return innovation                  # nothing kept: a view of the block will do
-        if self._scattered is None:
-            self._scattered = innovation.copy()
+        if self._scattered is None:                         # fresh: s = w
+            self._scattered = np.divide(innovation, self._scale)
         else:
             ar1(self._scattered, innovation, self.correlation, out=self._scattered)
         return self._scattered
