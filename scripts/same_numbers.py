@@ -172,7 +172,8 @@ ADDED_SECTION_DEFAULTS = {("uav", "count"): 1, ("uav", "start_positions_m"): Non
                           ("train", "exploring_starts"): "none",
                           # what a cluster's action component does (continuous actions)
                           ("uav", "power"): "change",
-                          # the built-in small-scale fading (docs/model.md §11), off
+                          # the built-in small-scale fading (docs/model.md §11), off (its
+                          # unset keys, null in JSON, left out)
                           ("channel", "fading"): {"model": "none"}}
 # names a newer adaptsky adds beside the numbers it had (JSON keys, HDF5 datasets with their
 # attributes): compared where both sides have them, left out where only the newer one does.
@@ -215,9 +216,17 @@ def without_times(value: object, table: str = "") -> object:
                 and k not in {"created_utc", "started_utc"}
                 and not (k in ADDED_DEFAULTS and v == ADDED_DEFAULTS[k])
                 and not ((table, k) in ADDED_SECTION_DEFAULTS
-                         and v == ADDED_SECTION_DEFAULTS[table, k])}
+                         and _without_none(v) == ADDED_SECTION_DEFAULTS[table, k])}
     if isinstance(value, list):
         return [without_times(v) for v in value]
+    return value
+
+
+def _without_none(value: object) -> object:
+    """``value`` without the None entries of its dicts (JSON keeps the unset keys of a
+    table, as null, that TOML leaves out)."""
+    if isinstance(value, dict):
+        return {k: _without_none(v) for k, v in value.items() if v is not None}
     return value
 
 

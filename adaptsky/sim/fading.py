@@ -32,7 +32,6 @@ from adaptsky.scenario.models import Fading
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
-ComplexArray = NDArray[np.complex128]
 Generators = np.random.Generator | list[np.random.Generator]
 
 BLOCK_UNIFORMS = 4096
