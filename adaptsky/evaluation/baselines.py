@@ -9,8 +9,10 @@ cluster on half the band with half the power), held as the search computed them,
 environment computes NOMA rates. Under sampled LoS best response and OMA search the expected
 gains and hold what they found for every step, their rates taken under the policy's own LoS
 draws (:data:`SAMPLED_LOS_NOTE`); under the built-in fading (docs/model.md §11) they search
-the mean gains, without fading, and hold what they found under the policy's own fading draws
-(:data:`FADING_NOTE`): a reference for static policies, not a bound. Where the users walk,
+the mean gains, without fading, and hold what they found under the policy's own fading draws,
+best response with each cluster's share chosen for the largest mean sum rate over those draws
+where no minimum rate binds (:func:`searched_note`): a reference for static policies, not a
+bound. Where the users walk,
 every rollout moves them with the same draws as the policy's; the searches, which find one
 configuration for the users' home positions, are refused there.
 """
@@ -25,6 +27,7 @@ import numpy as np
 from adaptsky.errors import AdaptskyError
 from adaptsky.progress import Tick
 from adaptsky.rollouts import several_uavs
+from adaptsky.rollouts.mean_shares import mean_best_shares, shares_apply
 from adaptsky.rollouts.metrics import Method
 from adaptsky.rollouts.oracle import oracle, require_deterministic_gains, require_static_users
 from adaptsky.rollouts.rollout import Trace, hold, random_controls_policy, rollout
@@ -53,15 +56,6 @@ SAMPLED_LOS_NOTE = ("searched on the expected gains (channel.los = 'expected'), 
                     "under the policy's own LoS draws (channel.los = 'sampled'): a reference, "
                     "not a bound")
 """What best response and OMA are under sampled LoS (their label in tables and files)."""
-FADING_NOTE = ("searched on the mean gains, without fading (channel.fading.model = 'none': "
-               "E|h|^2 = 1), its rates under the policy's own fading draws: a reference for "
-               "static policies, not a bound")
-"""What best response and OMA are under the built-in fading (docs/model.md §11)."""
-SAMPLED_LOS_FADING_NOTE = ("searched on the expected gains without fading (channel.los = "
-                           "'expected', channel.fading.model = 'none'), its rates under the "
-                           "policy's own LoS and fading draws: a reference for static policies, "
-                           "not a bound")
-"""What best response and OMA are under sampled LoS and the built-in fading."""
 
 
 def require_applies(scenario: Scenario, method: str, option: str = "") -> None:
@@ -97,14 +91,36 @@ def searched_scenario(scenario: Scenario) -> Scenario:
     return with_values(scenario, "channel", values, f"{scenario.name} with {shown}")
 
 
-def searched_note(scenario: Scenario) -> str | None:
-    """What best response and OMA are on ``scenario`` where they search another one
-    (:func:`searched_scenario`): the note of their results, else None."""
+def searched_note(scenario: Scenario, method: str = "best-response") -> str | None:
+    """What best response (``method``) or OMA is on ``scenario`` where it searches another
+    one (:func:`searched_scenario`): the note of its results (:data:`SAMPLED_LOS_NOTE` under
+    sampled LoS alone), else None. Under the built-in fading best response's shares are then
+    those of the largest mean sum rate over the policy's draws where no minimum rate binds
+    (:func:`refines_shares`)."""
     sampled = scenario.channel.los == "sampled"
-    fading = scenario.channel.fading.model != "none"
-    if sampled and fading:
-        return SAMPLED_LOS_FADING_NOTE
-    return SAMPLED_LOS_NOTE if sampled else FADING_NOTE if fading else None
+    if scenario.channel.fading.model == "none":
+        return SAMPLED_LOS_NOTE if sampled else None
+    if sampled:
+        gains = ("the expected gains without fading (channel.los = 'expected', "
+                 "channel.fading.model = 'none')")
+        draws = "LoS and fading draws"
+    else:
+        gains = "the mean gains, without fading (channel.fading.model = 'none': E|h|^2 = 1)"
+        draws = "fading draws"
+    shares = ""
+    if method == "best-response":
+        shares = (f", each cluster's share then the one of the largest mean sum rate over the "
+                  f"policy's own {draws} there" if refines_shares(scenario) else
+                  " (its shares as searched: a minimum rate couples the clusters)")
+    return (f"searched on {gains}{shares}, its rates under the policy's own {draws}: a "
+            "reference for static policies, not a bound")
+
+
+def refines_shares(scenario: Scenario) -> bool:
+    """Whether best response chooses its shares over the policy's own draws at the positions
+    it found (:func:`~adaptsky.rollouts.mean_shares.mean_best_shares`): under the built-in
+    fading, where no minimum rate couples the clusters."""
+    return scenario.channel.fading.model != "none" and shares_apply(scenario)
 
 
 def baseline_work(method: str, steps: int, users_m: np.ndarray) -> tuple[int, str]:
@@ -147,9 +163,12 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
         uav_m = found.uav_m[:, 0] if one_uav else found.uav_m
         drawn = searched is not scenario   # rates under the policy's draws, every step
         if drawn:
-            details["note"] = searched_note(scenario)
+            details["note"] = searched_note(scenario, method)
         if method == "best-response":
             alpha_first = found.alpha_first[:, 0] if one_uav else found.alpha_first
+            if refines_shares(scenario):
+                alpha_first = mean_best_shares(scenario, uav_m, alpha_first, steps, users_m,
+                                               seed)
             trace = hold(scenario, uav_m, alpha_first, steps if drawn else 1, users_m, seed)
         elif drawn:
             held = found.alpha_first[:, 0] if one_uav else found.alpha_first  # NaN: no split
