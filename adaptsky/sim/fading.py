@@ -35,9 +35,17 @@ BoolArray = NDArray[np.bool_]
 Generators = np.random.Generator | list[np.random.Generator]
 
 BLOCK_UNIFORMS = 4096
-"""Uniforms an environment draws from its generator at once, at most (a block of steps)."""
-MAX_BLOCK_STEPS = 64
-"""Steps of fading drawn at once, at most (docs/model.md §11, the draws)."""
+"""Uniforms an environment draws from its generator at once, at most (a block of steps;
+docs/model.md §11, the draws)."""
+
+
+def block_steps(links: int, episode_steps: int) -> int:
+    """Steps of fading drawn at once for ``links`` = U N links per environment: an episode
+    of ``episode_steps`` (T) split into the fewest equal blocks of at most
+    :data:`BLOCK_UNIFORMS` uniforms (2 per link and step), so that little of the last one is
+    thrown away at a reset; never depends on B."""
+    most = max(1, BLOCK_UNIFORMS // (2 * links))
+    return math.ceil(episode_steps / math.ceil(episode_steps / most))
 _DB_TO_LOG_ROOT = math.log(10) / 20      # ln sqrt(10^(x / 10)) per dB x
 
 
@@ -64,12 +72,12 @@ def power_gain(real: FloatArray, imag: FloatArray, root_k: FloatArray | None) ->
     """``|h|^2`` of eq. 11.1 from the scattered part s = ``real`` + j ``imag`` and sqrt(K)
     (None or 0: Rayleigh, ``|s|^2``): ``((sqrt K + Re s)^2 + (Im s)^2) / (K + 1)``."""
     if root_k is None:
-        gain = np.square(real)
-        gain += np.square(imag)
+        gain = np.square(real, dtype=np.float64)
+        gain += np.square(imag, dtype=np.float64)
         return gain
-    gain = np.add(root_k, real)
+    gain = np.add(root_k, real, dtype=np.float64)
     np.square(gain, out=gain)
-    gain += np.square(imag)
+    gain += np.square(imag, dtype=np.float64)
     scale = np.square(root_k)
     scale += 1.0
     gain /= scale
@@ -94,7 +102,8 @@ def ar1(previous: FloatArray, scaled_innovation: FloatArray, correlation: float,
 def complex_normals(first: FloatArray, second: FloatArray, scale: float = 1.0,
                     out: FloatArray | None = None,
                     work: NDArray[np.float32] | None = None) -> FloatArray:
-    """``scale`` times CN(0, 1) draws (2, ...), real and imaginary parts, from uniforms
+    """``scale`` times CN(0, 1) draws (2, ...), real and imaginary parts (single precision
+    unless ``out`` is double), from uniforms
     u1 = ``first`` and u2 = ``second`` in [0, 1) (both shaped ...): the Box-Muller transform,
     ``sqrt(-ln(1 - u1))`` times ``cos`` and ``sin`` of ``2 pi u2``, each part N(0, 1/2) and
     ``|s|^2 = -ln(1 - u1) ~ Exp(1)`` exactly. 1 - u1 is taken in double precision, the rest
@@ -102,7 +111,7 @@ def complex_normals(first: FloatArray, second: FloatArray, scale: float = 1.0,
     cost twenty times as much). ``out`` and ``work`` (3, ...), float32, are workspace kept
     by the caller (a fresh large array costs its page faults)."""
     if out is None:
-        out = np.empty((2, *first.shape))
+        out = np.empty((2, *first.shape), dtype=np.float32)
     if work is None:
         work = np.empty((3, *first.shape), dtype=np.float32)
     radius = np.subtract(1.0, first, out=work[2], casting="same_kind")
@@ -126,16 +135,16 @@ class FadingStage:
     block keeps w times sqrt(1 - rho^2), the weight eq. 11.3 gives it).
 
     Draws: each environment's uniforms come from its own generator (a list of B) or every
-    environment's from one shared generator, a block of ``block_steps`` steps at a time (at
-    most :data:`MAX_BLOCK_STEPS`, at most :data:`BLOCK_UNIFORMS` uniforms per environment, so
-    the block depends on U and N, never on B), drawn when a step finds the block used up, after
-    that step's LoS draws: environment b's block is ``generator_b.random((2, steps, U, N))``,
-    u1 then u2 of every link and step (:func:`complex_normals`). :meth:`reset` throws away
-    what is left of a block: an episode's numbers depend only on the generators' states at
-    its reset.
+    environment's from one shared generator, a block of ``block_steps`` steps at a time
+    (:func:`block_steps`: it depends on U, N and the episode's T, never on B), drawn when a
+    step finds the block used up, after that step's LoS draws: environment b's block is
+    ``generator_b.random((2, steps, U, N))``, u1 then u2 of every link and step
+    (:func:`complex_normals`). :meth:`reset` throws away what is left of a block: an
+    episode's numbers depend only on the generators' states at its reset.
     """
 
-    def __init__(self, fading: Fading, num_envs: int, num_uavs: int, num_users: int) -> None:
+    def __init__(self, fading: Fading, num_envs: int, num_uavs: int, num_users: int,
+                 episode_steps: int = 1) -> None:
         if fading.model == "none":
             raise ValueError("fading.model 'none' has no fading stage")
         self.rician = fading.model == "rician"
@@ -144,16 +153,17 @@ class FadingStage:
         self.correlation = fading.correlation or 0.0
         self.shape = (num_envs, num_uavs, num_users)
         links = num_uavs * num_users
-        self.block_steps = steps = max(1, min(MAX_BLOCK_STEPS, BLOCK_UNIFORMS // (2 * links)))
+        self.block_steps = steps = block_steps(links, episode_steps)
         # the uniforms environment by environment, as drawn; w part by part, as made; w step
         # by step, as used (each made once per block, so that the elementwise work runs over
         # long contiguous rows)
         self._drawn = np.empty((num_envs, 2, steps, num_uavs, num_users))
-        self._made = np.empty((2, num_envs, steps, num_uavs, num_users))
+        # (w is single precision: complex_normals' products are; s is double)
+        self._made = np.empty((2, num_envs, steps, num_uavs, num_users), dtype=np.float32)
         self._work = np.empty((3, *self._made.shape[1:]), dtype=np.float32)
         # w is kept times sqrt(1 - rho^2), the weight eq. 11.3 gives it
         self._scale = innovation_scale(self.correlation)
-        self._steps = np.empty((steps, 2, num_envs, num_uavs, num_users))
+        self._steps = np.empty((steps, 2, num_envs, num_uavs, num_users), dtype=np.float32)
         self._scattered: FloatArray | None = None
         self.reset()
 
@@ -188,7 +198,7 @@ class FadingStage:
         if self.correlation == 0.0:
             return innovation                  # nothing kept: a view of the block will do
         if self._scattered is None:                         # fresh: s = w
-            self._scattered = np.divide(innovation, self._scale)
+            self._scattered = np.divide(innovation, self._scale, dtype=np.float64)
         else:
             ar1(self._scattered, innovation, self.correlation, out=self._scattered)
         return self._scattered

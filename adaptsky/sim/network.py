@@ -189,7 +189,7 @@ class NetworkBatch:
         # the built-in fading (docs/model.md §11): None for fading.model = "none"
         self._small_scale = (None if scenario.channel.fading.model == "none" else
                              FadingStage(scenario.channel.fading, num_envs, self.num_uavs,
-                                         self.num_users))
+                                         self.num_users, self._max_steps))
         self._reward = RewardFromSums(self.weights, self.num_users, self.bandwidth_hz)
         self._num_users = np.array(float(self.num_users))
         self._bandwidth = np.array(self.bandwidth_hz)

@@ -22,7 +22,7 @@ from scipy import stats
 from adaptsky.envs.gym_env import NomaUavEnv
 from adaptsky.envs.parallel_env import NomaUavParallelEnv
 from adaptsky.scenario.models import Fading
-from adaptsky.sim.fading import FadingStage, k_factor
+from adaptsky.sim.fading import BLOCK_UNIFORMS, FadingStage, block_steps, k_factor
 from adaptsky.sim.network import NetworkBatch
 from tests.conftest import SUB6_RADIO, make_scenario
 
@@ -80,7 +80,7 @@ def test_the_stage_is_eq_11_1_of_its_scattered_part_at_every_elevation():
     rng = np.random.default_rng(5)
     gains = stage.power_gains(elevation, los, rng)
     twin = FadingStage(Fading(model="rician", k0_db=-2.0, k90_db=12.0), 3, 2, 4)
-    parts = twin.scattered(np.random.default_rng(5))      # the same first draw
+    parts = twin.scattered(np.random.default_rng(5)).astype(np.float64)  # the same draw
     s = (parts[0] + 1j * parts[1]).reshape(6, 4)
     k = np.where(los, [[spec_k_factor(math.radians(e), -2.0, 12.0) for e in row]
                        for row in elevation], 0.0)
@@ -199,15 +199,25 @@ def test_interfering_links_fade_too():
     assert p > KS_P_MIN, f"interference ratio against Exp(1): p = {p:.3g}"
 
 
+@pytest.mark.parametrize(("links", "episode_steps", "steps"), [
+    (4, 300, 300), (16, 300, 100), (512, 300, 4), (4, 10**9, 512), (3000, 300, 1)])
+def test_a_block_splits_an_episode_evenly_within_its_uniforms(links, episode_steps, steps):
+    assert block_steps(links, episode_steps) == steps
+    assert steps * 2 * links <= max(BLOCK_UNIFORMS, 2 * links)
+
+
 @pytest.mark.parametrize("sections", [SUB6_SAMPLED, TWO_UAVS])
 def test_draws_do_not_depend_on_b(sections):
-    scenario = faded(sections, {"model": "rician", "correlation": 0.5})
+    # 30 steps an episode: blocks of 30 steps, so that 80 steps cross two block boundaries
+    scenario = faded({**sections, "train": {"steps": 30}},
+                     {"model": "rician", "correlation": 0.5})
     envs = [NetworkBatch(scenario, b, seed=[np.random.SeedSequence([7, i]) for i in range(b)])
             for b in (3, 5)]
     actions = np.random.default_rng(0).integers(0, envs[0].actions.count, size=(80, 5))
     for env in envs:
         env.reset()
-    for step in range(80):        # past a block of draws (block_steps <= 64)
+    assert envs[0]._small_scale.block_steps == 30
+    for step in range(80):
         small, large = (env.step(actions[step, :env.num_envs])[3] for env in envs)
         np.testing.assert_array_equal(small.gain, large.gain[:3])
         np.testing.assert_array_equal(small.interference_w, large.interference_w[:3])
@@ -216,7 +226,8 @@ def test_draws_do_not_depend_on_b(sections):
 def test_a_held_configuration_sees_the_policys_own_fading_draws():
     """Common random numbers: an environment that holds, step by step, where a policy's
     environment (same seed) went gets the policy's gains bit for bit."""
-    scenario = faded(SUB6_SAMPLED, {"model": "rician", "correlation": 0.9})
+    scenario = faded({**SUB6_SAMPLED, "train": {"steps": 30}},       # blocks of 30 steps
+                     {"model": "rician", "correlation": 0.9})
     policy, held = (NetworkBatch(scenario, 4, seed=11) for _ in range(2))
     policy.reset()
     held.reset()
@@ -253,3 +264,10 @@ def test_built_in_fading_has_no_gain_bounds_and_the_envs_pass_their_checks():
     env = gymnasium.make("adaptsky/NomaUav-v0", scenario=scenario)
     first = env.reset(seed=3)[1]["gain"]
     assert np.array_equal(env.reset(seed=3)[1]["gain"], first)   # seeded: reproducible
+
+
+@pytest.mark.parametrize("fading", [{"model": "rayleigh"}, {"model": "rician"},
+                                    {"model": "rician", "correlation": 0.5}])
+def test_faded_gains_stay_double_precision(fading):
+    state = NetworkBatch(faded({}, fading), 2, seed=0).reset()[1]
+    assert state.gain.dtype == np.float64
