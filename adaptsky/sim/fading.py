@@ -193,7 +193,8 @@ class FadingStage:
         return self._steps[self._used - 1]
 
     def scattered(self, rng: Generators) -> FloatArray:
-        """The step's s (2, B, U, N): fresh after a reset, else eq. 11.3."""
+        """The step's s (2, B, U, N): fresh after a reset, else eq. 11.3 (single precision,
+        a view of the block, where rho = 0; double where s is kept)."""
         innovation = self._innovation(rng)
         if self.correlation == 0.0:
             return innovation                  # nothing kept: a view of the block will do
