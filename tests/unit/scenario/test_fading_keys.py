@@ -91,3 +91,10 @@ def test_the_command_line_says_it_in_one_line_with_exit_code_1(tmp_path, capsys)
     assert main(["scenario", "validate", str(path)]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"{path}: channel.fading.model: 'rayleigh'")
+
+
+@pytest.mark.parametrize("key", ["k0_db", "k90_db", "correlation"])
+@pytest.mark.parametrize("value", [1e308, -1e3, float("nan"), float("inf"), "12", True])
+def test_odd_numbers_are_one_line_naming_the_key(key, value):
+    lines = _refused({"fading": {"model": "rician", key: value}})
+    assert len(lines) == 1 and lines[0].startswith(f"f.toml: channel.fading.{key}: "), lines
