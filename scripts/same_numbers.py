@@ -179,7 +179,10 @@ ADDED_SECTION_DEFAULTS = {("uav", "count"): 1, ("uav", "start_positions_m"): Non
                           ("world", "built_up_ratio"): None,
                           ("world", "buildings_per_km2"): None,
                           ("world", "height_scale_m"): None, ("world", "seed"): 0,
-                          ("world", "building"): []}
+                          ("world", "building"): [],
+                          # the built-in small-scale fading (docs/model.md §11), off (its
+                          # unset keys, null in JSON, left out)
+                          ("channel", "fading"): {"model": "none"}}
 # tables a newer adaptsky adds: left out where every key in them is at its default
 ADDED_TABLES = {"world"}
 # names a newer adaptsky adds beside the numbers it had (JSON keys, HDF5 datasets with their
@@ -223,10 +226,18 @@ def without_times(value: object, table: str = "") -> object:
                 and k not in {"created_utc", "started_utc"}
                 and not (k in ADDED_DEFAULTS and v == ADDED_DEFAULTS[k])
                 and not ((table, k) in ADDED_SECTION_DEFAULTS
-                         and v == ADDED_SECTION_DEFAULTS[table, k])}
+                         and _without_none(v) == ADDED_SECTION_DEFAULTS[table, k])}
         return {k: v for k, v in kept.items() if not (k in ADDED_TABLES and v == {})}
     if isinstance(value, list):
         return [without_times(v) for v in value]
+    return value
+
+
+def _without_none(value: object) -> object:
+    """``value`` without the None entries of its dicts (JSON keeps the unset keys of a
+    table, as null, that TOML leaves out)."""
+    if isinstance(value, dict):
+        return {k: _without_none(v) for k, v in value.items() if v is not None}
     return value
 
 

@@ -8,9 +8,13 @@ found for one step, as gains are deterministic; OMA's rates are its own (each us
 cluster on half the band with half the power), held as the search computed them, since the
 environment computes NOMA rates. Under sampled LoS best response and OMA search the expected
 gains and hold what they found for every step, their rates taken under the policy's own LoS
-draws (:data:`SAMPLED_LOS_NOTE`). Where the users walk, every rollout moves them with the same
-draws as the policy's; the searches, which find one configuration for the users' home
-positions, are refused there.
+draws (:data:`SAMPLED_LOS_NOTE`); under the built-in fading (docs/model.md §11) they search
+the mean gains, without fading, and hold what they found under the policy's own fading draws,
+best response with each cluster's share chosen for the largest mean sum rate over those draws
+where no minimum rate binds (:func:`searched_note`): a reference for static policies, not a
+bound. Where the users walk,
+every rollout moves them with the same draws as the policy's; the searches, which find one
+configuration for the users' home positions, are refused there.
 """
 
 from __future__ import annotations
@@ -23,6 +27,7 @@ import numpy as np
 from adaptsky.errors import AdaptskyError
 from adaptsky.progress import Tick
 from adaptsky.rollouts import several_uavs
+from adaptsky.rollouts.mean_shares import mean_best_shares, shares_apply
 from adaptsky.rollouts.metrics import Method
 from adaptsky.rollouts.oracle import oracle, require_deterministic_gains, require_static_users
 from adaptsky.rollouts.rollout import Trace, hold, random_controls_policy, rollout
@@ -71,12 +76,51 @@ def require_applies(scenario: Scenario, method: str, option: str = "") -> None:
 
 
 def searched_scenario(scenario: Scenario) -> Scenario:
-    """The scenario best response and OMA search on: as it is, or under sampled LoS, the
-    same with every link at its expected gain (``channel.los = "expected"``)."""
-    if scenario.channel.los != "sampled":
+    """The scenario best response and OMA search on: as it is, or under sampled LoS the
+    same with every link at its expected gain (``channel.los = "expected"``), and under the
+    built-in fading at its mean gain (``channel.fading.model = "none"``: E|h|^2 = 1)."""
+    values: dict[str, Any] = {}
+    if scenario.channel.los == "sampled":
+        values["los"] = "expected"
+    if scenario.channel.fading.model != "none":
+        values["fading"] = {"model": "none"}
+    if not values:
         return scenario
-    return with_values(scenario, "channel", {"los": "expected"},
-                       f"{scenario.name} with channel.los = 'expected'")
+    shown = ", ".join(f"channel.{key} = 'expected'" if key == "los" else
+                      "channel.fading.model = 'none'" for key in values)
+    return with_values(scenario, "channel", values, f"{scenario.name} with {shown}")
+
+
+def searched_note(scenario: Scenario, method: str = "best-response") -> str | None:
+    """What best response (``method``) or OMA is on ``scenario`` where it searches another
+    one (:func:`searched_scenario`): the note of its results (:data:`SAMPLED_LOS_NOTE` under
+    sampled LoS alone), else None. Under the built-in fading best response's shares are then
+    those of the largest mean sum rate over the policy's draws where no minimum rate binds
+    (:func:`refines_shares`)."""
+    sampled = scenario.channel.los == "sampled"
+    if scenario.channel.fading.model == "none":
+        return SAMPLED_LOS_NOTE if sampled else None
+    if sampled:
+        gains = ("the expected gains without fading (channel.los = 'expected', "
+                 "channel.fading.model = 'none')")
+        draws = "LoS and fading draws"
+    else:
+        gains = "the mean gains, without fading (channel.fading.model = 'none': E|h|^2 = 1)"
+        draws = "fading draws"
+    shares = ""
+    if method == "best-response":
+        shares = (f", each cluster's share then the one of the largest mean sum rate over the "
+                  f"policy's own {draws} there" if refines_shares(scenario) else
+                  " (its shares as searched: a minimum rate couples the clusters)")
+    return (f"searched on {gains}{shares}, its rates under the policy's own {draws}: a "
+            "reference for static policies, not a bound")
+
+
+def refines_shares(scenario: Scenario) -> bool:
+    """Whether best response chooses its shares over the policy's own draws at the positions
+    it found (:func:`~adaptsky.rollouts.mean_shares.mean_best_shares`): under the built-in
+    fading, where no minimum rate couples the clusters."""
+    return scenario.channel.fading.model != "none" and shares_apply(scenario)
 
 
 def baseline_work(method: str, steps: int, users_m: np.ndarray) -> tuple[int, str]:
@@ -90,7 +134,8 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
     units of :func:`baseline_work` done (the searches: within a layout too, with where they
     are). The searches' details: ``seconds_per_layout`` and
     ``objective_bps`` (L,); best response and OMA also ``rounds`` and ``converged`` (L,),
-    and under sampled LoS a ``note`` (:data:`SAMPLED_LOS_NOTE`). Every rollout moves the
+    and under sampled LoS or the built-in fading a ``note`` (:func:`searched_note`). Every
+    rollout moves the
     users as the policy's does, with the same draws (:func:`~adaptsky.rollouts.rollout.hold`):
     SoA plans once and its rates are taken at each step's positions."""
     if method not in BASELINES:
@@ -116,11 +161,14 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
         found = search(searched, method, users_m, on_progress)
         details |= search_details(found)
         uav_m = found.uav_m[:, 0] if one_uav else found.uav_m
-        drawn = searched is not scenario   # rates under the policy's LoS draws, every step
+        drawn = searched is not scenario   # rates under the policy's draws, every step
         if drawn:
-            details["note"] = SAMPLED_LOS_NOTE
+            details["note"] = searched_note(scenario, method)
         if method == "best-response":
             alpha_first = found.alpha_first[:, 0] if one_uav else found.alpha_first
+            if refines_shares(scenario):
+                alpha_first = mean_best_shares(scenario, uav_m, alpha_first, steps, users_m,
+                                               seed)
             trace = hold(scenario, uav_m, alpha_first, steps if drawn else 1, users_m, seed)
         elif drawn:
             held = found.alpha_first[:, 0] if one_uav else found.alpha_first  # NaN: no split

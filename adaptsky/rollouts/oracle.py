@@ -119,8 +119,9 @@ def _best_alpha_on_grid(gain_first: FloatArray, gain_second: FloatArray, alphas:
 
 
 def has_oracle(scenario: Scenario) -> bool:
-    """Whether the oracle applies: deterministic gains (LoS not drawn at random, no fading)
-    and users that stand (a search at their home positions bounds nothing once they walk)."""
+    """Whether the oracle applies: deterministic gains (LoS not drawn at random, no fading,
+    a plugin's or the built-in one of docs/model.md §11) and users that stand (a search at
+    their home positions bounds nothing once they walk)."""
     return _random_gains(scenario) is None and not users_move(scenario)
 
 
@@ -128,6 +129,8 @@ def _random_gains(scenario: Scenario) -> str | None:
     """What makes the scenario's gains random, or None."""
     if scenario.channel.los == "sampled":
         return "channel.los is 'sampled'"
+    if scenario.channel.fading.model != "none":
+        return f"channel.fading.model is '{scenario.channel.fading.model}'"
     if fading_active(build_channel(scenario)):
         return f"channel model '{scenario.channel.model}' draws per-step fading"
     return None

@@ -117,6 +117,7 @@ def parse_scenario(data: dict[str, Any], source: str = "<scenario>") -> Scenario
     params, carrier_hz = _channel_params(scenario, model_class, source, table_carrier_hz)
     if scenario.radio.carrier_hz is None:  # the carrier the model's defaults give
         _refuse_unsupported(scenario, model_class, carrier_hz, source)
+    _refuse_two_fadings(scenario, model_class, params, source)
     channel = scenario.channel.model_copy(update={"params": params.model_dump()})
     radio = scenario.radio.model_copy(update={"carrier_hz": carrier_hz})
     return scenario.model_copy(update={"channel": channel, "radio": radio})
@@ -166,6 +167,22 @@ def _refuse_unsupported(scenario: Scenario, model_class: type[ChannelModel],
                      "choose another model (adaptsky plugins list)")
     if lines:
         raise ScenarioError(lines)
+
+
+def _refuse_two_fadings(scenario: Scenario, model_class: type[ChannelModel],
+                       params: ChannelParams, source: str) -> None:
+    """Refuse built-in fading (docs/model.md §11) on a channel model that draws its own with
+    these parameters (plugin contract 2's ``fading_enabled()``): one link would fade twice."""
+    built_in = scenario.channel.fading.model
+    if built_in == "none" or contract_version_of(model_class) < 2:
+        return
+    if model_class(params).fading_enabled():
+        raise ScenarioError([
+            f"{source}: channel.fading.model: '{built_in}', but channel model "
+            f"'{scenario.channel.model}' draws its own fading with these channel.params; "
+            "every link would fade twice: set channel.fading.model = 'none', or turn the "
+            "model's fading off in channel.params (adaptsky plugins show "
+            f"{scenario.channel.model})"])
 
 
 def _channel_params(scenario: Scenario, model_class: type[ChannelModel], source: str,

@@ -225,6 +225,63 @@ class Radio(Section):
         return self.antennas_uav * self.antennas_ue
 
 
+FADING_K_DB = (-40.0, 40.0)
+"""The Rician K-factors a scenario may give, dB (1e-4 to 1e4: from Rayleigh-like to a pure LoS
+ray)."""
+DEFAULT_K0_DB = 0.0
+"""K at elevation 0 (ours, docs/model.md §11), dB."""
+DEFAULT_K90_DB = 15.0
+"""K at elevation 90 degrees (ours, docs/model.md §11), dB."""
+
+
+class Fading(Section):
+    """Small-scale fading built in for every channel model (docs/model.md §11). Keys that only
+    one model reads are refused with the others (a setting silently ignored is a bug); the
+    model's own keys left out take their defaults (so a resolved scenario lists them)."""
+
+    model: Literal["none", "rayleigh", "rician"] = Field(
+        "none", description="'none'; 'rayleigh', |h|^2 ~ Exp(1) on every link; 'rician', K(theta) "
+        "of the elevation on LoS links, Rayleigh on NLoS links")
+    k0_db: float | None = Field(
+        None, ge=FADING_K_DB[0], le=FADING_K_DB[1], description="Rician K-factor at elevation "
+        f"0, dB (model 'rician' only; default {DEFAULT_K0_DB:g})")
+    k90_db: float | None = Field(
+        None, ge=FADING_K_DB[0], le=FADING_K_DB[1], description="Rician K-factor at elevation "
+        f"90 degrees, dB (model 'rician' only; default {DEFAULT_K90_DB:g})")
+    correlation: float | None = Field(
+        None, description="rho in [0, 1), the correlation of the scattered part from one step "
+        "to the next (0: independent every step; Jakes: J0(2 pi f_D step_s)); default 0")
+
+    @field_validator("correlation")
+    @classmethod
+    def _correlation_below_one(cls, value: float | None) -> float | None:
+        if value is not None and not 0.0 <= value < 1.0:
+            raise ValueError(f"correlation rho = {value:g} lies outside [0, 1): 0 draws every "
+                             "step anew, values near 1 fade slowly, 1 would never change")
+        return value
+
+    @model_validator(mode="after")
+    def _keys_of_the_model(self) -> Fading:
+        """Refuse the keys the model does not read; fill in its own keys' defaults."""
+        ignored = [key for key in ("k0_db", "k90_db") if getattr(self, key) is not None
+                   and self.model != "rician"]
+        if self.correlation is not None and self.model == "none":
+            ignored.append("correlation")
+        if ignored:
+            reads = ("'rayleigh' reads correlation only" if self.model == "rayleigh"
+                     else "'none' reads none of them")
+            raise ValueError(f"{', '.join(ignored)} given with model = '{self.model}', which "
+                             f"ignores {'it' if len(ignored) == 1 else 'them'} ({reads}; "
+                             "'rician' reads k0_db, k90_db and correlation); remove "
+                             f"{'it' if len(ignored) == 1 else 'them'} or choose another model")
+        if self.model == "rician":
+            self.k0_db = DEFAULT_K0_DB if self.k0_db is None else self.k0_db
+            self.k90_db = DEFAULT_K90_DB if self.k90_db is None else self.k90_db
+        if self.model != "none" and self.correlation is None:
+            self.correlation = 0.0
+        return self
+
+
 class Channel(Section):
     model: str = Field("mmwave-nyc", min_length=1, description="name of a channel-model plugin")
     los: Literal["always", "sampled", "expected", "geometric"] = Field(
@@ -234,6 +291,8 @@ class Channel(Section):
     )
     params: dict[str, Any] = Field(default_factory=dict,
                                    description="the plugin's parameters (its own Params model)")
+    fading: Fading = Field(default_factory=Fading, description="small-scale fading "
+                           "(docs/model.md §11), off by default")
 
 
 CITY_PRESETS: dict[str, tuple[float, float, float]] = {
@@ -410,6 +469,17 @@ class Scenario(Section):
                 f"{held}, so at most {max(limit, 0)} users with uav.actions = "
                 f"'{self.uav.actions}' ({max(max_users(other, count, actions), 0)} with "
                 f"'{other}'){branching}")
+        return self
+
+    @model_validator(mode="after")
+    def _fading_needs_link_states(self) -> Scenario:
+        """Fading multiplies the gain of a link in a known LoS state (docs/model.md §11)."""
+        model = self.channel.fading.model
+        if model != "none" and self.channel.los == "expected":
+            raise ValueError(f"channel.fading.model: '{model}' with channel.los = 'expected' "
+                             "is ambiguous (the expected gain mixes the LoS and NLoS gains, "
+                             "and only one of them would fade); use channel.los = 'always' or "
+                             "'sampled', or channel.fading.model = 'none'")
         return self
 
     @model_validator(mode="after")

@@ -22,6 +22,7 @@ from adaptsky.channels.contract import (
 )
 from adaptsky.channels.registry import get_model_class
 from adaptsky.scenario.models import Scenario
+from adaptsky.sim.fading import FadingStage
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -126,7 +127,8 @@ Generators = np.random.Generator | list[np.random.Generator] | None
 
 
 def link_gains(channel: ChannelModel, los_mode: str, geometry: LinkGeometry,
-               rng: Generators = None, *, num_uavs: int = 1, fading: bool | None = None
+               rng: Generators = None, *, num_uavs: int = 1, fading: bool | None = None,
+               small_scale: FadingStage | None = None
                ) -> tuple[FloatArray, BoolArray, FloatArray]:
     """Linear gain of one antenna pair, LoS state and LoS probability of every link, each
     (B, U, N), from a (B*U, N) ``geometry`` (:func:`links_geometry`).
@@ -140,6 +142,9 @@ def link_gains(channel: ChannelModel, los_mode: str, geometry: LinkGeometry,
     ``rng``: one generator for every link, or a list of B, environment b's links (U rows)
     drawn from generator b (so its numbers do not depend on B or on its neighbours).
     ``fading``: :func:`fading_active` of the channel where the caller has it.
+    ``small_scale``: the built-in fading (docs/model.md §11), drawn after the LoS states
+    (every link's, LoS or not, so that its draws do not depend on them), its ``|h|^2``
+    multiplying every link's gain.
     """
     if los_mode == "geometric":
         gain, los = geometric_gain(channel, geometry), geometry.los
@@ -149,6 +154,12 @@ def link_gains(channel: ChannelModel, los_mode: str, geometry: LinkGeometry,
         gain, los, p_los = _drawn_los(channel, los_mode, geometry, rng, num_uavs)
     if fading_active(channel) if fading is None else fading:
         gain = gain * _drawn(channel.sample_fading, geometry, los, rng, num_uavs)
+    if small_scale is not None:
+        if rng is None:
+            raise ValueError("fading draws from a generator; pass rng")
+        factors = small_scale.power_gains(geometry.elevation_deg,
+                                          None if los_mode == "always" else los, rng)
+        gain = np.multiply(gain, factors, out=factors)
     shape = (geometry.shape[0] // num_uavs, num_uavs, geometry.shape[1])
     return gain.reshape(shape), los.reshape(shape), p_los.reshape(shape)
 

@@ -13,7 +13,8 @@ the new state, each a named stage, called in this order (docs/architecture.md):
 3. geometry of every UAV-user link (:func:`~adaptsky.sim.links.links_geometry`);
 4. channel: the plugin's gains, LoS and fading (:func:`~adaptsky.sim.links.link_gains`),
    with ``los = "geometric"`` the buildings' LoS states
-   (:meth:`~adaptsky.sim.blockage.Blockage.los`);
+   (:meth:`~adaptsky.sim.blockage.Blockage.los`), the built-in small-scale fading last
+   (:class:`~adaptsky.sim.fading.FadingStage`);
 5. association and clusters, fixed per layout (:mod:`adaptsky.sim.association`);
 6. rates: interference (:func:`~adaptsky.sim.interference.interference_sum_w`), SIC order
    (:func:`~adaptsky.sim.noma.is_strong`), SINR and rates (eqs. 2-3);
@@ -41,6 +42,7 @@ from adaptsky.sim.association import Association, associate, serving_groups
 from adaptsky.sim.blockage import Blockage, kept_out, users_kept_out
 from adaptsky.sim.city import City, city_of
 from adaptsky.sim.energy import EnergyAccount
+from adaptsky.sim.fading import FadingStage
 from adaptsky.sim.gain_bounds import gain_range, reachable_heights
 from adaptsky.sim.interference import (
     interference_sum_w,
@@ -190,6 +192,10 @@ class NetworkBatch:
         self._link_user_height_m.flags.writeable = False
         self._users_above_ground = bool(scenario.users.height_m)
         self._fading = fading_active(self.channel)
+        # the built-in fading (docs/model.md §11): None for fading.model = "none"
+        self._small_scale = (None if scenario.channel.fading.model == "none" else
+                             FadingStage(scenario.channel.fading, num_envs, self.num_uavs,
+                                         self.num_users, self._max_steps))
         self._reward = RewardFromSums(self.weights, self.num_users, self.bandwidth_hz)
         self._num_users = np.array(float(self.num_users))
         self._bandwidth = np.array(self.bandwidth_hz)
@@ -351,9 +357,10 @@ class NetworkBatch:
     def gain_bounds(self) -> tuple[float, float] | None:
         """The smallest and largest gain of a link, linear (``gain_bounds.gain_range``: the
         observation's bounds, docs/environment.md); None where the channel draws fading,
-        whose factors have no bound. Every link is one UAV's link to one user in the area,
-        so the bounds of one UAV's links hold."""
-        if self._fading:
+        whose factors have no bound (a plugin's or the built-in, docs/model.md §11). Every
+        link is one UAV's link to one user in the area, so the bounds of one UAV's links
+        hold."""
+        if self._fading or self._small_scale is not None:
             return None
         scenario = self.scenario
         return gain_range(self.channel, scenario.channel.los,
@@ -416,6 +423,8 @@ class NetworkBatch:
         generators of LoS draws, fading and user moves."""
         if seed is not None:
             self._seed(seed)
+        if self._small_scale is not None:
+            self._small_scale.reset()
         self._to_start(alpha_first)
         self.state = self._evaluate(self.sim_state)
         return self._obs, self.state
@@ -530,7 +539,8 @@ class NetworkBatch:
                 geometry.shape))
         gains, los, p_los = link_gains(self.channel, self._los_mode, geometry,
                                        self.rngs if self.rngs is not None else self.rng,
-                                       num_uavs=self.num_uavs, fading=self._fading)
+                                       num_uavs=self.num_uavs, fading=self._fading,
+                                       small_scale=self._small_scale)
         if self.num_uavs == 1:    # the only link of every user is its serving link
             gain, link_los, link_p_los = gains[:, 0], los[:, 0], p_los[:, 0]
         else:
