@@ -117,6 +117,20 @@ def steady_states(plan: Plan, measured: Evaluations, group: str) -> list[tuple[f
     return states
 
 
+def add_against(analysis: Analysis, row: str, steady: float, fairness: float,
+                bound: float | None, soa: float | None, share_quantity: str) -> None:
+    """One run's greedy steady state ``steady`` and Jain's index into ``analysis``'s ``row``,
+    beside the ``bound`` (its share of it as ``share_quantity``) and SoA (its gain over it, the
+    bound's as the reachable value)."""
+    analysis.add(row, "sum_rate_bps", steady, bound)
+    analysis.add(row, "fairness", fairness)
+    if bound:
+        analysis.add(row, share_quantity, 100 * steady / bound, 100.0)
+    if soa:
+        analysis.add(row, "gain_vs_soa_pct", 100 * (steady - soa) / soa,
+                     100 * (bound - soa) / soa if bound else None)
+
+
 def baseline_mean(evaluations: Evaluations, name: str, value: Any, metric: str) -> float | None:
     """The mean of baseline ``name``'s ``metric`` at sweep value ``value``; None if absent."""
     metrics = evaluations.baselines.get((name, value))

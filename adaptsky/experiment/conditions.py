@@ -12,6 +12,7 @@ import numpy as np
 from adaptsky.experiment.analysis import (
     Analysis,
     Outputs,
+    add_against,
     figure_title,
     row_label,
     steady_states,
@@ -154,13 +155,7 @@ def _policy_rates(plan: Plan, measured: Evaluations, analysis: Analysis, group: 
     rates = []
     for steady, fairness in steady_states(plan, measured, group):
         rates.append(steady)
-        analysis.add(row, "sum_rate_bps", steady, bound)
-        analysis.add(row, "fairness", fairness)
-        if bound:
-            analysis.add(row, "pct_of_bound", 100 * steady / bound, 100.0)
-        if soa:
-            analysis.add(row, "gain_vs_soa_pct", 100 * (steady - soa) / soa,
-                         100 * (bound - soa) / soa if bound else None)
+        add_against(analysis, row, steady, fairness, bound, soa, "pct_of_bound")
         if oma:
             analysis.add(row, "noma_over_oma_pct", 100 * (steady - oma) / oma,
                          100 * (bound - oma) / oma if bound else None)

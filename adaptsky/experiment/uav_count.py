@@ -11,6 +11,7 @@ import numpy as np
 from adaptsky.experiment.analysis import (
     Analysis,
     Outputs,
+    add_against,
     figure_title,
     row_label,
     steady_states,
@@ -145,11 +146,5 @@ def _measure_policy(plan: Plan, measured: Evaluations, analysis: Analysis, group
     for steady, jain in steady_states(plan, measured, group):
         rates.append(steady)
         fairness.append(jain)
-        analysis.add(row, "sum_rate_bps", steady, best_bps)
-        analysis.add(row, "fairness", jain)
-        if best_bps:
-            analysis.add(row, "pct_of_best_response", 100 * steady / best_bps, 100.0)
-        if soa_bps:
-            analysis.add(row, "gain_vs_soa_pct", 100 * (steady - soa_bps) / soa_bps,
-                         100 * (best_bps - soa_bps) / soa_bps if best_bps else None)
+        add_against(analysis, row, steady, jain, best_bps, soa_bps, "pct_of_best_response")
     return rates, fairness
