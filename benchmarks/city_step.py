@@ -25,6 +25,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from stepping import pin_one_thread  # noqa: E402
+
 from adaptsky.scenario import load_scenario  # noqa: E402
 from adaptsky.sim.network import NetworkBatch  # noqa: E402
 
@@ -32,14 +34,6 @@ SCENARIOS = (ROOT / "scenarios" / "two_uavs_mmwave.toml",
              ROOT / "scenarios" / "four_uavs_mmwave.toml")
 THRESHOLD = 0.5          # steps/s with buildings over steps/s without
 CITY = {"buildings": "generated", "city": "urban"}
-
-
-def pin_one_thread() -> None:
-    """One BLAS and one torch thread."""
-    from threadpoolctl import threadpool_limits
-
-    threadpool_limits(limits=1)
-    os.environ.update({var: "1" for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")})
 
 
 def environments(path: Path, num_envs: int, city: bool) -> NetworkBatch:

@@ -25,22 +25,14 @@ from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))   # benchmarks/stepping.py
+from stepping import pin_one_thread, random_steps
+
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = {"one UAV (nyc_mmwave)": ROOT / "scenarios" / "nyc_mmwave.toml",
              "two UAVs (two_uavs_mmwave)": ROOT / "scenarios" / "two_uavs_mmwave.toml"}
 FADING = {"model": "rician", "correlation": 0.9}
 THRESHOLD = 1.3          # time of a step with fading over one without, at most
-CALIBRATION_S = 0.2      # CPU seconds of stepping that size a timed block
-
-
-def pin_one_thread() -> None:
-    """One BLAS and one torch thread (threadpoolctl: environment variables set after numpy
-    is imported have no effect)."""
-    import torch
-    from threadpoolctl import threadpool_limits
-
-    threadpool_limits(limits=1)
-    torch.set_num_threads(1)
 
 
 def stepper(path: Path, num_envs: int, fading: dict[str, object] | None
@@ -61,20 +53,8 @@ def stepper(path: Path, num_envs: int, fading: dict[str, object] | None
     scenario = scenario.model_copy(update=updates)
     env = NetworkBatch(scenario, num_envs,
                        seed=[np.random.SeedSequence([s, 0]) for s in range(num_envs)])
-    env.reset()
     assert env.actions is not None
-    actions = np.random.default_rng(0).integers(0, env.actions.count, size=(64, num_envs))
-
-    def step(count: int) -> None:
-        for index in range(count):
-            env.step(actions[index % len(actions)])
-
-    step(5)
-    count, start = 0, time.process_time()
-    while (elapsed := time.process_time() - start) < CALIBRATION_S:
-        step(1)
-        count += 1
-    return step, count / elapsed
+    return random_steps(env, num_envs)
 
 
 def block(step: Callable[[int], None], count: int) -> float:

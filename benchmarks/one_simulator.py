@@ -45,6 +45,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
+# the step benchmarks' shared pieces, beside this file (also when a test loads it by path)
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from stepping import pin_one_thread, random_steps
+
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = ROOT / "scenarios"
 ONE_UAV = SCENARIOS / "nyc_mmwave.toml"              # (a) and (b)
@@ -55,21 +59,10 @@ LINK_ENVS = 256      # B of (c)
 SPEED_THRESHOLD = 0.95   # (a) and (b): new over old
 LINK_THRESHOLD = 1.0     # (c): links/s of 8 x 64 over those of 1 x 4, new code
 ERROR_WIDTH = 64         # characters of a side's error shown in the table
-CALIBRATION_S = 0.2      # CPU seconds of stepping that size a timed block
 ONE_THREAD = {var: "1" for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}
 
 
 # ---- one side: the measurements, in the process whose tree is first on PYTHONPATH ----------
-
-def pin_one_thread() -> None:
-    """One BLAS and one torch thread (threadpoolctl: environment variables set after numpy
-    is imported have no effect)."""
-    import torch
-    from threadpoolctl import threadpool_limits
-
-    threadpool_limits(limits=1)
-    torch.set_num_threads(1)
-
 
 def endless(path: str | Path, steps: int = 10**9) -> Any:
     """The scenario at ``path`` with ``steps`` steps per episode (by default a time limit
@@ -102,19 +95,8 @@ def stepping(path: str | Path, num_envs: int) -> Stepping:
         warnings.simplefilter("ignore", DeprecationWarning)
         env = network_batch(scenario, num_envs,
                             seed=[np.random.SeedSequence([s, 0]) for s in range(num_envs)])
-    env.reset()
-    actions = np.random.default_rng(0).integers(0, env.actions.count, size=(64, num_envs))
-
-    def step(count: int) -> None:
-        for index in range(count):
-            env.step(actions[index % len(actions)])
-
-    step(5)
-    count, start = 0, time.process_time()
-    while (elapsed := time.process_time() - start) < CALIBRATION_S:
-        step(1)
-        count += 1
-    return Stepping(step, scenario.uav.count * scenario.num_users, count / elapsed)
+    step, steps_per_s = random_steps(env, num_envs)
+    return Stepping(step, scenario.uav.count * scenario.num_users, steps_per_s)
 
 
 def env_block(stepper: Stepping, seconds: float) -> float:
