@@ -33,24 +33,23 @@ BASELINES = (("soa", "SoA"), *BOUNDS, ("oma", "OMA (best found)"))
 @dataclass
 class _Panel:
     """One panel's conditions (group titles) and, per method label, (mean, low, high, runs)
-    at each of them (None where the method has none)."""
+    at the conditions it has a value for (by their index in ``names``)."""
 
     names: list[str] = field(default_factory=list)
-    values: dict[str, list[tuple[float, float, float, int] | None]] = field(
+    values: dict[str, dict[int, tuple[float, float, float, int]]] = field(
         default_factory=dict)
 
     def add(self, label: str, point: tuple[float, float, float, int]) -> None:
-        column = self.values.setdefault(label, [None] * (len(self.names) - 1))
-        column.extend([None] * (len(self.names) - 1 - len(column)))
-        column.append(point)
+        """``label``'s point at the last condition named."""
+        self.values.setdefault(label, {})[len(self.names) - 1] = point
 
     def bars(self) -> list[figures.Bars]:
+        """A bar per label over every condition (NaN where it has no value)."""
         out = []
-        for label, column in self.values.items():
-            column = column + [None] * (len(self.names) - len(column))
-            arrays = [np.array([np.nan if p is None else p[i] for p in column])
-                      for i in range(3)]
-            out.append(figures.Bars(label, *arrays, max(p[3] for p in column if p)))
+        for label, points in self.values.items():
+            arrays = [np.array([points[c][i] if c in points else np.nan
+                                for c in range(len(self.names))]) for i in range(3)]
+            out.append(figures.Bars(label, *arrays, max(p[3] for p in points.values())))
         return out
 
 
