@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -38,6 +39,10 @@ from rich.table import Table  # noqa: E402
 from adaptsky.scenario import Scenario, load_scenario  # noqa: E402
 from adaptsky.sim.network import NetworkBatch  # noqa: E402
 from adaptsky.training.api import load_with_overrides  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))   # benchmarks/stepping.py
+from stepping import random_steps  # noqa: E402
+
 from adaptsky.training.host import pin_threads  # noqa: E402
 from adaptsky.training.stack_run import Member, StackRun  # noqa: E402
 
@@ -62,15 +67,7 @@ def stepping(scenario: Scenario, num_envs: int) -> Callable[[int], None]:
     seeds, as training makes them) ``count`` times, after a warm-up."""
     env = NetworkBatch(endless(scenario), num_envs,
                        seed=[np.random.SeedSequence([s, 0]) for s in range(num_envs)])
-    env.reset()
-    actions = np.random.default_rng(0).integers(0, env.actions.count, size=(64, num_envs))
-
-    def run(count: int) -> None:
-        for index in range(count):
-            env.step(actions[index % len(actions)])
-
-    run(5)
-    return run
+    return random_steps(env, num_envs)[0]
 
 
 def link_rates(one: Scenario, four: Scenario, seconds: float, rounds: int = 8
