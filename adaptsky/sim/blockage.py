@@ -10,7 +10,10 @@ p(t) = user + t (UAV - user), t in [0, 1], the inside of the box is the interval
 and y lie inside the footprint, cut at the roof, t < (H - h_UT) / (h - h_UT), since the segment
 climbs; the link is blocked when that interval is not empty. It is computed in heights above
 the antenna, t (h - h_UT): the walls' offsets times (h - h_UT) / (x - x_i) (and y), the roof's
-cut H - h_UT the same for every link.
+cut H - h_UT the same for every link. Its arithmetic is single precision (offsets from each
+user rounded to about 0.1 mm at 1 km): a link that passes within a fraction of a millimetre of
+an edge may be taken as touching it or as crossing it. That halves the test's cost against
+double precision (docs/model.md §12, speed).
 """
 
 from __future__ import annotations
@@ -23,8 +26,14 @@ from adaptsky.sim.city import City, on_footprints
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 
-CHUNK_ELEMENTS = 1 << 17
-"""Link-building pairs tested at once: work arrays of 1 MB, kept from call to call."""
+WORK = np.float32
+"""The slab test's arithmetic: single precision (module doc)."""
+
+CHUNK_ELEMENTS = 1 << 20
+"""Link-building pairs tested at once: work arrays of 8 MB at most, kept from call to call.
+Large, because the environments' axis is the arrays' inner loop: a chunk of a few dozen
+environments costs numpy's loop overhead on every short row (a step of four UAVs and 16 users
+in a 5 x 5 grid at B = 256 took 1.05 ms in chunks of 81 environments, 0.73 ms in one)."""
 MIN_ENVS = 32
 """The fewest environments of a chunk: the environments' axis is the arrays' inner loop."""
 GRID_CELLS_PER_BUILDING = 2
@@ -69,7 +78,7 @@ class Blockage:
         # H - h_UT of every cell or building, (C, R, B) or (M, B): a roof at or below the
         # antenna gives t <= 0 and blocks nothing
         shape = (len(columns), len(rows)) if self._grid else (count,)
-        self._roof_m = np.ascontiguousarray((heights - user_height_m).T).reshape(
+        self._roof_m = np.ascontiguousarray((heights - user_height_m).T, dtype=WORK).reshape(
             *shape, len(heights))
 
     def _walls(self, users_m: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -81,8 +90,9 @@ class Blockage:
             x, y = users_m[:, :, 0].T[:, None, :], users_m[:, :, 1].T[:, None, :]   # (N, 1, B)
             columns, rows = self._columns_m[:, :, None], self._rows_m[:, :, None]
             self._x_walls = np.ascontiguousarray(np.stack([columns[:, 0] - x,
-                                                           columns[:, 1] - x]))
-            self._y_walls = np.ascontiguousarray(np.stack([rows[:, 0] - y, rows[:, 1] - y]))
+                                                           columns[:, 1] - x]), dtype=WORK)
+            self._y_walls = np.ascontiguousarray(np.stack([rows[:, 0] - y, rows[:, 1] - y]),
+                                                 dtype=WORK)
             self._users_xy = np.ascontiguousarray(users_m.transpose(2, 1, 0)[:, None])
             self._users_of = users_m
         return self._x_walls, self._y_walls
@@ -100,8 +110,9 @@ class Blockage:
             # the links' climb h - h_UT over their extents along x and y, (2, U, N, B), and
             # the climb itself (U, N, B): the test runs in heights, t (h - h_UT)
             climb = np.ascontiguousarray(uav_m[..., 2].T[:, None, :]) - self.user_height_m
-            slopes = climb / (uav_m[..., :2].transpose(2, 1, 0)[:, :, None, :]
-                              - self._users_xy)
+            slopes = (climb / (uav_m[..., :2].transpose(2, 1, 0)[:, :, None, :]
+                               - self._users_xy)).astype(WORK)
+            climb = climb.astype(WORK)
             for start in range(0, num_envs, per_env):
                 envs = slice(start, start + per_env)
                 blocked[..., envs] = self._blocked(slopes[..., envs], climb[..., envs],
@@ -109,7 +120,7 @@ class Blockage:
                                                    self._roof_m[..., envs])
         return ~blocked.transpose(2, 0, 1)
 
-    def _buffer(self, name: str, shape: tuple[int, ...], dtype: type = np.float64
+    def _buffer(self, name: str, shape: tuple[int, ...], dtype: type = WORK
                 ) -> np.ndarray:
         """A work array of this shape, kept from call to call (no new memory per step)."""
         key = (name, shape)
@@ -129,14 +140,14 @@ class Blockage:
             x_enter, x_leave = x_enter[:, :, :, None], x_leave[:, :, :, None]
             y_enter, y_leave = y_enter[:, :, None], y_leave[:, :, None]
         shape = np.broadcast_shapes(x_enter.shape, y_enter.shape)
-        # inside where the later start, max(x_enter, y_enter), comes before the earliest end
-        # (of the x slab, the y slab and the climb to the roof)
-        leave = self._buffer("leave", shape)
-        np.minimum(x_leave, y_leave, out=leave)
+        # inside where the later start comes before the earliest end (of the x slab, the y
+        # slab and the climb to the roof); a slab the link does not cross (enter > leave)
+        # makes that so for every cell of it. NaN (a link in the plane of a wall) propagates
+        # through maximum and minimum and compares False: touching is not blocking
+        enter = np.maximum(x_enter, y_enter, out=self._buffer("enter", shape))
+        leave = np.minimum(x_leave, y_leave, out=self._buffer("leave", shape))
         np.minimum(leave, roof_m, out=leave)
-        # NaN (a link in the plane of a wall) compares False: touching is not blocking
-        inside = np.less(x_enter, leave, out=self._buffer("inside", shape, np.bool_))
-        inside &= np.less(y_enter, leave, out=self._buffer("inside_y", shape, np.bool_))
+        inside = np.less(enter, leave, out=self._buffer("inside", shape, np.bool_))
         return inside.reshape(*shape[:2], -1, shape[-1]).any(axis=2)
 
     def _slab(self, axis: str, walls: FloatArray, slopes: FloatArray, climb: FloatArray
