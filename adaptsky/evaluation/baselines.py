@@ -27,6 +27,12 @@ import numpy as np
 from adaptsky.errors import AdaptskyError
 from adaptsky.progress import Tick
 from adaptsky.rollouts import several_uavs
+from adaptsky.rollouts.fading_oracle import (
+    STATIC_CEILING_NOTE,
+    fading_oracle,
+    fading_oracle_refusal,
+    require_fading_oracle,
+)
 from adaptsky.rollouts.mean_shares import mean_best_shares, shares_apply
 from adaptsky.rollouts.metrics import Method
 from adaptsky.rollouts.oracle import oracle, require_deterministic_gains, require_static_users
@@ -71,8 +77,19 @@ def require_applies(scenario: Scenario, method: str, option: str = "") -> None:
     if method in SEARCHES:
         name = "the oracle" if method == "oracle" else method
         require_static_users(scenario, name)
+        if method == "oracle" and scenario.channel.fading.model != "none":
+            require_fading_oracle(scenario)
+            return
         require_deterministic_gains(scenario if method == "oracle" else
                                     searched_scenario(scenario), name)
+
+
+def static_ceiling(scenario: Scenario, method: str) -> bool:
+    """Whether ``method`` is the fading oracle (:mod:`adaptsky.rollouts.fading_oracle`): the
+    oracle, or best response of one UAV (the oracle itself), under the built-in fading where
+    it applies."""
+    return (method in REFERENCES and scenario.channel.fading.model != "none"
+            and fading_oracle_refusal(scenario) is None)
 
 
 def searched_scenario(scenario: Scenario) -> Scenario:
@@ -150,6 +167,16 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
         else:
             uav_m, alpha_first = several_uavs.soa_per_uav(scenario, users_m)
         trace = hold(scenario, uav_m, alpha_first, steps, users_m, seed, on_progress)
+    elif static_ceiling(scenario, method):
+        start = time.process_time()
+        ceiling = fading_oracle(scenario, users_m, steps, seed, on_progress, on_progress)
+        details["seconds_per_layout"] = (time.process_time() - start) / len(users_m)
+        details["objective_bps"] = ceiling.objective_bps
+        details["note"] = STATIC_CEILING_NOTE
+        if method == "best-response":
+            details["rounds"] = np.ones(len(users_m), dtype=np.int64)
+            details["converged"] = np.ones(len(users_m), dtype=np.bool_)
+        trace = hold(scenario, ceiling.uav_m, ceiling.alpha_first, steps, users_m, seed)
     elif method == "oracle":
         start = time.process_time()
         best = oracle(scenario, users_m, on_progress, on_progress)

@@ -493,6 +493,19 @@ class NetworkBatch:
                 users_m = users_kept_out(state.users_m, users_m, self.city.footprints_m)
         return self._held(uav_m, alpha_first, users_m, state.t + 1)
 
+    def next_scattered(self, steps: int) -> FloatArray:
+        """The scattered parts s (steps, 2, B, U, N), real and imaginary, of the built-in
+        fading (docs/model.md §11) of the next ``steps`` steps, drawn here as those steps
+        would draw them (the fading moves on by ``steps``). They are a held configuration's
+        draws wherever a step draws nothing else: LoS not sampled, no plugin fading, users
+        that stand."""
+        if self._small_scale is None:
+            raise ValueError("the scenario has no built-in fading (channel.fading.model)")
+        rng = self.rngs if self.rngs is not None else self.rng
+        shape = (2, self.num_envs, self.num_uavs, self.num_users)
+        return np.stack([np.array(self._small_scale.scattered(rng), dtype=np.float64
+                                    ).reshape(shape) for _ in range(steps)])
+
     def _held(self, uav_m: FloatArray, alpha_first: FloatArray, users_m: FloatArray, t: int
               ) -> NetworkState:
         """The network in the state of the given configuration, users and step count."""
