@@ -182,7 +182,9 @@ ADDED_SECTION_DEFAULTS = {("uav", "count"): 1, ("uav", "start_positions_m"): Non
                           ("world", "building"): [],
                           # the built-in small-scale fading (docs/model.md §11), off (its
                           # unset keys, null in JSON, left out)
-                          ("channel", "fading"): {"model": "none"}}
+                          ("channel", "fading"): {"model": "none"},
+                          # users that move by a model (docs/model.md §3): static
+                          ("users", "mobility"): {"model": "static"}}
 # tables a newer adaptsky adds: left out where every key in them is at its default
 ADDED_TABLES = {"world"}
 # names a newer adaptsky adds beside the numbers it had (JSON keys, HDF5 datasets with their

@@ -44,6 +44,69 @@ class Area(Section):
                           description="side L of the square area |x|,|y| <= L/2, m")
 
 
+MOBILITY_KEYS = {
+    "static": (),
+    "random-walk": ("speed_mps",),
+    "random-waypoint": ("speed_min_mps", "speed_max_mps", "pause_max_s"),
+    "gauss-markov": ("mean_speed_mps", "memory", "speed_sigma_mps", "heading_sigma_deg"),
+}
+"""The keys each mobility model reads (docs/model.md §3, users that move)."""
+MOBILITY_DEFAULTS = {"pause_max_s": 0.0, "memory": 0.75, "speed_sigma_mps": 0.0,
+                     "heading_sigma_deg": 0.0}
+"""Defaults of the mobility keys that have one (ours); the speeds have none."""
+MAX_USER_SPEED_MPS = 100.0
+
+
+class Mobility(Section):
+    """How the users move (docs/model.md §3): every step of ``uav.step_s`` seconds by their
+    speed, reflected at the area's edge (random-waypoint, gauss-markov), out of buildings.
+    Keys the model does not read are refused; its own keys left out take their defaults."""
+
+    model: Literal["static", "random-walk", "random-waypoint", "gauss-markov"] = Field(
+        "static", description="'static'; 'random-walk', a uniform heading every step at "
+        "speed_mps; 'random-waypoint', straight to a uniform destination at a uniform speed, "
+        "a uniform pause on arrival; 'gauss-markov', speed and heading with memory")
+    speed_mps: float | None = Field(None, gt=0, le=MAX_USER_SPEED_MPS,
+                                    description="random-walk speed, m/s")
+    speed_min_mps: float | None = Field(None, gt=0, le=MAX_USER_SPEED_MPS,
+                                        description="random-waypoint: least speed, m/s")
+    speed_max_mps: float | None = Field(None, gt=0, le=MAX_USER_SPEED_MPS,
+                                        description="random-waypoint: largest speed, m/s")
+    pause_max_s: float | None = Field(None, ge=0, le=3600.0, description="random-waypoint: "
+                                      "longest pause on arrival, s (default 0)")
+    mean_speed_mps: float | None = Field(None, ge=0, le=MAX_USER_SPEED_MPS,
+                                         description="gauss-markov: mean speed, m/s")
+    memory: float | None = Field(None, ge=0, le=1, description="gauss-markov: memory a in "
+                                 "[0, 1] (0: no memory, 1: straight lines; default 0.75)")
+    speed_sigma_mps: float | None = Field(None, ge=0, le=MAX_USER_SPEED_MPS,
+                                          description="gauss-markov: the speed's standard "
+                                          "deviation, m/s (default 0)")
+    heading_sigma_deg: float | None = Field(None, ge=0, le=360.0, description="gauss-markov: "
+                                            "the heading's standard deviation, degrees "
+                                            "(default 0)")
+
+    @model_validator(mode="after")
+    def _keys_of_the_model(self) -> Mobility:
+        """Refuse the keys the model does not read and a model without its speed; fill in
+        its own keys' defaults."""
+        reads = MOBILITY_KEYS[self.model]
+        every = {key for keys in MOBILITY_KEYS.values() for key in keys}
+        ignored = sorted(key for key in every - set(reads) if getattr(self, key) is not None)
+        if ignored:
+            raise ValueError(f"{', '.join(ignored)} given with model = '{self.model}', which "
+                             f"reads {', '.join(reads) if reads else 'none of them'}; remove "
+                             f"{'it' if len(ignored) == 1 else 'them'} or choose another model")
+        for key in reads:
+            if getattr(self, key) is None:
+                if key not in MOBILITY_DEFAULTS:
+                    raise ValueError(f"model = '{self.model}' needs {key}")
+                setattr(self, key, MOBILITY_DEFAULTS[key])
+        if self.model == "random-waypoint" and self.speed_min_mps > self.speed_max_mps:
+            raise ValueError(f"speed_min_mps = {self.speed_min_mps:g} exceeds speed_max_mps = "
+                             f"{self.speed_max_mps:g}")
+        return self
+
+
 class Users(Section):
     positions_m: list[Annotated[list[CoordinateM], Field(min_length=2, max_length=2)]] | None = (
         Field(None, description="explicit user positions [[x, y], ...], m; even count"))
@@ -60,6 +123,8 @@ class Users(Section):
     )
     speed_m_per_step: float = Field(0.0, ge=0, le=1000.0,
                                     description="random-walk speed of every user, m/step")
+    mobility: Mobility = Field(default_factory=Mobility, description="how the users move "
+                               "(docs/model.md §3); static by default")
     height_m: float = Field(0.0, ge=0, le=MAX_HEIGHT_M - MIN_HEIGHT_M,
                             description="antenna height h_UT of every user above the ground, "
                             "m (the paper: 0, users on the ground; needs a contract-2 "
@@ -109,6 +174,10 @@ class Users(Section):
             if self.placement == "listed":
                 raise ValueError("placement = 'listed' needs positions_m")
             self.placement = self.placement or "uniform"
+        if self.speed_m_per_step > 0 and self.mobility.model != "static":
+            raise ValueError(f"speed_m_per_step and mobility.model = '{self.mobility.model}' "
+                             "exclude each other: speed_m_per_step is the random walk of older "
+                             "scenarios; give [users.mobility] alone")
         if self.pairing is None:
             self.pairing = "listed" if self.placement == "listed" else "near-far"
         if self.association is None:

@@ -40,7 +40,7 @@ from adaptsky.scenario.models import Scenario
 from adaptsky.sim import noma
 from adaptsky.sim.association import Association, associate, serving_groups
 from adaptsky.sim.blockage import Blockage, kept_out, users_kept_out
-from adaptsky.sim.city import City, city_of
+from adaptsky.sim.city import City, city_of, on_footprints
 from adaptsky.sim.energy import EnergyAccount
 from adaptsky.sim.fading import FadingStage
 from adaptsky.sim.gain_bounds import gain_range, reachable_heights
@@ -61,10 +61,19 @@ from adaptsky.sim.links import (
     offsets_geometry,
     scenario_geometry,
 )
+from adaptsky.sim.mobility import MODELS as MOBILITY_MODELS
+from adaptsky.sim.mobility import MobilityStage
 from adaptsky.sim.observation import FEATURES_PER_USER, MultiObserver, Observer
 from adaptsky.sim.reward import RewardFromSums, reward_per_uav, reward_weights, stack_weights
 from adaptsky.sim.separation import separated
-from adaptsky.sim.state import Dynamics, SimState, step, users_xy
+from adaptsky.sim.state import (
+    Dynamics,
+    SimState,
+    step,
+    user_positions,
+    users_xy,
+    walk_step_m,
+)
 
 FloatArray = NDArray[np.float64]
 Seed = int | np.random.SeedSequence | list[np.random.SeedSequence] | None
@@ -181,7 +190,11 @@ class NetworkBatch:
         self._full_reuse = radio.reuse == "full" and self.num_uavs > 1
         self._los_mode = scenario.channel.los
         self._max_steps = scenario.train.steps
-        self._speed_m = scenario.users.speed_m_per_step
+        self._speed_m = walk_step_m(scenario)          # the random walk's step, m
+        # users that move by a model with a state (docs/model.md §3): None for the others
+        self._mobility = (MobilityStage(scenario.users.mobility, num_envs, self.num_users,
+                                        scenario.area.side_m / 2, scenario.uav.step_s)
+                          if scenario.users.mobility.model in MOBILITY_MODELS else None)
         self._min_separation_m = scenario.uav.min_separation_m
         self.start_m = np.array(scenario.uav_start_positions_m, dtype=np.float64)  # (U, 3)
         self._carrier_hz = carrier_hz(scenario)
@@ -425,6 +438,8 @@ class NetworkBatch:
             self._seed(seed)
         if self._small_scale is not None:
             self._small_scale.reset()
+        if self._mobility is not None:
+            self._mobility.reset(self._generators)
         self._to_start(alpha_first)
         self.state = self._evaluate(self.sim_state)
         return self._obs, self.state
@@ -447,6 +462,8 @@ class NetworkBatch:
         actions = dynamics.checked(actions)    # before anything is drawn
         before = self.sim_state
         moved = step(before, actions, dynamics, self._headings() if self._speed_m else None)
+        if self._mobility is not None:
+            moved = SimState._new(moved.config, self._moved_users(before.users_m), moved.t)
         if self.num_uavs > 1 or self.city is not None:
             moved = self._kept_apart(before, moved)
         self.sim_state = moved
@@ -491,7 +508,26 @@ class NetworkBatch:
             users_m = self._dynamics.walked(users_m, self._headings())
             if self.city is not None:
                 users_m = users_kept_out(state.users_m, users_m, self.city.footprints_m)
+        elif self._mobility is not None:
+            users_m = self._moved_users(users_m)
         return self._held(uav_m, alpha_first, users_m, state.t + 1)
+
+    @property
+    def _generators(self) -> list[np.random.Generator] | np.random.Generator:
+        return self.rngs if self.rngs is not None else self.rng
+
+    def _moved_users(self, users_m: FloatArray) -> FloatArray:
+        """The users' positions (B, N, 2) one step of the mobility stage after ``users_m``,
+        a step onto a footprint undone (and told to the stage), laid out as a step computes
+        with them (docs/model.md §3 and §12)."""
+        assert self._mobility is not None
+        moved = self._mobility.moved(users_m, self._generators)
+        if self.city is not None:
+            blocked = on_footprints(moved, self.city.footprints_m)
+            if blocked.any():
+                moved = np.where(blocked[..., None], users_m, moved)
+                self._mobility.blocked(blocked)
+        return user_positions(moved)
 
     def next_scattered(self, steps: int) -> FloatArray:
         """The scattered parts s (steps, 2, B, U, N), real and imaginary, of the built-in

@@ -86,8 +86,18 @@ def user_positions(users_m: FloatArray) -> FloatArray:
 
 
 def users_move(scenario: Scenario) -> bool:
-    """Whether the scenario's users walk (``users.speed_m_per_step`` > 0, docs/model.md §3)."""
-    return scenario.users.speed_m_per_step > 0
+    """Whether the scenario's users move: a mobility model other than ``static``, or the
+    older random walk ``users.speed_m_per_step`` > 0 (docs/model.md §3)."""
+    return scenario.users.speed_m_per_step > 0 or scenario.users.mobility.model != "static"
+
+
+def walk_step_m(scenario: Scenario) -> float:
+    """The random walk's step, m: ``users.speed_m_per_step``, or ``mobility.speed_mps`` times
+    ``uav.step_s`` for ``mobility.model = "random-walk"``; 0 for every other model."""
+    mobility = scenario.users.mobility
+    if mobility.model == "random-walk":
+        return mobility.speed_mps * scenario.uav.step_s
+    return scenario.users.speed_m_per_step
 
 
 def users_xy(users_m: FloatArray) -> FloatArray:
@@ -128,7 +138,7 @@ class Dynamics:
         return cls(controls_of(scenario, num_envs),
                    np.broadcast_to(low, config_shape).copy(),
                    np.broadcast_to(high, config_shape).copy(), num_envs,
-                   scenario.users.speed_m_per_step, half_m)
+                   walk_step_m(scenario), half_m)
 
     @property
     def actions(self) -> ActionSet | None:
