@@ -151,11 +151,14 @@ def require_static_users(scenario: Scenario, method: str = "the oracle") -> None
     ``method``) finds one configuration for the users' home positions, which neither bounds
     nor references a policy once the users move."""
     if users_move(scenario):
+        model = scenario.users.mobility.model
+        how, still = ((f"users.speed_m_per_step is {scenario.users.speed_m_per_step:g} m",
+                       "users.speed_m_per_step=0") if model == "static" else
+                      (f"users.mobility.model is '{model}'", "'users.mobility={model=\"static\"}'"))
         raise AdaptskyError(
-            f"scenario '{scenario.name}': users.speed_m_per_step is "
-            f"{scenario.users.speed_m_per_step:g} m (the users walk); {method} searches one "
+            f"scenario '{scenario.name}': {how} (the users move); {method} searches one "
             "configuration for the users' home positions and cannot follow moving users yet; "
-            "compare with soa or random, or evaluate with --set users.speed_m_per_step=0")
+            f"compare with soa or random, or evaluate with --set {still}")
 
 
 def oracle(scenario: Scenario, users_m: FloatArray,

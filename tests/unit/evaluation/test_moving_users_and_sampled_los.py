@@ -108,7 +108,7 @@ def test_the_searches_refuse_walking_users_in_one_line(method, tmp_path, capsys)
     assert main(["baseline", str(path), "--method", method]) == 1
     name = "the oracle" if method == "oracle" else method
     assert capsys.readouterr().err.strip().splitlines() == [
-        f"scenario 'test': users.speed_m_per_step is 3 m (the users walk); {name} searches one "
+        f"scenario 'test': users.speed_m_per_step is 3 m (the users move); {name} searches one "
         "configuration for the users' home positions and cannot follow moving users yet; "
         "compare with soa or random, or evaluate with --set users.speed_m_per_step=0"]
     # --set makes the users stand: the oracle then runs
@@ -116,6 +116,21 @@ def test_the_searches_refuse_walking_users_in_one_line(method, tmp_path, capsys)
         assert main(["baseline", str(path), "--method", method, "--steps", "1", "--json",
                      "--set", "users.speed_m_per_step=0"]) == 0
         assert json.loads(capsys.readouterr().out)["methods"]["oracle"]["summary"]
+
+
+def test_a_mobility_model_is_refused_by_the_oracle_and_set_static_in_one_key(tmp_path, capsys):
+    scenario = _walking().model_dump(mode="json")
+    scenario["users"]["speed_m_per_step"] = 0.0
+    scenario["users"]["mobility"] = {"model": "random-waypoint", "speed_min_mps": 1.0,
+                                     "speed_max_mps": 2.0}
+    path = tmp_path / "waypoint.toml"
+    path.write_text(dumps(scenario))
+    assert main(["baseline", str(path), "--method", "oracle"]) == 1
+    assert "users.mobility.model is 'random-waypoint' (the users move)" in (
+        capsys.readouterr().err)
+    assert main(["baseline", str(path), "--method", "oracle", "--steps", "1", "--json",
+                 "--set", 'users.mobility={model="static"}']) == 0
+    assert json.loads(capsys.readouterr().out)["methods"]["oracle"]["summary"]
 
 
 def test_best_response_under_sampled_los_searches_the_expected_gains(tmp_path):
