@@ -19,6 +19,7 @@ bit on one machine, so this compares two versions here rather than a stored fing
 
 from __future__ import annotations
 
+import csv
 import json
 import os
 import re
@@ -184,9 +185,11 @@ ADDED_SECTION_DEFAULTS = {("uav", "count"): 1, ("uav", "start_positions_m"): Non
                           # unset keys, null in JSON, left out)
                           ("channel", "fading"): {"model": "none"},
                           # users that move by a model (docs/model.md §3): static
-                          ("users", "mobility"): {"model": "static"}}
+                          ("users", "mobility"): {"model": "static"},
+                          # the service metrics' outage threshold (docs/model.md §14)
+                          ("metrics", "outage_se"): 1.0}
 # tables a newer adaptsky adds: left out where every key in them is at its default
-ADDED_TABLES = {"world"}
+ADDED_TABLES = {"world", "metrics"}
 # names a newer adaptsky adds beside the numbers it had (JSON keys, HDF5 datasets with their
 # attributes): compared where both sides have them, left out where only the newer one does.
 # Each user's steady-state rate of eval (steady_user_rate_bps) and last-episode rate of
@@ -194,7 +197,9 @@ ADDED_TABLES = {"world"}
 # format rose to 3 with it: the format version is left out, it is no number of a run)
 ADDED_NAMES = {"steady_user_rate_bps", "last_episode_user_rate_bps", "energy_j",
                "energy_efficiency_bpj", "steady_power_w", "steady_energy_efficiency_bpj",
-               "steady_still_share", "steady_vertical_share", "uav_energy_j"}
+               "steady_still_share", "steady_vertical_share", "uav_energy_j",
+               # the service metrics of every evaluation (docs/model.md §14)
+               "outage_share", "mean_least_rate_bps", "p5_rate_bps"}
 
 
 def without_added(old: object, new: object) -> object:
@@ -254,6 +259,15 @@ def relative_difference(a: np.ndarray | None, b: np.ndarray | None) -> str:
     return f" (largest relative difference {np.nanmax(relative):.1e})"
 
 
+def _csv_rows(text: str, old_header: list[str] | None = None) -> list[list[str]]:
+    """A CSV's rows, without the :data:`ADDED_NAMES` columns that ``old_header`` lacks."""
+    rows = list(csv.reader(text.splitlines()))
+    if old_header is None or not rows:
+        return rows
+    kept = [i for i, name in enumerate(rows[0]) if name in old_header or name not in ADDED_NAMES]
+    return [[row[i] for i in kept] for row in rows]
+
+
 def compare(old: Path, new: Path, printed_old: dict[str, str],
             printed_new: dict[str, str]) -> list[str]:
     differences, compared = [], 0
@@ -274,7 +288,8 @@ def compare(old: Path, new: Path, printed_old: dict[str, str],
                                    + relative_difference(a.get(key), b.get(key)))
     for path in sorted(old.rglob("*.csv")):
         compared += 1
-        if path.read_text() != (new / path.relative_to(old)).read_text():
+        if _csv_rows(path.read_text()) != _csv_rows((new / path.relative_to(old)).read_text(),
+                                                    _csv_rows(path.read_text())[0]):
             differences.append(f"{path.relative_to(old)} differs")
     print(f"compared {compared} outputs")
     return differences

@@ -21,7 +21,8 @@ from adaptsky.rollouts.metrics import percent_of
 from adaptsky.store.atomic import write_text_atomic
 
 LAYOUT_METRICS = ("mean_sum_rate_bps", "steady_sum_rate_bps", "fairness", "min_user_se",
-                  "satisfied_share", "steady_satisfied_share")
+                  "satisfied_share", "steady_satisfied_share", "outage_share",
+                  "mean_least_rate_bps", "p5_rate_bps")
 """The per-layout metrics of docs/evaluation.md with one number per layout, in this order."""
 USER_COLUMN = "steady_rate_bps_user_{}"
 """The column of user i's steady-state rate (users numbered from 0, in the layout's order)."""
@@ -62,7 +63,10 @@ def eval_csv_rows(results: dict[str, Any]) -> tuple[list[str], list[list[Any]]]:
     methods = results["methods"]
     users = eval_user_rates(results)
     reference = reference_of(results)
-    header = ["method", "layout", *LAYOUT_METRICS]
+    # the metrics every method has (an eval file made before the service metrics lacks them)
+    metrics = [key for key in LAYOUT_METRICS
+               if all(key in entry["layouts"] for entry in methods.values())]
+    header = ["method", "layout", *metrics]
     if reference is not None:
         header.append(pct_column(reference))
         ceiling = np.asarray(methods[reference]["layouts"]["mean_sum_rate_bps"])
@@ -75,7 +79,7 @@ def eval_csv_rows(results: dict[str, Any]) -> tuple[list[str], list[list[Any]]]:
                if reference is not None else None)
         for layout in range(int(results["layouts"])):
             row: list[Any] = [name, layout, *(float(layouts[key][layout])
-                                              for key in LAYOUT_METRICS)]
+                                              for key in metrics)]
             if pct is not None:
                 row.append(float(pct[layout]))
             row += users[name][layout].tolist()

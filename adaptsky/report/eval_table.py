@@ -90,6 +90,21 @@ def energy_lines(results: dict[str, Any]) -> list[str]:
     return lines
 
 
+def service_lines(results: dict[str, Any]) -> list[str]:
+    """One line per method with its service metrics (docs/model.md §14): the share of
+    user-steps in outage, the mean least user rate and the 5th percentile of the user rates
+    (methods measured before them: none)."""
+    lines = []
+    for name, entry in results["methods"].items():
+        s = entry["summary"]
+        if "outage_share" not in s:
+            continue
+        lines.append(f"{name}: outage {100 * s['outage_share']:.1f}% of user-steps, least "
+                     f"user rate {s['mean_least_rate_bps'] / 1e6:.2f} Mbit/s, 5th percentile "
+                     f"{s['p5_rate_bps'] / 1e6:.2f} Mbit/s")
+    return lines
+
+
 REFERENCES = {"oracle": "the oracle", "best-response": "best response"}
 """What the policy's steady state is a share of, as the results key it: the oracle (one UAV),
 else best response (several UAVs' reference)."""

@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from adaptsky.rollouts.rollout import Trace
-from adaptsky.scenario.models import Scenario
+from adaptsky.scenario.models import DEFAULT_OUTAGE_SE, Scenario
 from adaptsky.sim.energy import energy_efficiency_bpj
 from adaptsky.sim.noma import jain_fairness
 
@@ -65,13 +65,32 @@ def energy_metrics(trace: Trace, step_s: float) -> dict[str, NDArray[np.float64]
     return metrics
 
 
+SERVICE_PERCENTILE = 5.0
+"""The low percentile of the user rates the service metrics report (docs/model.md §14)."""
+
+
+def service_metrics(rate_bps: NDArray[np.float64], bandwidth_hz: float, outage_se: float
+                    ) -> dict[str, NDArray[np.float64]]:
+    """Per layout (L,) from the rates (T, L, N) (docs/model.md §14): the share of user-steps
+    whose spectral efficiency R / W lies below ``outage_se`` (outage), the mean over the
+    steps of the least user rate, and the 5th percentile of the user rates over the
+    user-steps (numpy's linear interpolation between order statistics)."""
+    rates = np.asarray(rate_bps, dtype=np.float64)
+    user_steps = np.moveaxis(rates, 1, 0).reshape(rates.shape[1], -1)     # (L, T N)
+    return {"outage_share": (rates / bandwidth_hz < outage_se).mean(axis=(0, 2)),
+            "mean_least_rate_bps": rates.min(axis=2).mean(axis=0),
+            "p5_rate_bps": np.percentile(user_steps, SERVICE_PERCENTILE, axis=1)}
+
+
 def layout_metrics(trace: Trace, bandwidth_hz: float, min_rate_bps: float,
-                   step_s: float = 1.0) -> dict[str, NDArray[np.float64]]:
+                   step_s: float = 1.0, outage_se: float = DEFAULT_OUTAGE_SE
+                   ) -> dict[str, NDArray[np.float64]]:
     """Per layout (L,): mean sum rate over the steps, over the last 100 steps (steady
     state), mean Jain index, the smallest user's mean spectral efficiency, the share of steps
     with every user at or above R_min (over all steps, and over the last 100); each user's
     steady-state rate (L, N); the final UAV position (L, 3), or every UAV's (L, U, 3) for
-    several UAVs; and the energy of :func:`energy_metrics` with steps of ``step_s`` seconds."""
+    several UAVs; the energy of :func:`energy_metrics` with steps of ``step_s`` seconds; and
+    the service metrics of :func:`service_metrics` (outage below ``outage_se``)."""
     sum_rate = trace.sum_rate_bps
     all_met = meets_min_rate(trace.rate_bps, min_rate_bps).all(axis=-1)
     return {
@@ -83,7 +102,7 @@ def layout_metrics(trace: Trace, bandwidth_hz: float, min_rate_bps: float,
         "steady_satisfied_share": all_met[-STEADY_STEPS:].mean(axis=0),
         "steady_user_rate_bps": steady_user_rates(trace.rate_bps),
         "final_uav_m": trace.uav_m[-1],
-    } | energy_metrics(trace, step_s)
+    } | energy_metrics(trace, step_s) | service_metrics(trace.rate_bps, bandwidth_hz, outage_se)
 
 
 def percent_of(steady_bps: NDArray[np.float64], reference_bps: NDArray[np.float64]
@@ -114,6 +133,9 @@ def compare(policy: dict[str, NDArray], other: dict[str, NDArray]) -> dict[str, 
 ENERGY_SUMMARY = ("energy_j", "steady_power_w", "energy_efficiency_bpj",
                   "steady_energy_efficiency_bpj", "steady_still_share", "steady_vertical_share")
 """The energy metrics a summary row averages over layouts (where the metrics have them)."""
+SERVICE_SUMMARY = ("outage_share", "mean_least_rate_bps", "p5_rate_bps")
+"""The service metrics a summary row averages over layouts (where the metrics have them:
+eval files before them lack them)."""
 
 
 def summary_row(metrics: dict[str, NDArray]) -> dict[str, Any]:
@@ -125,7 +147,8 @@ def summary_row(metrics: dict[str, NDArray]) -> dict[str, Any]:
            "fairness": float(metrics["fairness"].mean()),
            "min_user_se": float(metrics["min_user_se"].mean()),
            "satisfied_share": float(metrics["satisfied_share"].mean())}
-    return row | {key: float(np.mean(metrics[key])) for key in ENERGY_SUMMARY if key in metrics}
+    return row | {key: float(np.mean(metrics[key])) for key in (*ENERGY_SUMMARY, *SERVICE_SUMMARY)
+                  if key in metrics}
 
 
 @dataclass
@@ -141,5 +164,5 @@ class Method:
     def of(cls, name: str, scenario: Scenario, trace: Trace,
            details: dict[str, Any] | None = None) -> Method:
         metrics = layout_metrics(trace, scenario.radio.bandwidth_hz, scenario.min_rate_bps,
-                                 scenario.uav.step_s)
+                                 scenario.uav.step_s, scenario.metrics.outage_se)
         return cls(name, trace, metrics, details or {})

@@ -498,6 +498,17 @@ class Train(Section):
         return value
 
 
+DEFAULT_OUTAGE_SE = 1.0
+"""metrics.outage_se's default, bit/s/Hz (ours)."""
+
+
+class Metrics(Section):
+    """The service metrics every evaluation reports beside the sum rate (docs/model.md §14)."""
+
+    outage_se: float = Field(DEFAULT_OUTAGE_SE, ge=0, le=100.0, description="a user-step is "
+                             "in outage below this spectral efficiency, bit/s/Hz (ours: 1)")
+
+
 class Scenario(Section):
     name: str = Field(min_length=1, description="short name, used in output file names "
                       "(letters and digits of any script, '-', '_', '.'; at most 64)")
@@ -509,6 +520,8 @@ class Scenario(Section):
     channel: Channel = Field(default_factory=Channel)
     world: World = Field(default_factory=World)
     reward: Reward = Field(default_factory=Reward)
+    metrics: Metrics = Field(default_factory=Metrics, description="the service metrics' "
+                             "settings (docs/model.md §14)")
     agent: AgentConfig = Field(default_factory=DqnAgent)
     train: Train = Field(default_factory=Train)
 

@@ -31,7 +31,8 @@ UNITS = {"mean_sum_rate_bps": "bit/s", "steady_sum_rate_bps": "bit/s", "sum_rate
          "steady_user_rate_bps": "bit/s",
          "final_uav_m": "m", "uav_m": "m", "users_m": "m", "layouts_m": "m",
          "objective_bps": "bit/s",
-         "rounds": "1", "converged": "1"}
+         "rounds": "1", "converged": "1",
+         "outage_share": "1", "mean_least_rate_bps": "bit/s", "p5_rate_bps": "bit/s"}
 """The ``units`` attribute of every numeric dataset, by name ("1": dimensionless)."""
 
 

@@ -68,10 +68,12 @@ def show_results(results: dict[str, Any], layout: int | None = None) -> None:
         note_lines,
         oracle_line,
         search_lines,
+        service_lines,
     )
     from adaptsky.report.user_rates import eval_user_table
     out.print(methods_table(results))
-    for line in (*note_lines(results), *search_lines(results), *energy_lines(results)):
+    for line in (*note_lines(results), *search_lines(results), *energy_lines(results),
+                 *service_lines(results)):
         out.print(line, markup=False)
     line = oracle_line(results)
     if line:

@@ -21,7 +21,8 @@ from tests.helpers.cli import one_line
 
 STEPS = 130  # more than the steady state's 100 steps: the first 30 are left out
 METRICS = ("mean_sum_rate_bps", "steady_sum_rate_bps", "fairness", "min_user_se",
-           "satisfied_share", "steady_satisfied_share")
+           "satisfied_share", "steady_satisfied_share", "outage_share", "mean_least_rate_bps",
+           "p5_rate_bps")
 
 
 @pytest.fixture(scope="module")

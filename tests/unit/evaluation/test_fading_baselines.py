@@ -18,6 +18,7 @@ from adaptsky.errors import AdaptskyError
 from adaptsky.evaluation.api import eval_layouts, run_baseline
 from adaptsky.evaluation.baselines import searched_note, searched_scenario
 from adaptsky.rollouts import several_uavs
+from adaptsky.rollouts.fading_oracle import STATIC_CEILING_NOTE
 from adaptsky.rollouts.mean_shares import mean_best_shares
 from adaptsky.rollouts.oracle import has_oracle, oracle
 from adaptsky.rollouts.rollout import hold, random_policy, rollout
@@ -60,7 +61,16 @@ def test_the_oracle_refuses_fading_in_one_line():
         oracle(scenario, eval_layouts(scenario, None))
 
 
-@pytest.mark.parametrize(("los", "note"), [("always", FADING_NOTE), ("sampled", SAMPLED_NOTE)])
+def test_best_response_of_one_uav_under_fading_is_the_static_ceiling():
+    # where the fading oracle applies (one UAV, LoS not sampled, R_min = 0) best response is
+    # the oracle itself (tests/unit/rollouts/test_fading_oracle.py)
+    scenario = _small()
+    result = run_baseline(scenario, "best-response", 30, eval_layouts(scenario, None), seed=4)
+    assert result.details["note"] == STATIC_CEILING_NOTE
+    assert searched_note(scenario) == FADING_NOTE     # what several UAVs' best response says
+
+
+@pytest.mark.parametrize(("los", "note"), [("sampled", SAMPLED_NOTE)])
 def test_best_response_searches_the_mean_gains_and_holds_under_the_draws(los, note):
     scenario = _small(los)
     users_m = eval_layouts(scenario, None)
@@ -166,7 +176,13 @@ def test_baseline_on_the_command_line_says_what_it_is(tmp_path, capsys):
     assert main(["baseline", str(path), "--method", "best-response", "--steps", "5",
                  "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["methods"]["best-response"]["note"] == (
-        FADING_NOTE)
-    assert main(["baseline", str(path), "--method", "oracle", "--steps", "5"]) == 1
+        STATIC_CEILING_NOTE)
+    assert main(["baseline", str(path), "--method", "oracle", "--steps", "5", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["methods"]["oracle"]["note"] == (
+        STATIC_CEILING_NOTE)
+    strict = tmp_path / "strict.toml"
+    strict.write_text(dumps(make_scenario(reward={"min_se": 1.0}, channel={
+        "model": "sub6-al-hourani", "fading": {"model": "rician"}}, **SMALL).model_dump()))
+    assert main(["baseline", str(strict), "--method", "oracle", "--steps", "5"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "channel.fading.model is 'rician'" in err[0]
+    assert len(err) == 1 and "under fading the oracle needs min_se = 0" in err[0]
