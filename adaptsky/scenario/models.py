@@ -107,15 +107,26 @@ class Mobility(Section):
         return self
 
 
+DEFAULT_HOTSPOTS = 3
+DEFAULT_SPREAD_M = 10.0
+"""placement = "hotspots": the number of centres and the spread of the users, m (ours)."""
+
+
 class Users(Section):
     positions_m: list[Annotated[list[CoordinateM], Field(min_length=2, max_length=2)]] | None = (
         Field(None, description="explicit user positions [[x, y], ...], m; even count"))
     count: int | None = Field(None, ge=2, description="number of users N_UE = 2K (even)")
-    placement: Literal["listed", "uniform", "fresh"] | None = Field(
+    placement: Literal["listed", "uniform", "fresh", "hotspots"] | None = Field(
         None, description="'listed' (positions_m), 'uniform' over the area (count, "
-        "layout_seed), or 'fresh': uniform, drawn anew every training episode from the "
-        "seed (evaluation without --layouts uses the layout_seed layout)"
+        "layout_seed), 'fresh': uniform, drawn anew every training episode from the "
+        "seed (evaluation without --layouts uses the layout_seed layout), or 'hotspots': "
+        "around hotspot centres (hotspots, spread_m, layout_seed)"
     )
+    hotspots: int | None = Field(None, ge=1, le=64, description="placement 'hotspots': the "
+                                 "number of centres, uniform over the area (default 3)")
+    spread_m: float | None = Field(None, gt=0, le=AREA_MAX_SIDE_M, description="placement "
+                                   "'hotspots': the standard deviation of a user's offset "
+                                   "from its centre along x and y, m (default 10)")
     layout_seed: int = Field(0, ge=0, le=MAX_SEED, description="seed of the uniform layouts")
     pairing: Literal["listed", "near-far"] | None = Field(
         None, description="NOMA pairs: listed order (1,2),(3,4)... or k-th strongest with "
@@ -155,7 +166,7 @@ class Users(Section):
     @model_validator(mode="after")
     def _resolve(self) -> Users:
         if self.positions_m is not None:
-            if self.placement in ("uniform", "fresh"):
+            if self.placement in ("uniform", "fresh", "hotspots"):
                 raise ValueError(f"positions_m and placement = '{self.placement}' exclude each "
                                  "other")
             if self.count is not None and self.count != len(self.positions_m):
@@ -174,6 +185,14 @@ class Users(Section):
             if self.placement == "listed":
                 raise ValueError("placement = 'listed' needs positions_m")
             self.placement = self.placement or "uniform"
+        given = [key for key in ("hotspots", "spread_m") if getattr(self, key) is not None]
+        if given and self.placement != "hotspots":
+            raise ValueError(f"{', '.join(given)} given with placement = '{self.placement}', "
+                             "which ignores it; hotspots and spread_m go with placement = "
+                             "'hotspots' only")
+        if self.placement == "hotspots":
+            self.hotspots = DEFAULT_HOTSPOTS if self.hotspots is None else self.hotspots
+            self.spread_m = DEFAULT_SPREAD_M if self.spread_m is None else self.spread_m
         if self.speed_m_per_step > 0 and self.mobility.model != "static":
             raise ValueError(f"speed_m_per_step and mobility.model = '{self.mobility.model}' "
                              "exclude each other: speed_m_per_step is the random walk of older "

@@ -6,7 +6,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from adaptsky.scenario.models import Scenario
-from adaptsky.sim.city import scenario_footprints, street_layouts
+from adaptsky.sim.city import on_footprints, scenario_footprints, street_layouts
 
 
 def user_layouts(scenario: Scenario, num_layouts: int, layout_seed: int | None = None
@@ -23,7 +23,46 @@ def user_layouts(scenario: Scenario, num_layouts: int, layout_seed: int | None =
         listed = np.asarray(users.positions_m, dtype=np.float64)
         return np.broadcast_to(listed, (num_layouts, *listed.shape)).copy()
     seed = users.layout_seed if layout_seed is None else layout_seed
+    if users.placement == "hotspots":
+        return hotspot_layouts(scenario, np.random.default_rng(seed), num_layouts)
     return uniform_layouts(scenario, np.random.default_rng(seed), num_layouts)
+
+
+def hotspot_layouts(scenario: Scenario, rng: np.random.Generator, count: int
+                    ) -> NDArray[np.float64]:
+    """``count`` layouts (count, N, 2) of clustered users (``users.placement =
+    "hotspots"``, docs/model.md §3), drawn from ``rng`` layout after layout: ``hotspots``
+    centres uniform over the area (over the streets with buildings), each user's centre
+    uniform among them, its offset from it normal with deviation ``spread_m`` along x and y;
+    an offset that puts the user outside the area or on a footprint is drawn again, until
+    none does."""
+    users = scenario.users
+    assert users.hotspots is not None and users.spread_m is not None
+    half_m = scenario.area.side_m / 2
+    footprints_m = scenario_footprints(scenario)
+    layouts = np.empty((count, scenario.num_users, 2))
+    for layout in layouts:
+        if footprints_m is None:
+            centres = rng.uniform(-half_m, half_m, size=(users.hotspots, 2))
+        else:
+            centres = street_layouts(rng, 1, users.hotspots, half_m, footprints_m)[0]
+        layout[...] = centres[rng.integers(0, users.hotspots, size=len(layout))]
+        offsets = rng.normal(0.0, users.spread_m, size=layout.shape)
+        redraw = _misplaced(layout + offsets, half_m, footprints_m)
+        while redraw.any():
+            offsets[redraw] = rng.normal(0.0, users.spread_m, size=(int(redraw.sum()), 2))
+            redraw = _misplaced(layout + offsets, half_m, footprints_m)
+        layout += offsets
+    return layouts
+
+
+def _misplaced(users_m: NDArray[np.float64], half_m: float,
+               footprints_m: NDArray[np.float64] | None) -> NDArray[np.bool_]:
+    """Whether each user (N, 2) stands outside the area or on a footprint."""
+    outside = (np.abs(users_m) > half_m).any(axis=-1)
+    if footprints_m is None:
+        return outside
+    return outside | on_footprints(users_m, footprints_m)
 
 
 def uniform_layouts(scenario: Scenario, rng: np.random.Generator, count: int
