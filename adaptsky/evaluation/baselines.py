@@ -39,12 +39,13 @@ from adaptsky.rollouts.oracle import oracle, require_deterministic_gains, requir
 from adaptsky.rollouts.rollout import Trace, hold, random_controls_policy, rollout
 from adaptsky.rollouts.several_uavs import SearchResult
 from adaptsky.rollouts.soa import soa_configuration
+from adaptsky.rollouts.tracking import track
 from adaptsky.scenario import Scenario
 from adaptsky.scenario.variants import with_values
 from adaptsky.sim.controls import controls_of
 from adaptsky.sim.network import NetworkBatch
 
-BASELINES = ("soa", "oracle", "best-response", "oma", "random")
+BASELINES = ("soa", "tracking", "oracle", "best-response", "oma", "random")
 SEARCHES = ("oracle", "best-response", "oma")
 """Searches over the lattice: they need deterministic gains and count layouts as progress."""
 REFERENCES = ("oracle", "best-response")
@@ -206,6 +207,8 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
             trace = Trace(found.rate_bps[None].copy(), uav_m[None].copy(),
                           np.full((1, *found.rate_bps.shape), OMA_POWER_SHARE),
                           hover_j[None].copy())
+    elif method == "tracking":
+        trace = track(scenario, steps, users_m, seed, on_progress)
     else:
         policy = random_controls_policy(controls_of(scenario, len(users_m)), seed)
         trace = rollout(scenario, policy, steps, users_m, seed, on_progress)

@@ -36,24 +36,35 @@ def soa_per_uav_configuration(env: NetworkBatch) -> tuple[FloatArray, FloatArray
     (B, U, 3) at its group's 2D centroid at its start height, and its first users' shares
     (B, U, K_max) planned from the LoS gains without interference (a UAV with fewer clusters
     than K_max keeps ``start_alpha`` in its unused slots)."""
-    scenario, association = env.scenario, env.association
     layouts = env.layouts_m
-    members = association.serving_uav[:, None, :] == np.arange(env.num_uavs)[None, :, None]
-    centroid = (members[..., None] * layouts[:, None]).sum(axis=2) / members.sum(
-        axis=2)[..., None]                                                     # (B, U, 2)
+    centroid = group_centroids(env, layouts)                                  # (B, U, 2)
     height = np.broadcast_to(env.start_m[:, 2], centroid.shape[:2])[..., None]
     uav_m = np.concatenate([centroid, height], axis=-1)
     if env.city is not None:
         uav_m = above_buildings(uav_m, env.city)
-    gain = env.channel.gain_los(env.geometry(uav_m, layouts)).reshape(
-        len(layouts), env.num_uavs, env.num_users)
-    rows = np.arange(len(layouts))[:, None, None]
+    return uav_m, soa_split(env, uav_m, layouts)
+
+
+def group_centroids(env: NetworkBatch, users_m: FloatArray) -> FloatArray:
+    """Every UAV's group's 2D centroid (B, U, 2) of the users ``users_m`` (B, N, 2), by the
+    env's association."""
+    members = env.association.serving_uav[:, None, :] == np.arange(env.num_uavs)[None, :, None]
+    return (members[..., None] * users_m[:, None]).sum(axis=2) / members.sum(axis=2)[..., None]
+
+
+def soa_split(env: NetworkBatch, uav_m: FloatArray, users_m: FloatArray) -> FloatArray:
+    """SoA's first users' shares (B, U, K_max) with the UAVs at ``uav_m`` (B, U, 3) and the
+    users at ``users_m`` (B, N, 2): planned from the LoS gains without interference (module
+    doc); a UAV with fewer clusters than K_max keeps ``start_alpha`` in its unused slots."""
+    scenario, association = env.scenario, env.association
+    gain = env.channel.gain_los(env.geometry(uav_m, users_m)).reshape(
+        len(users_m), env.num_uavs, env.num_users)
+    rows = np.arange(len(users_m))[:, None, None]
     uavs = np.arange(env.num_uavs)[None, :, None]
     gain_first = gain[rows, uavs, association.first_user]
     gain_second = gain[rows, uavs, association.second_user]
-    return uav_m, np.where(association.first_user >= 0,
-                           soa_shares(scenario, gain_first, gain_second),
-                           scenario.uav.start_alpha)
+    return np.where(association.first_user >= 0,
+                    soa_shares(scenario, gain_first, gain_second), scenario.uav.start_alpha)
 
 
 def soa_shares(scenario: Scenario, gain_first: FloatArray, gain_second: FloatArray

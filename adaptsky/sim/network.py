@@ -503,14 +503,38 @@ class NetworkBatch:
         ``alpha_first``, as given; a hovering step's energy. Baselines use this to hold a
         configuration while the users walk (docs/evaluation.md)."""
         state = self.sim_state
-        users_m = state.users_m
+        return self._held(uav_m, alpha_first, self._users_of_step(state.users_m), state.t + 1)
+
+    def fly_step(self, uav_m: FloatArray, alpha_first: FloatArray) -> NetworkState:
+        """One step to a configuration reached by flying (a heuristic baseline's: tracking,
+        docs/evaluation.md): the users move as in :meth:`hold_step`, the UAVs go to ``uav_m``
+        (shaped as :attr:`uav_m`) with shares ``alpha_first`` under the controls stage's
+        rules (a move that breaks the separation or ends in a building does not happen), and
+        the step's energy is that of the move (docs/model.md §10)."""
+        before = self.sim_state
+        users_m = self._users_of_step(before.users_m)
+        moved = SimState.of(self._per_uav(uav_m, 3), self._per_uav(alpha_first,
+                                                                   self.num_clusters),
+                            users_m, before.t + 1)
+        if self.num_uavs > 1 or self.city is not None:
+            moved = self._kept_apart(before, moved)
+        self.sim_state = moved
+        energy_j = self._energy.of_move(self._squeezed(before.uav_m),
+                                        self._squeezed(moved.uav_m))
+        self.state = self._evaluate(moved, energy_j)
+        return self.state
+
+    def _users_of_step(self, users_m: FloatArray) -> FloatArray:
+        """The users' positions after a step's move from ``users_m`` (the same draws in the
+        same order as :meth:`step`: headings or the mobility stage's numbers first)."""
         if self._speed_m:
-            users_m = self._dynamics.walked(users_m, self._headings())
+            walked = self._dynamics.walked(users_m, self._headings())
             if self.city is not None:
-                users_m = users_kept_out(state.users_m, users_m, self.city.footprints_m)
-        elif self._mobility is not None:
-            users_m = self._moved_users(users_m)
-        return self._held(uav_m, alpha_first, users_m, state.t + 1)
+                walked = users_kept_out(users_m, walked, self.city.footprints_m)
+            return walked
+        if self._mobility is not None:
+            return self._moved_users(users_m)
+        return users_m
 
     @property
     def _generators(self) -> list[np.random.Generator] | np.random.Generator:

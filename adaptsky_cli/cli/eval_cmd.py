@@ -127,8 +127,8 @@ def evaluate(
     layout_seed: LayoutSeed = 0,
     steps: Steps = 1000,
     compare: Annotated[str, typer.Option(
-        metavar="METHODS", help="comma-separated: soa, oracle (one UAV), best-response, oma, "
-        "random, or other run files")] = "soa,random",
+        metavar="METHODS", help="comma-separated: soa, tracking, oracle (one UAV), "
+        "best-response, oma, random, or other run files")] = "soa,random",
     out_file: Annotated[Path | None, typer.Option(
         "--out", metavar="FILE.h5", show_default=False,
         help="eval file to write (default: next to the run file)")] = None,
@@ -195,7 +195,7 @@ def show_training(results: dict[str, Any]) -> None:
 def baseline(
     scenario: ScenarioFile,
     method: Annotated[str, typer.Option(
-        metavar="soa|oracle|best-response|oma|random", show_default=False,
+        metavar="soa|tracking|oracle|best-response|oma|random", show_default=False,
         help="the baseline to run (oracle: one UAV only)")],
     layouts: Layouts = None,
     layout_seed: LayoutSeed = 0,
