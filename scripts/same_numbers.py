@@ -200,7 +200,9 @@ ADDED_NAMES = {"steady_user_rate_bps", "last_episode_user_rate_bps", "energy_j",
                "energy_efficiency_bpj", "steady_power_w", "steady_energy_efficiency_bpj",
                "steady_still_share", "steady_vertical_share", "uav_energy_j",
                # the service metrics of every evaluation (docs/model.md §14)
-               "outage_share", "mean_least_rate_bps", "p5_rate_bps"}
+               "outage_share", "mean_least_rate_bps", "p5_rate_bps",
+               # run-file format 4: every user's position in the trajectories
+               "users_m"}
 
 
 def without_added(old: object, new: object) -> object:

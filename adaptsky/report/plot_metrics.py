@@ -122,6 +122,8 @@ def _greedy_axis(scenario: Scenario) -> Axis:
 _NO_EPISODE = "no seed has finished an episode yet"
 _NO_ENERGY = ("no seed has an episode with its energy (run files made before the energy, "
               "format 2 or older, hold none)")
+_NO_SERVICE = ("no seed has an episode with its service metrics (run files made before them, "
+               "format 3 or older, hold none)")
 
 METRICS: dict[str, PlotMetric] = {metric.name: metric for metric in (
     # R_e^tot, the mean sum rate of each episode (the paper's Fig. 2)
@@ -157,9 +159,21 @@ METRICS: dict[str, PlotMetric] = {metric.name: metric for metric in (
     PlotMetric("energy", _per_episode("energy_j"),
                lambda _: Axis("energy per episode", "J", _joules), smoothed=True,
                column="energy", empty=_NO_ENERGY),
+    # the service metrics of each episode (docs/model.md §14)
+    PlotMetric("outage", _per_episode("outage_share"),
+               lambda _: Axis("share of user-steps in outage", ""), smoothed=True,
+               column="outage", empty=_NO_SERVICE),
+    PlotMetric("least-rate", _per_episode("mean_least_rate_bps"),
+               lambda _: Axis("mean least user rate", "bit/s", rate_unit), smoothed=True,
+               column="least_rate", empty=_NO_SERVICE),
+    PlotMetric("p5-rate", _per_episode("p5_rate_bps"),
+               lambda _: Axis("5th percentile of the user rates", "bit/s", rate_unit),
+               smoothed=True, column="p5_rate", empty=_NO_SERVICE),
 )}
 STORED_AS = {"sum_rate_bps": "sum-rate", "energy_efficiency_bpj": "energy-efficiency",
-             "mean_height_m": "height", "energy_j": "energy", "score": "greedy"}
+             "mean_height_m": "height", "energy_j": "energy", "score": "greedy",
+             "outage_share": "outage", "mean_least_rate_bps": "least-rate",
+             "p5_rate_bps": "p5-rate"}
 """The run file's names of the series whose metric is named otherwise (for "did you mean")."""
 
 

@@ -24,6 +24,8 @@ from adaptsky.units import format_rate, format_rate_spread, plural
 LAST_EPISODES = 100
 # per episode, J and bit/J (run files of format 3; None in older ones)
 ENERGY_KEYS = ("energy_j", "energy_efficiency_bpj")
+# per episode, the service metrics (format 4; None in older ones; docs/model.md §14)
+SERVICE_KEYS = ("outage_share", "mean_least_rate_bps", "p5_rate_bps")
 
 
 def summarize(path: Path) -> dict[str, Any]:
@@ -39,7 +41,8 @@ def summarize(path: Path) -> dict[str, Any]:
             users = curves["mean_rate_bps"]
             fairness = curves["fairness"][-LAST_EPISODES:]
             energy = {key: float(curves[key][-LAST_EPISODES:].mean())
-                      if key in curves and len(rates) else None for key in ENERGY_KEYS}
+                      if key in curves and len(rates) else None
+                      for key in (*ENERGY_KEYS, *SERVICE_KEYS)}
             best = run.best(seed) if run.has_checkpoint(seed) else None
             seeds.append({
                 "seed": seed, "episodes_done": sizes["episodes_done"],
@@ -56,7 +59,7 @@ def summarize(path: Path) -> dict[str, Any]:
         "adaptsky_version": attrs["adaptsky_version"], "created_utc": attrs["created_utc"],
         "channel_model": config["channel"]["model"], "plugins": plugins, "overrides": overrides,
         "steps_per_episode": config["train"]["steps"], "score_kind": kind, "seeds": seeds}
-    for key in ("sum_rate_bps", "fairness", *ENERGY_KEYS):
+    for key in ("sum_rate_bps", "fairness", *ENERGY_KEYS, *SERVICE_KEYS):
         values = [s[key] for s in seeds if s[key] is not None]
         summary[key] = ({"mean": float(np.mean(values)), "std": float(np.std(values)),
                          "std_ddof": 0, "seeds": len(values)} if values else None)
@@ -117,6 +120,20 @@ def energy_line(summary: dict[str, Any]) -> str | None:
                       for s in summary["seeds"] if s.get("energy_efficiency_bpj") is not None)
     return (f"energy efficiency ({_window(summary['seeds'])} episodes), Mbit/J: {seeds}; "
             f"all {efficiency['mean'] / 1e6:.1f} ± {efficiency['std'] / 1e6:.1f}")
+
+
+def service_line(summary: dict[str, Any]) -> str | None:
+    """The service metrics over the seeds' last episodes (docs/model.md §14): mean ± std
+    over seeds of the outage, the least user rate and the 5th percentile; None for run files
+    made before them."""
+    outage = summary.get("outage_share")
+    if outage is None:
+        return None
+    least, low = summary["mean_least_rate_bps"], summary["p5_rate_bps"]
+    return (f"service ({_window(summary['seeds'])} episodes, all seeds): outage "
+            f"{100 * outage['mean']:.1f}% ± {100 * outage['std']:.1f}% of user-steps, least "
+            f"user rate {format_rate_spread(least['mean'], least['std'])}, 5th percentile "
+            f"{format_rate_spread(low['mean'], low['std'])}")
 
 
 def curve_tables(summary: dict[str, Any], limit: int = 8) -> list[Table]:

@@ -33,10 +33,12 @@ from adaptsky.sim.actions import ActionSet
 from adaptsky.sim.observation import observation_size_of
 
 KIND = "adaptsky-run"
-# what this adaptsky writes (2: greedy evaluations and the best policy; 3: energy)
-FORMAT_VERSION = 3
-SUPPORTED_VERSIONS = (1, 2, 3)  # what it reads
+# what this adaptsky writes (2: greedy evaluations and the best policy; 3: energy; 4: the
+# service metrics of every episode and every user's position at every step)
+FORMAT_VERSION = 4
+SUPPORTED_VERSIONS = (1, 2, 3, 4)  # what it reads
 ENERGY_VERSION = 3  # the first format with the energy of every episode and step
+SERVICE_VERSION = 4  # the first with the service metrics and the users' positions
 MAX_PLUGINS = 64
 
 Needs = Literal["curves", "all"]
@@ -62,6 +64,12 @@ EPISODES = (
 ENERGY_EPISODES = (
     Field("energy_j", "float", ("E",), "J"),
     Field("energy_efficiency_bpj", "float", ("E",), "bit/J"),
+)
+# format 4: the episode's service metrics (docs/model.md §14)
+SERVICE_EPISODES = (
+    Field("outage_share", "float", ("E",)),
+    Field("mean_least_rate_bps", "float", ("E",), "bit/s"),
+    Field("p5_rate_bps", "float", ("E",), "bit/s"),
 )
 # /seeds/<S>/evaluations/ (format 2): one row per greedy evaluation ("V" rows), NaN where a
 # column does not apply (adaptsky.training.evaluation)
@@ -91,6 +99,8 @@ TRAJECTORY = (
 # format 3: each step's energy (docs/model.md §10), of every UAV for several
 STEP_ENERGY = Field("energy_j", "float", ("T",), "J")
 SEVERAL_UAVS_STEP_ENERGY = Field("energy_j", "float", ("T", "U"), "J")
+# format 4: every user's position at every step (docs/model.md §3: users that move)
+USERS_TRAJECTORY = Field("users_m", "float", ("T", "N", 2), "m")
 # several UAVs (docs/model.md §9): every UAV's position per step
 SEVERAL_UAVS_POSITIONS = Field("uav_m", "float", ("T", "U", 3), "m")
 # attributes: name -> type ("int", "str", "json", "rng": a numpy bit generator's state as JSON)
@@ -109,11 +119,33 @@ CONFIG_SECTIONS = ("area", "users", "uav", "radio", "channel", "reward", "agent"
 CONFIG_KEYS = {"train": ("episodes", "steps", "seeds", "checkpoint_every"),
                "users": ("count",), "uav": ("actions",), "channel": ("model",)}
 
-UNITS = {field.name: field.units for field in (*EPISODES, *ENERGY_EPISODES, *TRAJECTORY,
-                                               STEP_ENERGY, *EVALUATIONS)}
+UNITS = {field.name: field.units for field in (*EPISODES, *ENERGY_EPISODES, *SERVICE_EPISODES,
+                                               *TRAJECTORY, STEP_ENERGY, USERS_TRAJECTORY,
+                                               *EVALUATIONS)}
 UNITS |= {field.name: field.units for spec in ALGORITHMS.values() for field in spec.fields}
 UNITS |= {"training_layouts_m": "m", "heldout_layouts_m": "m", "training_oracle_bps": "bit/s",
           "heldout_oracle_bps": "bit/s"}
+
+
+def episode_fields(version: int) -> tuple[Field, ...]:
+    """The learning curves' datasets of a file of format ``version``."""
+    fields = EPISODES
+    if version >= ENERGY_VERSION:
+        fields += ENERGY_EPISODES
+    if version >= SERVICE_VERSION:
+        fields += SERVICE_EPISODES
+    return fields
+
+
+def added_after(version: int) -> frozenset[str]:
+    """The names of episode and trajectory datasets that formats after ``version`` add (a
+    run continued by ``train --resume`` keeps its format: these are left out of it)."""
+    names: set[str] = set()
+    if version < ENERGY_VERSION:
+        names |= {field.name for field in ENERGY_EPISODES} | {STEP_ENERGY.name}
+    if version < SERVICE_VERSION:
+        names |= {field.name for field in SERVICE_EPISODES} | {USERS_TRAJECTORY.name}
+    return frozenset(names)
 
 
 @dataclass(frozen=True)
@@ -125,8 +157,9 @@ class Sizes:
 
     @property
     def episodes(self) -> tuple[Field, ...]:
-        """The learning curves' datasets: with the energy from format 3."""
-        return EPISODES + ENERGY_EPISODES if self.version >= ENERGY_VERSION else EPISODES
+        """The learning curves' datasets: with the energy from format 3, the service
+        metrics from format 4."""
+        return episode_fields(self.version)
 
     @property
     def symbols(self) -> dict[str, int]:
@@ -143,7 +176,8 @@ class Sizes:
             SEVERAL_UAVS_POSITIONS if field.name == "uav_m" else field for field in TRAJECTORY)
         if self.version < ENERGY_VERSION:
             return fields
-        return (*fields, SEVERAL_UAVS_STEP_ENERGY if several else STEP_ENERGY)
+        fields = (*fields, SEVERAL_UAVS_STEP_ENERGY if several else STEP_ENERGY)
+        return fields if self.version < SERVICE_VERSION else (*fields, USERS_TRAJECTORY)
 
     @property
     def algorithm(self) -> AlgorithmSpec:

@@ -26,8 +26,6 @@ from adaptsky.arrays import Tree
 from adaptsky.scenario import Scenario
 from adaptsky.store.atomic import rewrite, string_dataset, utc_timestamp
 from adaptsky.store.layout import (
-    ENERGY_EPISODES,
-    ENERGY_VERSION,
     EPISODES,
     EVALUATIONS,
     FORMAT_VERSION,
@@ -37,6 +35,8 @@ from adaptsky.store.layout import (
     UNITS,
     Needs,
     RunFileError,
+    added_after,
+    episode_fields,
     require_finite,
     validate_run,
 )
@@ -49,7 +49,7 @@ __all__ = ["FORMAT_VERSION", "KIND", "RunFileError", "RunReader", "SeedCheckpoin
            "append_checkpoint", "append_checkpoints", "create_run", "environment",
            "record_session", "set_planned_episodes"]
 
-EPISODE_METRICS = tuple(field.name for field in (*EPISODES, *ENERGY_EPISODES)
+EPISODE_METRICS = tuple(field.name for field in episode_fields(FORMAT_VERSION)
                         if len(field.shape) == 1)
 PER_USER_METRICS = tuple(field.name for field in EPISODES if len(field.shape) == 2)
 TRAJECTORY_FIELDS = tuple(field.name for field in TRAJECTORY)
@@ -155,12 +155,11 @@ def _append_rows(table: h5py.Group, start: int, rows: dict[str, np.ndarray]) -> 
 
 
 def _in_format(file: h5py.File, tree: dict[str, Any]) -> dict[str, Any]:
-    """``tree`` without the energy (``energy_j``, ``energy_efficiency_bpj``) where the file
-    is of a format before it: a run continued by ``train --resume`` keeps its format."""
-    if int(file.attrs["format_version"]) >= ENERGY_VERSION:
-        return tree
-    energy = {field.name for field in ENERGY_EPISODES}
-    return {name: value for name, value in tree.items() if name not in energy}
+    """``tree`` without what formats after the file's add (the energy from format 3, the
+    service metrics and the users' positions from format 4): a run continued by ``train
+    --resume`` keeps its format."""
+    added = added_after(int(file.attrs["format_version"]))
+    return {name: value for name, value in tree.items() if name not in added}
 
 
 def _write_checkpoint(group: h5py.Group, rows: dict[str, np.ndarray],
@@ -337,7 +336,7 @@ class RunReader:
             done = int(self.file[f"seeds/{seed}"].attrs["episodes_done"])
             group = self.file[f"seeds/{seed}/episodes"]
             return {field.name: group[field.name][:done]
-                    for field in (*EPISODES, *ENERGY_EPISODES) if field.name in group}
+                    for field in episode_fields(FORMAT_VERSION) if field.name in group}
         curves = self._guard(f"seed {seed}'s episodes", read)
         for name, values in curves.items():
             require_finite(self.path, f"/seeds/{seed}/episodes/{name}", values,

@@ -29,6 +29,7 @@ import torch
 from adaptsky.algos.registry import algorithm_of
 from adaptsky.arrays import Tree
 from adaptsky.errors import NonFiniteError
+from adaptsky.rollouts.metrics import service_metrics
 from adaptsky.scenario.agents import BdqAgent
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.energy import episode_energy
@@ -130,7 +131,7 @@ class StackRun:
         """One episode of T steps; the algorithm learns from every step."""
         algorithm, steps = self.algorithm, self.scenario.train.steps
         start = self.episodes_done * steps
-        states, rewards, chosen = [], [], []
+        states, users, rewards, chosen = [], [], [], []
         # the reward per UAV where the algorithm learns from its parts (the BDQ's
         # reward_split with several UAVs)
         split = None
@@ -151,6 +152,7 @@ class StackRun:
                                   next_obs)
                 algorithm.update()
                 states.append(state)
+                users.append(self.env.users_m)
                 rewards.append(reward)
                 chosen.append(actions)
                 obs = next_obs
@@ -160,6 +162,7 @@ class StackRun:
         trajectory = {name: np.stack([getattr(state, name) for state in states])
                       for name in STATE_FIELDS}  # time-major, (T, S, ...)
         trajectory["reward"], trajectory["action"] = np.stack(rewards), np.stack(chosen)
+        trajectory["users_m"] = np.stack(users)           # (T, S, N, 2): every user's position
         self._check_finite(trajectory, losses)
         if losses is None:  # no update yet: not an error
             losses = np.full(len(self.members), np.nan)
@@ -242,6 +245,9 @@ class StackRun:
             "mean_alpha": trajectory["alpha"].mean(axis=0),
             **episode_energy(rates.sum(axis=1), trajectory["energy_j"],
                              self.scenario.uav.step_s),
+            **{name: float(value[0]) for name, value in service_metrics(
+                rates[:, None], self.scenario.radio.bandwidth_hz,
+                self.scenario.metrics.outage_se).items()},
         }
         return EpisodeResult(self.episodes_done, metrics, trajectory, evaluation)
 

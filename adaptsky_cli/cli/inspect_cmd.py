@@ -37,7 +37,13 @@ def inspect(
 
 def _inspect_run(run: Path, as_json: bool) -> None:
     """Seeds, episodes done, R_e^tot and J_e per seed and over seeds, per-user rates."""
-    from adaptsky.report.summary import curve_tables, energy_line, summarize, summary_table
+    from adaptsky.report.summary import (
+        curve_tables,
+        energy_line,
+        service_line,
+        summarize,
+        summary_table,
+    )
     from adaptsky.report.user_rates import run_user_table
     summary = summarize(run)
     if as_json:
@@ -48,9 +54,9 @@ def _inspect_run(run: Path, as_json: bool) -> None:
     if summary["overrides"]:
         out.print("--set " + " --set ".join(summary["overrides"]), markup=False)
     out.print(summary_table(summary))
-    line = energy_line(summary)
-    if line:
-        out.print(line, markup=False)
+    for line in (energy_line(summary), service_line(summary)):
+        if line:
+            out.print(line, markup=False)
     users = run_user_table(summary)
     if users is not None:
         out.print(users)

@@ -32,8 +32,9 @@ def plot(
         metavar="METRICS", help="what to draw: sum-rate (R_e^tot), fairness (J_e), greedy "
         "(the greedy evaluations' score), energy-efficiency (bit/J per episode), reward (the "
         "episode's return), height (mean UAV height), epsilon (exploration rate), loss (mean "
-        "TD loss) or energy (J per episode); several comma-separated draw a panel each, e.g. "
-        "sum-rate,fairness")] = "sum-rate",
+        "TD loss), energy (J per episode), outage (share of user-steps), least-rate (mean "
+        "least user rate) or p5-rate (5th percentile of the user rates); several "
+        "comma-separated draw a panel each, e.g. sum-rate,fairness")] = "sum-rate",
     band: Annotated[Band, typer.Option(
         metavar="std|bootstrap", help="shaded band: mean ± 1 std over seeds, or a 95% "
         "bootstrap interval of the mean")] = Band.std,

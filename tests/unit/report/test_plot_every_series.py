@@ -14,14 +14,16 @@ import pytest
 
 from adaptsky.report.plot_metrics import METRICS
 from adaptsky.report.plot_runs import runs_figure
-from adaptsky.store.layout import ENERGY_EPISODES, EPISODES
+from adaptsky.store.layout import ENERGY_EPISODES, EPISODES, SERVICE_EPISODES
 from adaptsky_cli.cli.main import main
 from tests.helpers.cli import one_line
 from tests.helpers.report import line_of, make_run, stored
 
 SERIES = {"sum-rate": "sum_rate_bps", "fairness": "fairness",
           "energy-efficiency": "energy_efficiency_bpj", "reward": "reward",
-          "height": "mean_height_m", "epsilon": "epsilon", "loss": "loss", "energy": "energy_j"}
+          "height": "mean_height_m", "epsilon": "epsilon", "loss": "loss", "energy": "energy_j",
+          "outage": "outage_share", "least-rate": "mean_least_rate_bps",
+          "p5-rate": "p5_rate_bps"}
 
 
 @pytest.fixture
@@ -36,7 +38,8 @@ def set_stored(path: Path, seed: int, name: str, values: np.ndarray) -> None:
 
 
 def test_every_scalar_per_episode_series_of_the_file_is_a_metric():
-    scalar = {f.name for f in (*EPISODES, *ENERGY_EPISODES) if len(f.shape) == 1}
+    scalar = {f.name for f in (*EPISODES, *ENERGY_EPISODES, *SERVICE_EPISODES)
+              if len(f.shape) == 1}
     assert set(SERIES.values()) == scalar
     assert set(METRICS) == {*SERIES, "greedy"}
 
@@ -44,7 +47,7 @@ def test_every_scalar_per_episode_series_of_the_file_is_a_metric():
 @pytest.mark.parametrize(("metric", "label"), [
     ("reward", "return (sum of the episode's rewards)"), ("height", "mean UAV height (m)"),
     ("epsilon", r"exploration rate $\epsilon$"), ("loss", "mean TD loss"),
-    ("energy", "energy per episode (J)")])
+    ("energy", "energy per episode (J)"), ("outage", "share of user-steps in outage")])
 def test_the_other_series_draw_what_is_stored(run, metric, label):
     (axes,) = runs_figure(run_paths=[run], metric=metric).figure.axes
     x, y = line_of(axes)
@@ -102,7 +105,8 @@ def test_an_unknown_metric_lists_every_allowed_one(run, tmp_path, capsys, name, 
                  str(tmp_path / "f.png")]) == 1
     assert one_line(capsys) == (
         f"--metric: unknown metric '{name}'; {guess}choose from sum-rate, fairness, greedy, "
-        "energy-efficiency, reward, height, epsilon, loss, energy, or several comma-separated "
+        "energy-efficiency, reward, height, epsilon, loss, energy, outage, least-rate, p5-rate, "
+        "or several comma-separated "
         "(e.g. sum-rate,fairness)")
 
 

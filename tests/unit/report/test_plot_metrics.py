@@ -99,7 +99,8 @@ def test_sum_rate_csv_keeps_its_columns(run, tmp_path):
 def test_bad_metrics_are_one_line_and_write_nothing(tmp_path, capsys):
     bare = make_run(tmp_path / "bare.h5", {0: 12})  # no greedy evaluation
     out = tmp_path / "out" / "fig.png"
-    every = "sum-rate, fairness, greedy, energy-efficiency, reward, height, epsilon, loss, energy"
+    every = ("sum-rate, fairness, greedy, energy-efficiency, reward, height, epsilon, loss, "
+             "energy, outage, least-rate, p5-rate")
     cases = {"sum-rate,power": f"--metric: unknown metric 'power'; choose from {every}, or "
                                "several comma-separated (e.g. sum-rate,fairness)",
              "fairness,fairness": "--metric: fairness given more than once; name each metric "

@@ -20,13 +20,16 @@ import h5py
 import numpy as np
 import pytest
 
+from adaptsky.store.layout import added_after
 from adaptsky.store.run_file import RunReader
 from adaptsky_cli.cli.main import main
 from tests.helpers.run_files import LEGACY
 
+EVALUATING = ["--set", "train.eval_every=1", "--set", "train.eval_steps=20"]
 FILES = {  # file -> (format, the --set options it was trained with)
     "format1-f76bddf.h5": (1, []),
-    "format2-4b487ea.h5": (2, ["--set", "train.eval_every=1", "--set", "train.eval_steps=20"]),
+    "format2-4b487ea.h5": (2, EVALUATING),
+    "format3-f2c7d5a.h5": (3, EVALUATING),
 }
 RUN = ["--workers", "1", "--quiet"]
 SKIP = {"created_utc", "sessions", "command_line", "adaptsky_version", "wall_time_s",
@@ -63,11 +66,18 @@ def counted(key: str) -> bool:
     return COUNTED_DATA.fullmatch(key) is not None
 
 
+def added(key: str, version: int) -> bool:
+    """Whether ``key`` (a path, maybe with ``@attribute``) is a dataset that formats after
+    ``version`` add (the energy from format 3, the service metrics and the users' positions
+    from format 4)."""
+    return key.split("@")[0].rsplit("/", 1)[-1] in added_after(version)
+
+
 def in_format(arrays: dict[str, np.ndarray], version: int) -> dict[str, np.ndarray]:
-    """A new run's ``arrays`` without what a file of format ``version`` does not have: format 3
-    adds the energy of every episode and step (a resumed file keeps its format), format 2 the
-    greedy evaluations."""
-    arrays = {k: v for k, v in arrays.items() if "energy" not in k}
+    """A new run's ``arrays`` without what a file of format ``version`` does not have: format 4
+    adds the service metrics and the users' positions, format 3 the energy of every episode
+    and step (a resumed file keeps its format), format 2 the greedy evaluations."""
+    arrays = {k: v for k, v in arrays.items() if not added(k, version)}
     if version == 1:
         arrays = {k: v for k, v in arrays.items() if "evaluations" not in k and "best" not in k}
     return arrays
@@ -120,7 +130,7 @@ def written_here(name: str, tmp_path: Path) -> Path:
     fresh = train(tmp_path, f"fresh-{EPISODES}.h5", sets, EPISODES)
     legacy = shipped(name, tmp_path, f"here-{name}")
     old, new = nodes(legacy), nodes(fresh)
-    new = {k: v for k, v in new.items() if "energy" not in k}
+    new = {k: v for k, v in new.items() if not added(k, version)}
     if version == 1:
         new = {k: v for k, v in new.items() if "evaluations" not in k}
     under = ("seeds", "evaluation")
@@ -148,26 +158,27 @@ def test_a_legacy_run_file_opens_and_resumes_to_the_asked_episodes(name, tmp_pat
     legacy = shipped(name, tmp_path)
     with h5py.File(legacy) as file:
         assert file.attrs["format_version"] == version
-        assert "algorithm" not in json.loads(file["config"][()])["agent"]
+        # [agent] algorithm came after format 2
+        assert ("algorithm" in json.loads(file["config"][()])["agent"]) == (version >= 3)
     with RunReader(legacy) as run:
         assert run.seeds == [3] and run.scenario.agent.algorithm == "dqn"
         assert run.seed_attrs(3)["episodes_done"] == EPISODES
         before = run.episodes(3)
         evaluations_before = run.evaluations(3)
     assert all(len(column) == EPISODES for column in before.values())
-    assert len(evaluations_before["episode"]) == (EPISODES if version == 2 else 0)
+    assert len(evaluations_before["episode"]) == (EPISODES if version >= 2 else 0)
 
     resume(legacy, 4)
     with h5py.File(legacy) as file:
         assert file.attrs["format_version"] == version  # a resumed file keeps its format
-        assert ("evaluations" in file["seeds/3"]) == (version == 2)
+        assert ("evaluations" in file["seeds/3"]) == (version >= 2)
     with RunReader(legacy) as run:  # validated again; every array read is checked finite
         assert run.seed_attrs(3) == {"seed": 3, "episodes_done": 4, "episodes_planned": 4}
         after, evaluations = run.episodes(3), run.evaluations(3)
         checkpoint = run.checkpoint(3)
         trajectory = run.trajectory(3)
         sessions = run.sessions
-    assert before.keys() == after.keys() and not any("energy" in key for key in after)
+    assert before.keys() == after.keys() and not any(added(key, version) for key in after)
     for key, column in after.items():
         assert len(column) == 4 and np.isfinite(column).all(), key
         assert np.array_equal(column[:EPISODES], before[key]), key  # appended, not rewritten
@@ -175,7 +186,7 @@ def test_a_legacy_run_file_opens_and_resumes_to_the_asked_episodes(name, tmp_pat
     assert len(trajectory["reward"]) == STEPS and np.isfinite(trajectory["reward"]).all()
     assert [(s["kind"], s["episodes_before"], s["episodes_after"]) for s in sessions][-1] \
         == ("resume", {"3": EPISODES}, {"3": 4})
-    if version == 2:  # one greedy evaluation per episode, the first two as stored
+    if version >= 2:  # one greedy evaluation per episode, the first two as stored
         assert evaluations["episode"].tolist() == [1, 2, 3, 4]
         assert np.isfinite(evaluations["score"]).all()
         for key, column in evaluations_before.items():

@@ -33,7 +33,7 @@ def test_paper_scenario_run_file_layout(tmp_path, capsys):
     assert code == 0
     assert "R_e^tot" in capsys.readouterr().out
     with h5py.File(out, "r") as f:          # h5py alone reads every dataset
-        assert f.attrs["format_version"] == 3 and f.attrs["kind"] == "adaptsky-run"
+        assert f.attrs["format_version"] == 4 and f.attrs["kind"] == "adaptsky-run"
         assert {"adaptsky_version", "created_utc"} <= set(f.attrs)
         assert f["scenario"][()].decode() == (SCENARIOS / "nyc_mmwave.toml").read_text()
         config = json.loads(f["config"][()])
@@ -43,7 +43,8 @@ def test_paper_scenario_run_file_layout(tmp_path, capsys):
             s = f[f"seeds/{seed}"]
             assert s.attrs["episodes_done"] == 3
             for name in ("sum_rate_bps", "fairness", "reward", "mean_height_m", "epsilon",
-                         "loss", "energy_j", "energy_efficiency_bpj"):
+                         "loss", "energy_j", "energy_efficiency_bpj", "outage_share",
+                         "mean_least_rate_bps", "p5_rate_bps"):
                 assert s[f"episodes/{name}"].shape == (3,)
             for name in ("mean_rate_bps", "mean_alpha"):
                 assert s[f"episodes/{name}"].shape == (3, 4)
@@ -52,6 +53,7 @@ def test_paper_scenario_run_file_layout(tmp_path, capsys):
             for name in ("alpha", "gain", "los", "rate_bps"):
                 assert t[name].shape == (300, 4)
             assert t["energy_j"].shape == (300,)
+            assert t["users_m"].shape == (300, 4, 2)
             assert t["action"].dtype == np.int64 and t["los"].dtype == bool
             c = s["checkpoint"]
             assert c.attrs["episode"] == 3

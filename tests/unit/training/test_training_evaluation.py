@@ -118,7 +118,7 @@ def brute_force_oracle(layout_m: list, min_se: float = 0.0) -> float:
 def test_evaluation_rows_are_percent_of_the_oracle_and_the_best_is_their_maximum(full):
     oracle = brute_force_oracle(TRAINING_LAYOUT_M)
     with h5py.File(full, "r") as f:
-        assert f.attrs["format_version"] == 3
+        assert f.attrs["format_version"] == 4
         assert np.array_equal(f["evaluation/training_layouts_m"][()], [TRAINING_LAYOUT_M])
         stored = f["evaluation/training_oracle_bps"][()]
         assert "heldout_oracle_bps" not in f["evaluation"]
@@ -362,7 +362,9 @@ def _as_format_1(f: h5py.File) -> None:
     for seed in f["seeds"].values():
         del seed["evaluations"]
         for name in ("episodes/energy_j", "episodes/energy_efficiency_bpj",
-                     "trajectory/energy_j"):
+                     "trajectory/energy_j", "episodes/outage_share",
+                     "episodes/mean_least_rate_bps", "episodes/p5_rate_bps",
+                     "trajectory/users_m"):
             del seed[name]
         if "best" in seed["checkpoint"]:
             del seed["checkpoint/best"]
