@@ -264,3 +264,16 @@ def test_a_legacy_run_file_evaluates_as_a_new_runs_file(name, tmp_path, capsys):
     here = evaluate(written_here(name, tmp_path), capsys)
     assert here["methods"] == new["methods"] and here["policy"]["episode"] \
         == new["policy"]["episode"]
+
+
+@pytest.mark.parametrize("name", FILES)
+def test_a_legacy_run_file_opens_with_inspect_eval_and_show(name, tmp_path, capsys):
+    legacy = shipped(name, tmp_path)
+    version, _ = FILES[name]
+    assert main(["inspect", str(legacy)]) == 0
+    assert f"format {version}," in capsys.readouterr().out
+    assert main(["eval", str(legacy), "--compare", "soa", "--steps", "8",
+                 "--out", str(tmp_path / "eval.h5")]) == 0
+    assert main(["show", str(legacy), "--out", str(tmp_path / "episode.png")]) == 0
+    assert (tmp_path / "episode.png").stat().st_size > 0
+    capsys.readouterr()
