@@ -187,6 +187,7 @@ ADDED_SECTION_DEFAULTS = {("uav", "count"): 1, ("uav", "start_positions_m"): Non
                           # users that move by a model (docs/model.md §3): static
                           ("users", "mobility"): {"model": "static"},
                           ("users", "hotspots"): None, ("users", "spread_m"): None,
+                          ("users", "reassociate_every_s"): None,
                           # the service metrics' outage threshold (docs/model.md §14)
                           ("metrics", "outage_se"): 1.0}
 # tables a newer adaptsky adds: left out where every key in them is at its default

@@ -136,6 +136,10 @@ class Users(Section):
                                     description="random-walk speed of every user, m/step")
     mobility: Mobility = Field(default_factory=Mobility, description="how the users move "
                                "(docs/model.md §3); static by default")
+    reassociate_every_s: float | None = Field(
+        None, gt=0, le=1e6, description="re-run the association and the NOMA pairing on the "
+        "users' positions every this many seconds, a whole number of uav.step_s (default: "
+        "fixed for the episode from the start)")
     height_m: float = Field(0.0, ge=0, le=MAX_HEIGHT_M - MIN_HEIGHT_M,
                             description="antenna height h_UT of every user above the ground, "
                             "m (the paper: 0, users on the ground; needs a contract-2 "
@@ -582,6 +586,23 @@ class Scenario(Section):
                              "and only one of them would fade); use channel.los = 'always' or "
                              "'sampled', or channel.fading.model = 'none'")
         return self
+
+    @model_validator(mode="after")
+    def _reassociation_in_steps(self) -> Scenario:
+        """users.reassociate_every_s is a whole number of steps (docs/model.md §3)."""
+        every_s = self.users.reassociate_every_s
+        if every_s is not None:
+            steps = every_s / self.uav.step_s
+            if abs(steps - round(steps)) > 1e-9 * steps or round(steps) < 1:
+                raise ValueError(f"users.reassociate_every_s = {every_s:g} s is not a whole "
+                                 f"number of steps of uav.step_s = {self.uav.step_s:g} s")
+        return self
+
+    @property
+    def reassociate_steps(self) -> int | None:
+        """Steps between two runs of the association and pairing (None: once per episode)."""
+        every_s = self.users.reassociate_every_s
+        return None if every_s is None else round(every_s / self.uav.step_s)
 
     @model_validator(mode="after")
     def _evaluation_layouts(self) -> Scenario:

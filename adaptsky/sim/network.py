@@ -191,6 +191,7 @@ class NetworkBatch:
         self._los_mode = scenario.channel.los
         self._max_steps = scenario.train.steps
         self._speed_m = walk_step_m(scenario)          # the random walk's step, m
+        self._reassociate_steps = scenario.reassociate_steps   # None: once per episode
         # users that move by a model with a state (docs/model.md §3): None for the others
         self._mobility = (MobilityStage(scenario.users.mobility, num_envs, self.num_users,
                                         scenario.area.side_m / 2, scenario.uav.step_s)
@@ -237,12 +238,21 @@ class NetworkBatch:
         self.city: City | None = city_of(scenario, self.layouts_m)
         self._blockage = (None if self.city is None
                           else Blockage(self.city, scenario.users.height_m))
+        self._pair(self.layouts_m)
+
+    def _pair(self, users_m: FloatArray) -> None:
+        """Serving UAVs and NOMA clusters of the users at ``users_m`` (B, N, 2): a balanced
+        k-means from the UAVs' starts (or the listed UAVs), pairs near-far by the gains at
+        the starts (docs/model.md §9); at the start of every episode on the layouts, and every
+        ``users.reassociate_every_s`` on the users' positions then (§3)."""
+        scenario = self.scenario
+        expected = (self.num_envs, self.num_users, 2)
         serving = (np.zeros(expected[:2], dtype=np.intp) if self.num_uavs == 1 else
-                   serving_groups(self.layouts_m, self.start_m, scenario.users.association,
+                   serving_groups(users_m, self.start_m, scenario.users.association,
                                   scenario.users.uav))
         starts = np.broadcast_to(self.start_m, (self.num_envs, *self.start_m.shape))
         start_gain = deterministic_gain(self.channel, self._los_mode,
-                                        self.geometry(starts, self.layouts_m))
+                                        self.geometry(starts, users_m))
         start_gain = start_gain.reshape(self.num_envs, self.num_uavs, self.num_users)
         self.association: Association = associate(
             serving, serving_gain(start_gain, serving), scenario.users.pairing, self.num_uavs)
@@ -440,6 +450,8 @@ class NetworkBatch:
             self._small_scale.reset()
         if self._mobility is not None:
             self._mobility.reset(self._generators)
+        if self._reassociate_steps is not None:
+            self._pair(self.layouts_m)               # the start's association again
         self._to_start(alpha_first)
         self.state = self._evaluate(self.sim_state)
         return self._obs, self.state
@@ -467,10 +479,18 @@ class NetworkBatch:
         if self.num_uavs > 1 or self.city is not None:
             moved = self._kept_apart(before, moved)
         self.sim_state = moved
+        self._reassociated(moved)
         energy_j = self._energy.of_move(self._squeezed(before.uav_m),
                                         self._squeezed(moved.uav_m))
         state = self.state = self._evaluate(moved, energy_j)
         return self._obs, state.reward, moved.t >= self._max_steps, state
+
+    def _reassociated(self, state: SimState) -> None:
+        """Every ``users.reassociate_every_s``: the association and pairing run again on the
+        users' positions of ``state`` (docs/model.md §3), before the step's channel."""
+        every = self._reassociate_steps
+        if every is not None and state.t % every == 0:
+            self._pair(np.array(state.users_m, dtype=np.float64))
 
     def _kept_apart(self, before: SimState, moved: SimState) -> SimState:
         """The controls stage's rules of the UAVs' positions: moves that break the separation
@@ -503,7 +523,10 @@ class NetworkBatch:
         ``alpha_first``, as given; a hovering step's energy. Baselines use this to hold a
         configuration while the users walk (docs/evaluation.md)."""
         state = self.sim_state
-        return self._held(uav_m, alpha_first, self._users_of_step(state.users_m), state.t + 1)
+        users_m = self._users_of_step(state.users_m)
+        if self._reassociate_steps is not None:
+            self._reassociated(SimState._new(state.config, users_m, state.t + 1))
+        return self._held(uav_m, alpha_first, users_m, state.t + 1)
 
     def fly_step(self, uav_m: FloatArray, alpha_first: FloatArray) -> NetworkState:
         """One step to a configuration reached by flying (a heuristic baseline's: tracking,
@@ -519,6 +542,7 @@ class NetworkBatch:
         if self.num_uavs > 1 or self.city is not None:
             moved = self._kept_apart(before, moved)
         self.sim_state = moved
+        self._reassociated(moved)
         energy_j = self._energy.of_move(self._squeezed(before.uav_m),
                                         self._squeezed(moved.uav_m))
         self.state = self._evaluate(moved, energy_j)
