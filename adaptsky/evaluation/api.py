@@ -215,7 +215,7 @@ def _policy_method(name: str, scenario: Scenario, policy: Policy, steps: int,
 
 def _baseline_method(scenario: Scenario, name: str, steps: int, users_m: np.ndarray,
                      progress: WorkProgress) -> Method:
-    with progress.stage(name, *baseline_work(name, steps, users_m)) as tick:
+    with progress.stage(name, *baseline_work(name, steps, users_m, scenario)) as tick:
         return run_baseline(scenario, name, steps, users_m, on_progress=tick)
 
 

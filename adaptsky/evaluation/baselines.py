@@ -33,6 +33,7 @@ from adaptsky.rollouts.fading_oracle import (
     fading_oracle_refusal,
     require_fading_oracle,
 )
+from adaptsky.rollouts.genie import GENIE_NOTE, genie_trace, per_step_oracle
 from adaptsky.rollouts.mean_shares import mean_best_shares, shares_apply
 from adaptsky.rollouts.metrics import Method
 from adaptsky.rollouts.oracle import oracle, require_deterministic_gains, require_static_users
@@ -44,6 +45,7 @@ from adaptsky.scenario import Scenario
 from adaptsky.scenario.variants import with_values
 from adaptsky.sim.controls import controls_of
 from adaptsky.sim.network import NetworkBatch
+from adaptsky.sim.state import users_move
 
 BASELINES = ("soa", "tracking", "oracle", "best-response", "oma", "random")
 SEARCHES = ("oracle", "best-response", "oma")
@@ -77,12 +79,22 @@ def require_applies(scenario: Scenario, method: str, option: str = "") -> None:
                               f"(scenario '{scenario.name}' has {count} UAVs)")
     if method in SEARCHES:
         name = "the oracle" if method == "oracle" else method
+        if per_step_reference(scenario, method):
+            return
         require_static_users(scenario, name)
         if method == "oracle" and scenario.channel.fading.model != "none":
             require_fading_oracle(scenario)
             return
         require_deterministic_gains(scenario if method == "oracle" else
                                     searched_scenario(scenario), name)
+
+
+def per_step_reference(scenario: Scenario, method: str) -> bool:
+    """Whether ``method`` is the per-step oracle (:mod:`adaptsky.rollouts.genie`): the oracle
+    or best response of one UAV where the users move and the gains are deterministic."""
+    return (method in REFERENCES and scenario.uav.count == 1 and users_move(scenario)
+            and scenario.channel.fading.model == "none"
+            and scenario.channel.los != "sampled")
 
 
 def static_ceiling(scenario: Scenario, method: str) -> bool:
@@ -141,9 +153,14 @@ def refines_shares(scenario: Scenario) -> bool:
     return scenario.channel.fading.model != "none" and shares_apply(scenario)
 
 
-def baseline_work(method: str, steps: int, users_m: np.ndarray) -> tuple[int, str]:
-    """How much work a baseline is, for progress: (count, unit)."""
-    return (len(users_m), "layout") if method in SEARCHES else (steps, "step")
+def baseline_work(method: str, steps: int, users_m: np.ndarray,
+                  scenario: Scenario | None = None) -> tuple[int, str]:
+    """How much work a baseline is, for progress: (count, unit); the per-step oracle of
+    ``scenario`` (users that move) counts steps."""
+    if method in SEARCHES and not (scenario is not None
+                                   and per_step_reference(scenario, method)):
+        return len(users_m), "layout"
+    return steps, "step"
 
 
 def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarray,
@@ -168,6 +185,16 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
         else:
             uav_m, alpha_first = several_uavs.soa_per_uav(scenario, users_m)
         trace = hold(scenario, uav_m, alpha_first, steps, users_m, seed, on_progress)
+    elif per_step_reference(scenario, method):
+        start = time.process_time()
+        found = per_step_oracle(scenario, users_m, steps, seed, on_progress)
+        details["seconds_per_step"] = (time.process_time() - start) / steps
+        details["objective_bps"] = found.objective_bps.mean(axis=0)
+        details["note"] = GENIE_NOTE
+        if method == "best-response":
+            details["rounds"] = np.ones(len(users_m), dtype=np.int64)
+            details["converged"] = np.ones(len(users_m), dtype=np.bool_)
+        trace = genie_trace(scenario, found, users_m, seed)
     elif static_ceiling(scenario, method):
         start = time.process_time()
         ceiling = fading_oracle(scenario, users_m, steps, seed, on_progress, on_progress)

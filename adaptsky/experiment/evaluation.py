@@ -161,7 +161,7 @@ def _evaluate_plan(plan: Plan, progress: WorkProgress) -> Evaluations:
             path = folder / f"{name}{_label(value)}.h5"
             metrics = _cached(path, record)
             if metrics is None:
-                total, unit = baseline_work(name, spec.steps, users_m)
+                total, unit = baseline_work(name, spec.steps, users_m, scenario)
                 stage = f"evaluating {name}{_label(value)}" + (
                     "" if unit == "layout" else f" on {plural(len(users_m), 'layout')}")
                 try:

@@ -118,6 +118,26 @@ def _best_alpha_on_grid(gain_first: FloatArray, gain_second: FloatArray, alphas:
     return best_alpha, best_rate
 
 
+def point_values(env: NetworkBatch, layout: int, points_m: FloatArray, users_m: FloatArray,
+                 alphas: FloatArray, snr_scale: float) -> tuple[FloatArray, FloatArray]:
+    """The objective (P,) at every lattice point ``points_m`` (P, 3) for the users at
+    ``users_m`` (N, 2), clustered as environment ``layout`` of ``env`` clusters them now, with
+    each cluster's best grid share (P, K); -inf where no share meets R_min and inside a
+    building (a UAV never stands there)."""
+    scenario = env.scenario
+    users = np.broadcast_to(users_m, (len(points_m), *users_m.shape))
+    geometry = env.geometry(points_m, users, layout=layout)
+    gain = deterministic_gain(env.channel, scenario.channel.los, geometry)
+    gain_first = gain[:, env.first_user[layout]]
+    gain_second = gain[:, env.second_user[layout]]
+    alpha, rate = _best_alpha_first(gain_first, gain_second, alphas, scenario, snr_scale)
+    total = rate.sum(axis=1)
+    if env.city is not None:     # a UAV never stands inside a building
+        total = np.where(inside_buildings(points_m[None], env.city.environment(layout))[0],
+                         -np.inf, total)
+    return total, alpha
+
+
 def has_oracle(scenario: Scenario) -> bool:
     """Whether the oracle applies: deterministic gains (LoS not drawn at random, no fading,
     a plugin's or the built-in one of docs/model.md §11) and users that stand (a search at
@@ -173,7 +193,6 @@ def oracle(scenario: Scenario, users_m: FloatArray,
     env = NetworkBatch(scenario, num_envs=num_layouts, users_m=users_m)
     radio = scenario.radio
     snr_scale = radio.tx_power_w * radio.antenna_gain / radio.noise_w   # P_T G / sigma^2
-    channel = env.channel
     xs, ys, hs, alphas = lattice(scenario)
     grid = np.stack(np.meshgrid(xs, ys, hs, indexing="ij"), axis=-1).reshape(-1, 3)
     k = scenario.num_clusters
@@ -183,17 +202,8 @@ def oracle(scenario: Scenario, users_m: FloatArray,
     for layout in range(num_layouts):
         for start in range(0, len(grid), POINTS_PER_CHUNK):
             points = grid[start:start + POINTS_PER_CHUNK]
-            users = np.broadcast_to(users_m[layout], (len(points), *users_m.shape[1:]))
-            geometry = env.geometry(points, users, layout=layout)
-            gain = deterministic_gain(channel, scenario.channel.los, geometry)
-            gain_first = gain[:, env.first_user[layout]]
-            gain_second = gain[:, env.second_user[layout]]
-            alpha, rate = _best_alpha_first(gain_first, gain_second, alphas, scenario,
-                                            snr_scale)
-            total = rate.sum(axis=1)
-            if env.city is not None:     # a UAV never stands inside a building
-                total = np.where(inside_buildings(points[None], env.city.environment(layout))[0],
-                                 -np.inf, total)
+            total, alpha = point_values(env, layout, points, users_m[layout], alphas,
+                                        snr_scale)
             best = int(np.argmax(total))
             if total[best] > objective[layout]:
                 objective[layout] = total[best]

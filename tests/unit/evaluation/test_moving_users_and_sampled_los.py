@@ -15,6 +15,7 @@ import pytest
 from adaptsky.evaluation.api import eval_layouts, run_baseline
 from adaptsky.evaluation.baselines import SAMPLED_LOS_NOTE, searched_scenario
 from adaptsky.rollouts import several_uavs
+from adaptsky.rollouts.genie import GENIE_NOTE
 from adaptsky.rollouts.rollout import random_policy, rollout
 from adaptsky.scenario import load_scenario
 from adaptsky.scenario.toml_writer import dumps
@@ -101,36 +102,44 @@ def test_static_users_keep_no_track_and_soa_is_constant():
     assert np.all(soa.rate_bps == soa.rate_bps[0])
 
 
-@pytest.mark.parametrize("method", ["oracle", "best-response", "oma"])
-def test_the_searches_refuse_walking_users_in_one_line(method, tmp_path, capsys):
+@pytest.mark.parametrize(("method", "uavs"), [("oma", 1), ("best-response", 2)])
+def test_the_searches_refuse_walking_users_in_one_line(method, uavs, tmp_path, capsys):
+    # OMA, and best response of several UAVs, find one configuration for the home positions;
+    # the oracle and best response of one UAV follow the users step by step (test_genie.py)
+    path = tmp_path / "walk.toml"
+    path.write_text(dumps(_walking(uav={"count": uavs}).model_dump(mode="json")))
+    assert main(["baseline", str(path), "--method", method]) == 1
+    assert capsys.readouterr().err.strip().splitlines() == [
+        f"scenario 'test': users.speed_m_per_step is 3 m (the users move); {method} searches "
+        "one configuration for the users' home positions and cannot follow moving users yet; "
+        "compare with soa or random, or evaluate with --set users.speed_m_per_step=0"]
+    # --set makes the users stand: the search then runs
+    assert main(["baseline", str(path), "--method", method, "--steps", "1", "--json",
+                 "--set", "users.speed_m_per_step=0"]) == 0
+    assert json.loads(capsys.readouterr().out)["methods"][method]["summary"]
+
+
+@pytest.mark.parametrize("method", ["oracle", "best-response"])
+def test_one_uavs_oracle_follows_walking_users_step_by_step(method, tmp_path, capsys):
     path = tmp_path / "walk.toml"
     path.write_text(dumps(_walking().model_dump(mode="json")))
-    assert main(["baseline", str(path), "--method", method]) == 1
-    name = "the oracle" if method == "oracle" else method
-    assert capsys.readouterr().err.strip().splitlines() == [
-        f"scenario 'test': users.speed_m_per_step is 3 m (the users move); {name} searches one "
-        "configuration for the users' home positions and cannot follow moving users yet; "
-        "compare with soa or random, or evaluate with --set users.speed_m_per_step=0"]
-    # --set makes the users stand: the oracle then runs
-    if method == "oracle":
-        assert main(["baseline", str(path), "--method", method, "--steps", "1", "--json",
-                     "--set", "users.speed_m_per_step=0"]) == 0
-        assert json.loads(capsys.readouterr().out)["methods"]["oracle"]["summary"]
+    assert main(["baseline", str(path), "--method", method, "--steps", "4", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["methods"][method]["note"] == GENIE_NOTE
 
 
-def test_a_mobility_model_is_refused_by_the_oracle_and_set_static_in_one_key(tmp_path, capsys):
+def test_a_mobility_model_is_refused_by_oma_and_set_static_in_one_key(tmp_path, capsys):
     scenario = _walking().model_dump(mode="json")
     scenario["users"]["speed_m_per_step"] = 0.0
     scenario["users"]["mobility"] = {"model": "random-waypoint", "speed_min_mps": 1.0,
                                      "speed_max_mps": 2.0}
     path = tmp_path / "waypoint.toml"
     path.write_text(dumps(scenario))
-    assert main(["baseline", str(path), "--method", "oracle"]) == 1
+    assert main(["baseline", str(path), "--method", "oma"]) == 1
     assert "users.mobility.model is 'random-waypoint' (the users move)" in (
         capsys.readouterr().err)
-    assert main(["baseline", str(path), "--method", "oracle", "--steps", "1", "--json",
+    assert main(["baseline", str(path), "--method", "oma", "--steps", "1", "--json",
                  "--set", 'users.mobility={model="static"}']) == 0
-    assert json.loads(capsys.readouterr().out)["methods"]["oracle"]["summary"]
+    assert json.loads(capsys.readouterr().out)["methods"]["oma"]["summary"]
 
 
 def test_best_response_under_sampled_los_searches_the_expected_gains(tmp_path):

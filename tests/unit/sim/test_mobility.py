@@ -159,5 +159,5 @@ def test_moving_users_are_refused_by_the_searches():
     from adaptsky.evaluation.baselines import require_applies
     scenario = make_scenario(users={"count": 4, "positions_m": None, "mobility": WAYPOINT})
     with pytest.raises(AdaptskyError, match="users"):
-        require_applies(scenario, "oracle")
+        require_applies(scenario, "oma")
     assert math.isfinite(scenario.users.mobility.pause_max_s)

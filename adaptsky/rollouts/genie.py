@@ -1,0 +1,211 @@
+"""The per-step oracle for users that move (docs/model.md §6): at every step, the best
+objective over the reachable lattice at that step's user positions, clustered as the policy's
+environment clusters them then -- a genie that may jump from one lattice point to any other
+between steps, and so an upper bound on any policy of one UAV.
+
+Every step is the oracle's exhaustive search (:func:`~adaptsky.rollouts.oracle.point_values`
+at every lattice point), made fast by branch and bound where the channel allows a bound. The
+lattice is cut into boxes of ``BOX`` points; for a built-in channel model (its LoS gain falls
+with the distance and its NLoS gain lies below it) a user's gain anywhere in a box is at most
+the LoS gain at the box's nearest point to that user, and a cluster's best value rises with
+its strong user's gain and with its weak user's (at any share: the strong user's SINR rises
+with its own gain, the weak user's with its own; and the larger of two gains bounds the strong
+one, the smaller the weak). So a box's value is at most the sum over clusters of the best
+value at those gains over every share either user can hold (the grid and its complement),
+with R_min's feasibility relaxed the same way. Boxes are valued exactly from the largest bound
+down (the box of the previous step's optimum first, whose value starts the search), until a
+bound falls to the best value found: the objective is the exhaustive search's, exactly (among
+equal optima the first found is kept). Other channel models search every point at every step.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from adaptsky.channels.contract import LinkGeometry
+from adaptsky.rollouts.oracle import _best_alpha_on_grid, lattice, point_values
+from adaptsky.rollouts.rollout import Trace
+from adaptsky.scenario.models import Scenario
+from adaptsky.sim.links import carrier_hz
+from adaptsky.sim.network import NetworkBatch
+
+FloatArray = NDArray[np.float64]
+BOX = (8, 8, 8)
+"""Lattice points of a box along x, y and h."""
+POINTS_PER_BATCH = 16_384
+"""Lattice points valued at once (whole boxes)."""
+BOUNDED_MODELS = ("mmwave-nyc", "sub6-al-hourani")
+"""Channel models whose LoS gain falls with the 3D distance and bounds their NLoS gain."""
+
+GENIE_NOTE = ("the best lattice point and shares at every step's user positions, free to jump "
+              "between steps: an upper bound on any policy of one UAV")
+"""What the oracle is for users that move (its label in tables and files)."""
+
+
+@dataclass(frozen=True)
+class GenieResult:
+    """Per step and layout: objective (T, L), UAV (T, L, 3), alpha_first (T, L, K), the
+    users' positions (T, L, N, 2), and the lattice points valued per step (T, L)."""
+
+    objective_bps: FloatArray
+    uav_m: FloatArray
+    alpha_first: FloatArray
+    users_m: FloatArray
+    points_valued: NDArray[np.int64]
+
+
+class _Boxes:
+    """The lattice cut into boxes: every box's index ranges and extents, and its points."""
+
+    def __init__(self, scenario: Scenario) -> None:
+        self.xs, self.ys, self.hs, self.alphas = lattice(scenario)
+        shares = np.concatenate([self.alphas, 1.0 - self.alphas])
+        self.shares = np.unique(shares)
+        axes = (self.xs, self.ys, self.hs)
+        self.starts = [np.arange(0, len(axis), size) for axis, size in zip(axes, BOX,
+                                                                           strict=True)]
+        grid = np.stack(np.meshgrid(*[np.arange(len(s)) for s in self.starts], indexing="ij"),
+                        axis=-1).reshape(-1, 3)                      # box (i, j, k)
+        self.index = grid
+        lows, highs = [], []
+        for dim, (axis, starts, size) in enumerate(zip(axes, self.starts, BOX, strict=True)):
+            first = starts[grid[:, dim]]
+            last = np.minimum(first + size, len(axis)) - 1
+            lows.append(axis[first])
+            highs.append(axis[last])
+        self.low, self.high = np.stack(lows, axis=1), np.stack(highs, axis=1)   # (M, 3)
+
+    def of_point(self, point_m: FloatArray) -> int:
+        """The box holding a lattice point."""
+        ijk = [int(np.argmin(np.abs(axis - value))) // size
+               for axis, value, size in zip((self.xs, self.ys, self.hs), point_m, BOX,
+                                            strict=True)]
+        counts = [len(s) for s in self.starts]
+        return (ijk[0] * counts[1] + ijk[1]) * counts[2] + ijk[2]
+
+    def points(self, boxes: NDArray[np.intp]) -> FloatArray:
+        """Every lattice point (P, 3) of ``boxes``, box after box."""
+        found = []
+        for box in boxes:
+            ranges = [axis[start:start + size] for axis, start, size in zip(
+                (self.xs, self.ys, self.hs),
+                (s[i] for s, i in zip(self.starts, self.index[box], strict=True)), BOX,
+                strict=True)]
+            found.append(np.stack(np.meshgrid(*ranges, indexing="ij"), axis=-1).reshape(-1, 3))
+        return np.concatenate(found)
+
+
+def _bounds(env: NetworkBatch, layout: int, boxes: _Boxes, users_m: FloatArray,
+            snr_scale: float) -> FloatArray:
+    """Every box's upper bound on the objective (M,) (module doc); -inf where no point of it
+    can meet R_min."""
+    nearest = np.empty((len(boxes.low), len(users_m), 3))
+    nearest[..., :2] = np.clip(users_m[None], boxes.low[:, None, :2], boxes.high[:, None, :2])
+    nearest[..., 2] = boxes.low[:, None, 2]
+    scenario = env.scenario
+    every_user = np.broadcast_to(users_m, (len(nearest), *users_m.shape)).reshape(-1, 1, 2)
+    geometry = LinkGeometry.between(nearest.reshape(-1, 3), every_user,
+                                    user_height_m=scenario.users.height_m,
+                                    carrier_hz=carrier_hz(scenario),
+                                    bandwidth_hz=env.bandwidth_hz)
+    gain = env.channel.gain_los(geometry).reshape(len(nearest), len(users_m))
+    first, second = gain[:, env.first_user[layout]], gain[:, env.second_user[layout]]
+    _, rate = _best_alpha_on_grid(np.maximum(first, second), np.minimum(first, second),
+                                  boxes.shares, scenario, snr_scale)
+    return rate.sum(axis=1)
+
+
+def step_oracle(env: NetworkBatch, layout: int, users_m: FloatArray, boxes: _Boxes | None,
+                snr_scale: float, previous_m: FloatArray | None = None
+                ) -> tuple[float, FloatArray, FloatArray, int]:
+    """The oracle at one step (module doc): objective, UAV position (3,), alpha_first (K,) and
+    the lattice points valued, for the users at ``users_m`` (N, 2) of environment ``layout``
+    (its city and its clusters now); ``boxes`` None searches every point."""
+    scenario = env.scenario
+    best, best_point = 0.0, np.array(scenario.uav.start_m, dtype=np.float64)
+    best_alpha = np.full(scenario.num_clusters, scenario.uav.start_alpha)
+    valued = 0
+    if boxes is None:
+        xs, ys, hs, alphas = lattice(scenario)
+        order = [np.stack(np.meshgrid(xs, ys, hs, indexing="ij"), axis=-1).reshape(-1, 3)]
+    else:
+        alphas = boxes.alphas
+        bound = _bounds(env, layout, boxes, users_m, snr_scale)
+        ranked = np.argsort(-bound, kind="stable")
+        if previous_m is not None:      # the previous optimum's box first: a good start
+            first = boxes.of_point(previous_m)
+            ranked = np.concatenate([[first], ranked[ranked != first]])
+    per_batch = max(1, POINTS_PER_BATCH // int(np.prod(BOX)))
+    position = 0
+    while True:
+        if boxes is None:
+            if position:
+                break
+            points = order[0]
+            position = 1
+        else:
+            batch = ranked[position:position + per_batch]
+            batch = batch[bound[batch] > best]
+            position += per_batch
+            if not len(batch):
+                if position >= len(ranked) or bound[ranked[min(position, len(ranked) - 1)]] \
+                        <= best:
+                    break
+                continue
+            points = boxes.points(batch)
+        total, alpha = point_values(env, layout, points, users_m, alphas, snr_scale)
+        valued += len(points)
+        top = int(np.argmax(total))
+        if total[top] > best:
+            best, best_point, best_alpha = float(total[top]), points[top], alpha[top]
+    return best, best_point, best_alpha, valued
+
+
+def per_step_oracle(scenario: Scenario, users_m: FloatArray, steps: int, seed: int = 0,
+                    on_step: Callable[[int], None] | None = None) -> GenieResult:
+    """The per-step oracle (module doc) over ``steps`` steps of the layouts ``users_m``
+    (L, N, 2), the users moving as under a policy with the same ``seed`` (the same draws);
+    ``on_step`` hears the steps done."""
+    num_layouts = len(users_m)
+    env = NetworkBatch(scenario, num_envs=num_layouts, seed=seed, users_m=users_m)
+    env.reset()
+    radio = scenario.radio
+    snr_scale = radio.tx_power_w * radio.antenna_gain / radio.noise_w
+    boxes = _Boxes(scenario) if scenario.channel.model in BOUNDED_MODELS else None
+    k = scenario.num_clusters
+    objective = np.zeros((steps, num_layouts))
+    uav_m = np.zeros((steps, num_layouts, 3))
+    alpha = np.zeros((steps, num_layouts, k))
+    positions = np.zeros((steps, *users_m.shape))
+    valued = np.zeros((steps, num_layouts), dtype=np.int64)
+    start = np.broadcast_to(np.array(scenario.uav.start_m), (num_layouts, 3))
+    shares = np.full((num_layouts, k), scenario.uav.start_alpha)
+    for step in range(steps):
+        env.hold_step(start, shares)            # the users move; the clusters are the step's
+        positions[step] = env.users_m
+        for layout in range(num_layouts):
+            found = step_oracle(env, layout, positions[step, layout], boxes, snr_scale,
+                                uav_m[step - 1, layout] if step else None)
+            objective[step, layout], uav_m[step, layout], alpha[step, layout] = found[:3]
+            valued[step, layout] = found[3]
+        if on_step is not None:
+            on_step(step + 1)
+    return GenieResult(objective, uav_m, alpha, positions, valued)
+
+
+def genie_trace(scenario: Scenario, found: GenieResult, users_m: FloatArray, seed: int = 0
+                ) -> Trace:
+    """The rollout of the per-step oracle's configurations: at step t the UAV at
+    ``found.uav_m[t]`` with ``found.alpha_first[t]``, the users moving with the same draws;
+    its energy is a hovering step's (a jump has none to speak of)."""
+    env = NetworkBatch(scenario, num_envs=len(users_m), seed=seed, users_m=users_m)
+    env.reset()
+    states, walked = [], []
+    for step in range(len(found.objective_bps)):
+        states.append(env.hold_step(found.uav_m[step], found.alpha_first[step]))
+        walked.append(env.users_m)
+    return Trace.of(states, walked)
