@@ -14,7 +14,7 @@ from adaptsky.units import format_rate, rate_unit
 
 def format_quantity(quantity: str, value: float) -> str:
     """``value`` of ``quantity`` as report.md writes it: '12.34 Gbit/s', '+12.5%', '0.871'."""
-    if quantity == "sum_rate_bps":
+    if quantity in ("sum_rate_bps", "least_rate_bps"):
         return format_rate(value)
     if quantity == "fairness":
         return f"{value:.3f}"

@@ -27,7 +27,7 @@ from adaptsky.units import rate_unit
 BOUNDS = (("oracle", "oracle"), ("best-response", "best response"))
 """The bound of a condition, the first evaluated: the oracle (one UAV), else best response
 (several UAVs: a reference, docs/model.md §9)."""
-BASELINES = (("soa", "SoA"), *BOUNDS, ("oma", "OMA (best found)"))
+BASELINES = (("soa", "SoA"), ("tracking", "tracking"), *BOUNDS, ("oma", "OMA (best found)"))
 
 
 @dataclass
@@ -80,9 +80,10 @@ def conditions(plan: Plan, evaluations: Evaluations, out: Outputs) -> Analysis:
         bound = _mean(base[bound_name]) if bound_name else None
         soa, oma = _mean(base["soa"]), _mean(base["oma"])
         policy_mean = None
+        tracking = _mean(base["tracking"])
         for policy in spec.policies:
             rates = _policy_rates(plan, evaluations.of(policy), analysis, name, policy,
-                                  bound, soa, oma)
+                                  bound, soa, oma, tracking)
             if not rates:
                 continue
             mean, low, high = (float(v[0]) for v in band(np.array([[r] for r in rates]),
@@ -145,10 +146,11 @@ def _crossover(panel: str, points: list[tuple[str, float, float | None]]) -> str
 
 
 def _policy_rates(plan: Plan, measured: Evaluations, analysis: Analysis, group: str,
-                  policy: str, bound: float | None, soa: float | None, oma: float | None
-                  ) -> list[float]:
+                  policy: str, bound: float | None, soa: float | None, oma: float | None,
+                  tracking: float | None = None) -> list[float]:
     """Each run of ``group`` as ``measured`` into ``analysis``: steady sum rate and fairness,
-    its share of the bound, its gain over SoA and over OMA; the runs' sum rates."""
+    its share of the bound, its gain over SoA, over tracking and over OMA, and its service
+    metrics (docs/model.md §14: outage, the mean least user rate); the runs' sum rates."""
     spec = plan.experiment.evaluation
     row = row_label(plan.experiment.group(group).title, policy, spec.policies)
     rates = []
@@ -158,4 +160,12 @@ def _policy_rates(plan: Plan, measured: Evaluations, analysis: Analysis, group: 
         if oma:
             analysis.add(row, "noma_over_oma_pct", 100 * (steady - oma) / oma,
                          100 * (bound - oma) / oma if bound else None)
+        if tracking:
+            analysis.add(row, "gain_vs_tracking_pct", 100 * (steady - tracking) / tracking,
+                         100 * (bound - tracking) / tracking if bound else None)
+    for run in plan.group_runs(group):
+        mine = measured.runs.get(run.name)
+        if mine is not None and "outage_share" in mine:
+            analysis.add(row, "outage_pct", 100 * float(np.mean(mine["outage_share"])))
+            analysis.add(row, "least_rate_bps", float(np.mean(mine["mean_least_rate_bps"])))
     return rates

@@ -15,7 +15,7 @@ from adaptsky.scenario.models import NAME_MAX_LENGTH, Section, safe_name
 
 FigureKind = Literal["learning-curves", "min-se-sweep", "layout-gains", "uav-count",
                      "energy-front", "conditions"]
-Baseline = Literal["soa", "oracle", "random", "best-response", "oma"]
+Baseline = Literal["soa", "tracking", "oracle", "random", "best-response", "oma"]
 # figure kinds whose evaluated groups are each an x point of their own (their own scenario,
 # layouts and baselines) rather than rows over one set of layouts
 PER_GROUP_KINDS = ("uav-count", "conditions")
@@ -34,7 +34,8 @@ QUANTITIES: dict[str, tuple[str, ...]] = {
     "energy-front": ("sum_rate_bps", "energy_efficiency_bpj", "ee_ratio_vs_unweighted",
                      "sum_rate_pct_of_unweighted", "still_share_pct", "vertical_share_pct"),
     "conditions": ("sum_rate_bps", "fairness", "pct_of_bound", "gain_vs_soa_pct",
-                   "noma_over_oma_pct", "bound_over_oma_pct"),
+                   "gain_vs_tracking_pct", "noma_over_oma_pct", "bound_over_oma_pct",
+                   "outage_pct", "least_rate_bps"),
 }
 # the key an energy-front figure sweeps (its x points are reward weights)
 ENERGY_SWEEP_KEY = "reward.w_energy"
