@@ -40,6 +40,11 @@ from adaptsky.rollouts.oracle import oracle, require_deterministic_gains, requir
 from adaptsky.rollouts.rollout import Trace, hold, random_controls_policy, rollout
 from adaptsky.rollouts.several_uavs import SearchResult
 from adaptsky.rollouts.soa import soa_configuration
+from adaptsky.rollouts.step_response import (
+    STEP_RESPONSE_NOTE,
+    per_step_response,
+    step_response_trace,
+)
 from adaptsky.rollouts.tracking import track
 from adaptsky.scenario import Scenario
 from adaptsky.scenario.variants import with_values
@@ -90,9 +95,12 @@ def require_applies(scenario: Scenario, method: str, option: str = "") -> None:
 
 
 def per_step_reference(scenario: Scenario, method: str) -> bool:
-    """Whether ``method`` is the per-step oracle (:mod:`adaptsky.rollouts.genie`): the oracle
-    or best response of one UAV where the users move and the gains are deterministic."""
-    return (method in REFERENCES and scenario.uav.count == 1 and users_move(scenario)
+    """Whether ``method`` is searched at every step (users that move, deterministic gains):
+    the oracle or best response of one UAV, the per-step oracle
+    (:mod:`adaptsky.rollouts.genie`); best response of several UAVs, best response at every
+    step (:mod:`adaptsky.rollouts.step_response`)."""
+    return (method in REFERENCES and users_move(scenario)
+            and (scenario.uav.count == 1 or method == "best-response")
             and scenario.channel.fading.model == "none"
             and scenario.channel.los != "sampled")
 
@@ -185,6 +193,16 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
         else:
             uav_m, alpha_first = several_uavs.soa_per_uav(scenario, users_m)
         trace = hold(scenario, uav_m, alpha_first, steps, users_m, seed, on_progress)
+    elif per_step_reference(scenario, method) and not one_uav:
+        found_steps = per_step_response(scenario, users_m, steps, seed,
+                                        on_step=on_progress)
+        details["seconds_per_step"] = found_steps.seconds_per_step
+        details["objective_bps"] = found_steps.objective_bps.mean(axis=0)
+        details["note"] = STEP_RESPONSE_NOTE
+        details["rounds"] = found_steps.rounds.max(axis=0)
+        # a step that used every round may not have converged
+        details["converged"] = found_steps.rounds.max(axis=0) < several_uavs.DEFAULT_ROUNDS
+        trace = step_response_trace(scenario, found_steps, users_m, seed)
     elif per_step_reference(scenario, method):
         start = time.process_time()
         found = per_step_oracle(scenario, users_m, steps, seed, on_progress)

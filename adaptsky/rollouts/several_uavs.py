@@ -169,22 +169,30 @@ class _Search:
             chunk_h = heights[start:start + per_chunk]
             points = np.column_stack([np.tile(plane, (len(chunk_h), 1)),
                                       np.repeat(chunk_h, len(plane))])
-            gain = np.broadcast_to(fixed_gain, (len(points), *fixed_gain.shape)).copy()
-            gain[:, u] = self.gains(points)
-            shares = np.broadcast_to(alpha_first, (len(points), *alpha_first.shape)).copy()
-            if not self.oma:
-                shares[:, u] = self._best_shares(u, gain)
-            rates = self.rates(gain, shares)
-            feasible = (rates >= self.min_rate_bps).all(axis=-1)
-            if self.city is not None:     # a UAV never stands inside a building
-                feasible &= ~inside_buildings(points[None], self.city)[0]
-            total = np.where(feasible, rates.sum(axis=-1), -np.inf)
+            total, own_shares = self.totals(u, points, fixed_gain, alpha_first)
             index = int(np.argmax(total))
             if total[index] > best[0]:
-                best = (float(total[index]), points[index], shares[index, u])
+                best = (float(total[index]), points[index], own_shares[index])
             if on_chunk is not None:
                 on_chunk((start + len(chunk_h)) / len(heights))
         return best
+
+    def totals(self, u: int, points_m: FloatArray, fixed_gain: FloatArray,
+               alpha_first: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The network's objective (P,) with UAV ``u`` at each of ``points_m`` (P, 3) with its
+        best shares there (P, K) (its ``alpha_first`` row for OMA), the others at the gains
+        ``fixed_gain`` (U, N) with their ``alpha_first`` (U, K); -inf where a user misses
+        R_min or the point lies in a building."""
+        gain = np.broadcast_to(fixed_gain, (len(points_m), *fixed_gain.shape)).copy()
+        gain[:, u] = self.gains(points_m)
+        shares = np.broadcast_to(alpha_first, (len(points_m), *alpha_first.shape)).copy()
+        if not self.oma:
+            shares[:, u] = self._best_shares(u, gain)
+        rates = self.rates(gain, shares)
+        feasible = (rates >= self.min_rate_bps).all(axis=-1)
+        if self.city is not None:     # a UAV never stands inside a building
+            feasible &= ~inside_buildings(points_m[None], self.city)[0]
+        return np.where(feasible, rates.sum(axis=-1), -np.inf), shares[:, u]
 
     def _best_shares(self, u: int, gain: FloatArray) -> FloatArray:
         """UAV ``u``'s best first users' shares (M, K) on the grid, cluster by cluster: its

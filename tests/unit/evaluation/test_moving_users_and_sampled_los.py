@@ -102,10 +102,10 @@ def test_static_users_keep_no_track_and_soa_is_constant():
     assert np.all(soa.rate_bps == soa.rate_bps[0])
 
 
-@pytest.mark.parametrize(("method", "uavs"), [("oma", 1), ("best-response", 2)])
+@pytest.mark.parametrize(("method", "uavs"), [("oma", 1), ("oma", 2)])
 def test_the_searches_refuse_walking_users_in_one_line(method, uavs, tmp_path, capsys):
-    # OMA, and best response of several UAVs, find one configuration for the home positions;
-    # the oracle and best response of one UAV follow the users step by step (test_genie.py)
+    # OMA finds one configuration for the home positions; the oracle and best response follow
+    # the users step by step (test_genie.py, test_step_response.py)
     path = tmp_path / "walk.toml"
     path.write_text(dumps(_walking(uav={"count": uavs}).model_dump(mode="json")))
     assert main(["baseline", str(path), "--method", method]) == 1
