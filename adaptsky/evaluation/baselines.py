@@ -33,18 +33,20 @@ from adaptsky.rollouts.fading_oracle import (
     fading_oracle_refusal,
     require_fading_oracle,
 )
-from adaptsky.rollouts.genie import GENIE_NOTE, genie_trace, per_step_oracle
+from adaptsky.rollouts.genie import GENIE_NOTE, per_step_oracle
 from adaptsky.rollouts.mean_shares import mean_best_shares, shares_apply
 from adaptsky.rollouts.metrics import Method
 from adaptsky.rollouts.oracle import oracle, require_deterministic_gains, require_static_users
-from adaptsky.rollouts.rollout import Trace, hold, random_controls_policy, rollout
+from adaptsky.rollouts.rollout import (
+    Trace,
+    held_trace,
+    hold,
+    random_controls_policy,
+    rollout,
+)
 from adaptsky.rollouts.several_uavs import SearchResult
 from adaptsky.rollouts.soa import soa_configuration
-from adaptsky.rollouts.step_response import (
-    STEP_RESPONSE_NOTE,
-    per_step_response,
-    step_response_trace,
-)
+from adaptsky.rollouts.step_response import STEP_RESPONSE_NOTE, per_step_response
 from adaptsky.rollouts.tracking import track
 from adaptsky.scenario import Scenario
 from adaptsky.scenario.variants import with_values
@@ -202,7 +204,8 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
         details["rounds"] = found_steps.rounds.max(axis=0)
         # a step that used every round may not have converged
         details["converged"] = found_steps.rounds.max(axis=0) < several_uavs.DEFAULT_ROUNDS
-        trace = step_response_trace(scenario, found_steps, users_m, seed)
+        trace = held_trace(scenario, found_steps.uav_m, found_steps.alpha_first, users_m,
+                           seed)
     elif per_step_reference(scenario, method):
         start = time.process_time()
         found = per_step_oracle(scenario, users_m, steps, seed, on_progress)
@@ -212,7 +215,7 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
         if method == "best-response":
             details["rounds"] = np.ones(len(users_m), dtype=np.int64)
             details["converged"] = np.ones(len(users_m), dtype=np.bool_)
-        trace = genie_trace(scenario, found, users_m, seed)
+        trace = held_trace(scenario, found.uav_m, found.alpha_first, users_m, seed)
     elif static_ceiling(scenario, method):
         start = time.process_time()
         ceiling = fading_oracle(scenario, users_m, steps, seed, on_progress, on_progress)

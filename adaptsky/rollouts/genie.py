@@ -28,7 +28,6 @@ from numpy.typing import NDArray
 
 from adaptsky.channels.contract import LinkGeometry
 from adaptsky.rollouts.oracle import _best_alpha_on_grid, lattice, point_values
-from adaptsky.rollouts.rollout import Trace
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.links import carrier_hz
 from adaptsky.sim.network import NetworkBatch
@@ -196,16 +195,3 @@ def per_step_oracle(scenario: Scenario, users_m: FloatArray, steps: int, seed: i
             on_step(step + 1)
     return GenieResult(objective, uav_m, alpha, positions, valued)
 
-
-def genie_trace(scenario: Scenario, found: GenieResult, users_m: FloatArray, seed: int = 0
-                ) -> Trace:
-    """The rollout of the per-step oracle's configurations: at step t the UAV at
-    ``found.uav_m[t]`` with ``found.alpha_first[t]``, the users moving with the same draws;
-    its energy is a hovering step's (a jump has none to speak of)."""
-    env = NetworkBatch(scenario, num_envs=len(users_m), seed=seed, users_m=users_m)
-    env.reset()
-    states, walked = [], []
-    for step in range(len(found.objective_bps)):
-        states.append(env.hold_step(found.uav_m[step], found.alpha_first[step]))
-        walked.append(env.users_m)
-    return Trace.of(states, walked)

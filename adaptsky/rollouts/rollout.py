@@ -97,6 +97,20 @@ def hold(scenario: Scenario, uav_m: FloatArray, alpha_first: FloatArray, steps: 
     return Trace.of(states, walked)
 
 
+def held_trace(scenario: Scenario, uav_m: FloatArray, alpha_first: FloatArray,
+               users_m: FloatArray, seed: int = 0) -> Trace:
+    """A configuration held for one step at a time: at step t the UAVs at ``uav_m[t]`` with
+    ``alpha_first[t]`` (as :func:`hold` takes them), the users moving as under a policy with
+    the same ``seed``; a hovering step's energy at each (the per-step searches' rollouts)."""
+    env = _env(scenario, users_m, seed)
+    env.reset()
+    states, walked = [], []
+    for step_uav_m, step_alpha in zip(uav_m, alpha_first, strict=True):
+        states.append(env.hold_step(step_uav_m, step_alpha))
+        walked.append(env.users_m)
+    return Trace.of(states, walked)
+
+
 def oma_rates(scenario: Scenario, state: NetworkState) -> FloatArray:
     """Every user's OMA rate (B, N), bit/s, at the gains of ``state`` (docs/model.md §9:
     half the band and half the power of its cluster each; the interference of several UAVs

@@ -31,7 +31,6 @@ from numpy.typing import NDArray
 from adaptsky.channels.contract import LinkGeometry
 from adaptsky.rollouts.genie import BOUNDED_MODELS
 from adaptsky.rollouts.oracle import _best_alpha_on_grid
-from adaptsky.rollouts.rollout import Trace
 from adaptsky.rollouts.several_uavs import DEFAULT_ROUNDS, RELATIVE_TOLERANCE, _Search
 from adaptsky.rollouts.soa import soa_per_uav_configuration
 from adaptsky.scenario.models import Scenario
@@ -226,17 +225,4 @@ def per_step_response(scenario: Scenario, users_m: FloatArray, steps: int, seed:
     seconds = (time.process_time() - started) / max(1, steps)
     return StepResponseResult(objective, uav_m, alpha_first, positions, rounds_run, valued,
                               seconds)
-
-
-def step_response_trace(scenario: Scenario, found: StepResponseResult, users_m: FloatArray,
-                        seed: int = 0) -> Trace:
-    """The rollout of best response's per-step configurations, the users moving with the
-    same draws (a hovering step's energy at each)."""
-    env = NetworkBatch(scenario, num_envs=len(users_m), seed=seed, users_m=users_m)
-    env.reset()
-    states, walked = [], []
-    for step in range(len(found.objective_bps)):
-        states.append(env.hold_step(found.uav_m[step], found.alpha_first[step]))
-        walked.append(env.users_m)
-    return Trace.of(states, walked)
 

@@ -476,14 +476,21 @@ class NetworkBatch:
         moved = step(before, actions, dynamics, self._headings() if self._speed_m else None)
         if self._mobility is not None:
             moved = SimState._new(moved.config, self._moved_users(before.users_m), moved.t)
+        state = self._settled(before, moved)
+        return self._obs, state.reward, self.sim_state.t >= self._max_steps, state
+
+    def _settled(self, before: SimState, moved: SimState) -> NetworkState:
+        """The network after a move from ``before`` to ``moved``: the controls stage's rules
+        (separation, buildings), the association where it runs again, and stages 3-8 with
+        the energy of the move."""
         if self.num_uavs > 1 or self.city is not None:
             moved = self._kept_apart(before, moved)
         self.sim_state = moved
         self._reassociated(moved)
         energy_j = self._energy.of_move(self._squeezed(before.uav_m),
                                         self._squeezed(moved.uav_m))
-        state = self.state = self._evaluate(moved, energy_j)
-        return self._obs, state.reward, moved.t >= self._max_steps, state
+        self.state = self._evaluate(moved, energy_j)
+        return self.state
 
     def _reassociated(self, state: SimState) -> None:
         """Every ``users.reassociate_every_s``: the association and pairing run again on the
@@ -539,14 +546,7 @@ class NetworkBatch:
         moved = SimState.of(self._per_uav(uav_m, 3), self._per_uav(alpha_first,
                                                                    self.num_clusters),
                             users_m, before.t + 1)
-        if self.num_uavs > 1 or self.city is not None:
-            moved = self._kept_apart(before, moved)
-        self.sim_state = moved
-        self._reassociated(moved)
-        energy_j = self._energy.of_move(self._squeezed(before.uav_m),
-                                        self._squeezed(moved.uav_m))
-        self.state = self._evaluate(moved, energy_j)
-        return self.state
+        return self._settled(before, moved)
 
     def _users_of_step(self, users_m: FloatArray) -> FloatArray:
         """The users' positions after a step's move from ``users_m`` (the same draws in the
