@@ -20,7 +20,7 @@ equal optima the first found is kept). Other channel models search every point a
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,32 +57,33 @@ class GenieResult:
     points_valued: NDArray[np.int64]
 
 
-class _Boxes:
-    """The lattice cut into boxes: every box's index ranges and extents, and its points."""
+class LatticeBoxes:
+    """Lattice axes (x, y, h) cut into boxes of :data:`BOX` points: every box's low and high
+    corners (M, 3), the box of a point, and a box's points (the per-step searches)."""
 
-    def __init__(self, scenario: Scenario) -> None:
-        self.xs, self.ys, self.hs, self.alphas = lattice(scenario)
-        shares = np.concatenate([self.alphas, 1.0 - self.alphas])
-        self.shares = np.unique(shares)
-        axes = (self.xs, self.ys, self.hs)
-        self.starts = [np.arange(0, len(axis), size) for axis, size in zip(axes, BOX,
-                                                                           strict=True)]
-        grid = np.stack(np.meshgrid(*[np.arange(len(s)) for s in self.starts], indexing="ij"),
-                        axis=-1).reshape(-1, 3)                      # box (i, j, k)
-        self.index = grid
+    def __init__(self, axes: Sequence[FloatArray]) -> None:
+        self.axes = list(axes)
+        self.starts = [np.arange(0, len(axis), size) for axis, size in zip(self.axes, BOX,
+                                                                            strict=True)]
+        self.index = np.stack(np.meshgrid(*[np.arange(len(s)) for s in self.starts],
+                                          indexing="ij"), axis=-1).reshape(-1, 3)   # (i, j, k)
         lows, highs = [], []
-        for dim, (axis, starts, size) in enumerate(zip(axes, self.starts, BOX, strict=True)):
-            first = starts[grid[:, dim]]
-            last = np.minimum(first + size, len(axis)) - 1
+        for dim, (axis, starts, size) in enumerate(zip(self.axes, self.starts, BOX,
+                                                       strict=True)):
+            first = starts[self.index[:, dim]]
             lows.append(axis[first])
-            highs.append(axis[last])
+            highs.append(axis[np.minimum(first + size, len(axis)) - 1])
         self.low, self.high = np.stack(lows, axis=1), np.stack(highs, axis=1)   # (M, 3)
+
+    @property
+    def count(self) -> int:
+        """The lattice points of every box together."""
+        return int(np.prod([len(axis) for axis in self.axes]))
 
     def of_point(self, point_m: FloatArray) -> int:
         """The box holding a lattice point."""
         ijk = [int(np.argmin(np.abs(axis - value))) // size
-               for axis, value, size in zip((self.xs, self.ys, self.hs), point_m, BOX,
-                                            strict=True)]
+               for axis, value, size in zip(self.axes, point_m, BOX, strict=True)]
         counts = [len(s) for s in self.starts]
         return (ijk[0] * counts[1] + ijk[1]) * counts[2] + ijk[2]
 
@@ -90,36 +91,65 @@ class _Boxes:
         """Every lattice point (P, 3) of ``boxes``, box after box."""
         found = []
         for box in boxes:
-            ranges = [axis[start:start + size] for axis, start, size in zip(
-                (self.xs, self.ys, self.hs),
-                (s[i] for s, i in zip(self.starts, self.index[box], strict=True)), BOX,
-                strict=True)]
+            ranges = [axis[s[i]:s[i] + size] for axis, s, i, size in zip(
+                self.axes, self.starts, self.index[box], BOX, strict=True)]
             found.append(np.stack(np.meshgrid(*ranges, indexing="ij"), axis=-1).reshape(-1, 3))
         return np.concatenate(found)
 
+    def nearest(self, users_m: FloatArray) -> FloatArray:
+        """Every box's point nearest each user (M, N, 3): its footprint clipped to the user,
+        its lowest height."""
+        corners = np.empty((len(self.low), len(users_m), 3))
+        corners[..., :2] = np.clip(users_m[None], self.low[:, None, :2],
+                                   self.high[:, None, :2])
+        corners[..., 2] = self.low[:, None, 2]
+        return corners
 
-def _bounds(env: NetworkBatch, layout: int, boxes: _Boxes, users_m: FloatArray,
-            snr_scale: float) -> FloatArray:
-    """Every box's upper bound on the objective (M,) (module doc); -inf where no point of it
-    can meet R_min."""
-    nearest = np.empty((len(boxes.low), len(users_m), 3))
-    nearest[..., :2] = np.clip(users_m[None], boxes.low[:, None, :2], boxes.high[:, None, :2])
-    nearest[..., 2] = boxes.low[:, None, 2]
+    def farthest(self, users_m: FloatArray) -> FloatArray:
+        """Every box's corner farthest from each user (M, N, 3): the farther edge along x and
+        y, its greatest height."""
+        corners = np.empty((len(self.low), len(users_m), 3))
+        users = users_m[None]
+        corners[..., :2] = np.where(np.abs(users - self.low[:, None, :2])
+                                    > np.abs(users - self.high[:, None, :2]),
+                                    self.low[:, None, :2], self.high[:, None, :2])
+        corners[..., 2] = self.high[:, None, 2]
+        return corners
+
+
+def either_share(alphas: FloatArray) -> FloatArray:
+    """Every share either user of a cluster may hold: the grid and its complement."""
+    return np.unique(np.concatenate([alphas, 1.0 - alphas]))
+
+
+def gains_at(env: NetworkBatch, corners_m: FloatArray, users_m: FloatArray,
+             nlos: bool = False) -> FloatArray:
+    """The channel's LoS (or NLoS) gain (M, N) from the points ``corners_m`` (M, N, 3), one
+    per box and user, to each user of ``users_m`` (N, 2); no buildings (a bound's gain)."""
     scenario = env.scenario
-    every_user = np.broadcast_to(users_m, (len(nearest), *users_m.shape)).reshape(-1, 1, 2)
-    geometry = LinkGeometry.between(nearest.reshape(-1, 3), every_user,
+    every_user = np.broadcast_to(users_m, (*corners_m.shape[:2], 2)).reshape(-1, 1, 2)
+    geometry = LinkGeometry.between(corners_m.reshape(-1, 3), every_user,
                                     user_height_m=scenario.users.height_m,
                                     carrier_hz=carrier_hz(scenario),
                                     bandwidth_hz=env.bandwidth_hz)
-    gain = env.channel.gain_los(geometry).reshape(len(nearest), len(users_m))
+    gain = env.channel.gain_nlos(geometry) if nlos else env.channel.gain_los(geometry)
+    return gain.reshape(corners_m.shape[:2])
+
+
+def _bounds(env: NetworkBatch, layout: int, boxes: LatticeBoxes, users_m: FloatArray,
+            shares: FloatArray, snr_scale: float) -> FloatArray:
+    """Every box's upper bound on the objective (M,) (module doc); -inf where no point of it
+    can meet R_min."""
+    gain = gains_at(env, boxes.nearest(users_m), users_m)
     first, second = gain[:, env.first_user[layout]], gain[:, env.second_user[layout]]
     _, rate = _best_alpha_on_grid(np.maximum(first, second), np.minimum(first, second),
-                                  boxes.shares, scenario, snr_scale)
+                                  shares, env.scenario, snr_scale)
     return rate.sum(axis=1)
 
 
-def step_oracle(env: NetworkBatch, layout: int, users_m: FloatArray, boxes: _Boxes | None,
-                snr_scale: float, previous_m: FloatArray | None = None
+def step_oracle(env: NetworkBatch, layout: int, users_m: FloatArray,
+                boxes: LatticeBoxes | None, snr_scale: float,
+                previous_m: FloatArray | None = None
                 ) -> tuple[float, FloatArray, FloatArray, int]:
     """The oracle at one step (module doc): objective, UAV position (3,), alpha_first (K,) and
     the lattice points valued, for the users at ``users_m`` (N, 2) of environment ``layout``
@@ -128,12 +158,11 @@ def step_oracle(env: NetworkBatch, layout: int, users_m: FloatArray, boxes: _Box
     best, best_point = 0.0, np.array(scenario.uav.start_m, dtype=np.float64)
     best_alpha = np.full(scenario.num_clusters, scenario.uav.start_alpha)
     valued = 0
+    xs, ys, hs, alphas = lattice(scenario)
     if boxes is None:
-        xs, ys, hs, alphas = lattice(scenario)
         order = [np.stack(np.meshgrid(xs, ys, hs, indexing="ij"), axis=-1).reshape(-1, 3)]
     else:
-        alphas = boxes.alphas
-        bound = _bounds(env, layout, boxes, users_m, snr_scale)
+        bound = _bounds(env, layout, boxes, users_m, either_share(alphas), snr_scale)
         ranked = np.argsort(-bound, kind="stable")
         if previous_m is not None:      # the previous optimum's box first: a good start
             first = boxes.of_point(previous_m)
@@ -174,7 +203,8 @@ def per_step_oracle(scenario: Scenario, users_m: FloatArray, steps: int, seed: i
     env.reset()
     radio = scenario.radio
     snr_scale = radio.tx_power_w * radio.antenna_gain / radio.noise_w
-    boxes = _Boxes(scenario) if scenario.channel.model in BOUNDED_MODELS else None
+    boxes = (LatticeBoxes(lattice(scenario)[:3]) if scenario.channel.model in BOUNDED_MODELS
+             else None)
     k = scenario.num_clusters
     objective = np.zeros((steps, num_layouts))
     uav_m = np.zeros((steps, num_layouts, 3))

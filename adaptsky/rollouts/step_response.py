@@ -28,19 +28,22 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from adaptsky.channels.contract import LinkGeometry
-from adaptsky.rollouts.genie import BOUNDED_MODELS
+from adaptsky.rollouts.genie import (
+    BOUNDED_MODELS,
+    BOX,
+    POINTS_PER_BATCH,
+    LatticeBoxes,
+    either_share,
+    gains_at,
+)
 from adaptsky.rollouts.oracle import _best_alpha_on_grid
 from adaptsky.rollouts.several_uavs import DEFAULT_ROUNDS, RELATIVE_TOLERANCE, _Search
 from adaptsky.rollouts.soa import soa_per_uav_configuration
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim import noma
-from adaptsky.sim.links import carrier_hz
 from adaptsky.sim.network import NetworkBatch
 
 FloatArray = NDArray[np.float64]
-BOX = (8, 8, 8)
-POINTS_PER_BATCH = 16_384
 
 STEP_RESPONSE_NOTE = ("best response at every step's user positions, from the previous "
                       "step's configuration: a reference, not an optimum")
@@ -70,67 +73,31 @@ class _StepSearch(_Search):
         super().__init__(env, layout, oma=False)
         self.users_m = users_m
         self.bounded = env.scenario.channel.model in BOUNDED_MODELS
-        self.shares = np.unique(np.concatenate([self.alphas, 1.0 - self.alphas]))
-        self._boxes = [self._cut(u) for u in range(env.num_uavs)]
-
-    def _cut(self, u: int) -> tuple[list[FloatArray], FloatArray, FloatArray]:
-        """UAV u's lattice axes and its boxes' low and high corners (M, 3)."""
-        plane = self.planes[u]
-        axes = [np.unique(plane[:, 0]), np.unique(plane[:, 1]), self.heights[u]]
-        starts = [np.arange(0, len(axis), size) for axis, size in zip(axes, BOX, strict=True)]
-        index = np.stack(np.meshgrid(*[np.arange(len(s)) for s in starts], indexing="ij"),
-                         axis=-1).reshape(-1, 3)
-        low = np.stack([axis[s[index[:, d]]] for d, (axis, s) in
-                        enumerate(zip(axes, starts, strict=True))], axis=1)
-        high = np.stack([axis[np.minimum(s[index[:, d]] + size, len(axis)) - 1]
-                         for d, (axis, s, size) in enumerate(zip(axes, starts, BOX,
-                                                                 strict=True))], axis=1)
-        return axes, low, high
+        self.shares = either_share(self.alphas)
+        self._boxes = [LatticeBoxes([np.unique(plane[:, 0]), np.unique(plane[:, 1]), heights])
+                       for plane, heights in zip(self.planes, self.heights, strict=True)]
 
     def _box_points(self, u: int, box: int, uav_m: FloatArray) -> FloatArray:
         """The lattice points of UAV u's ``box`` that keep the separation from the others."""
-        axes, low, high = self._boxes[u]
-        ranges = [axis[(axis >= low[box, d]) & (axis <= high[box, d])]
-                  for d, axis in enumerate(axes)]
-        points = np.stack(np.meshgrid(*ranges, indexing="ij"), axis=-1).reshape(-1, 3)
+        points = self._boxes[u].points(np.array([box]))
         apart = np.ones(len(points), dtype=bool)
         for v in range(len(uav_m)):
             if v != u:
                 apart &= np.hypot(*(points[:, :2] - uav_m[v, :2]).T) >= self.min_separation_m
         return points[apart]
 
-    def _gain_at(self, corners_m: FloatArray, nlos: bool) -> FloatArray:
-        """The LoS (or NLoS) gain (M, N) from the points ``corners_m`` (M, N, 3), one per
-        box and user, to each user."""
-        users = np.broadcast_to(self.users_m, (*corners_m.shape[:2], 2)).reshape(-1, 1, 2)
-        geometry = LinkGeometry.between(corners_m.reshape(-1, 3), users,
-                                        user_height_m=self.scenario.users.height_m,
-                                        carrier_hz=carrier_hz(self.scenario),
-                                        bandwidth_hz=self.bandwidth_hz)
-        model = self.env.channel
-        gain = model.gain_nlos(geometry) if nlos else model.gain_los(geometry)
-        return gain.reshape(corners_m.shape[:2])
-
     def bounds(self, u: int, fixed_gain: FloatArray, alpha_first: FloatArray) -> FloatArray:
         """Every box of UAV u's lattice: an upper bound on the objective there (module doc)."""
-        _, low, high = self._boxes[u]
-        users = self.users_m[None]
-        near = np.empty((len(low), len(self.users_m), 3))
-        near[..., :2] = np.clip(users, low[:, None, :2], high[:, None, :2])
-        near[..., 2] = low[:, None, 2]
-        far = np.empty_like(near)
-        far[..., :2] = np.where(np.abs(users - low[:, None, :2]) >
-                                np.abs(users - high[:, None, :2]), low[:, None, :2],
-                                high[:, None, :2])
-        far[..., 2] = high[:, None, 2]
-        most = self._gain_at(near, nlos=False)                       # (M, N)
-        least = self._gain_at(far, nlos=self.scenario.channel.los != "always")
+        boxes = self._boxes[u]
+        most = gains_at(self.env, boxes.nearest(self.users_m), self.users_m)     # (M, N)
+        least = gains_at(self.env, boxes.farthest(self.users_m), self.users_m,
+                         nlos=self.scenario.channel.los != "always")
         own = self.serving == u
-        gain = np.broadcast_to(fixed_gain, (len(low), *fixed_gain.shape)).copy()
+        gain = np.broadcast_to(fixed_gain, (len(boxes.low), *fixed_gain.shape)).copy()
         gain[:, u] = np.where(own, most, least)
         serving_gain, interference = self._serving(gain)             # (M, N) each
         effective = self.power * serving_gain / (interference + self.noise_w)
-        bound = np.zeros(len(low))
+        bound = np.zeros(len(boxes.low))
         first, second = self.first, self.second
         for v in range(len(fixed_gain)):
             valid = first[v] >= 0

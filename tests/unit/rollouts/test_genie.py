@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from adaptsky.evaluation.api import run_baseline
-from adaptsky.rollouts.genie import GENIE_NOTE, _Boxes, per_step_oracle, step_oracle
+from adaptsky.rollouts.genie import GENIE_NOTE, LatticeBoxes, per_step_oracle, step_oracle
 from adaptsky.rollouts.objective import constrained_sum_rate
+from adaptsky.rollouts.oracle import lattice
 from adaptsky.rollouts.rollout import random_policy, rollout
 from adaptsky.sim.network import NetworkBatch
 from tests.conftest import SUB6_RADIO, make_scenario
@@ -47,8 +48,7 @@ def test_branch_and_bound_is_the_exhaustive_search_at_every_step(min_se, los, mo
     env.reset()
     radio = scenario.radio
     snr = radio.tx_power_w * radio.antenna_gain / radio.noise_w
-    boxes = _Boxes(scenario)
-    total = len(boxes.xs) * len(boxes.ys) * len(boxes.hs)
+    total = LatticeBoxes(lattice(scenario)[:3]).count
     for step in range(8):
         env.hold_step(np.broadcast_to(scenario.uav.start_m, (2, 3)),
                       np.full((2, 2), scenario.uav.start_alpha))
