@@ -203,7 +203,9 @@ ADDED_NAMES = {"steady_user_rate_bps", "last_episode_user_rate_bps", "energy_j",
                # the service metrics of every evaluation (docs/model.md §14)
                "outage_share", "mean_least_rate_bps", "p5_rate_bps",
                # run-file format 4: every user's position in the trajectories
-               "users_m"}
+               "users_m",
+               # format 4: the tracking baseline beside the greedy evaluations of moving users
+               "tracking_bps", "heldout_tracking_bps"}
 
 
 def without_added(old: object, new: object) -> object:

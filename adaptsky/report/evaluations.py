@@ -50,13 +50,16 @@ def shown_rows(episodes: np.ndarray, best_episode: int | None, limit: int = CURV
 def curve_table(seed: int, table: dict[str, np.ndarray], best_episode: int | None,
                 limit: int = CURVE_ROWS) -> Table:
     """Rows of the curve (:func:`shown_rows`): the training layout's steady sum rate and
-    percent of the oracle, and the held-out layouts' where the run has them; the best marked."""
+    percent of the oracle (where users move: the tracking baseline's sum rate on the same
+    draws), and the held-out layouts' where the run has them; the best marked."""
     episodes = table["episode"]
     columns = [("sum_rate_bps", "R (train)", "rate"), ("pct_oracle", "% oracle", "pct"),
+               ("tracking_bps", "tracking", "rate"),
                ("heldout_sum_rate_bps", "R (held-out)", "rate"),
                ("heldout_pct_oracle", "% oracle held-out", "pct"),
-               ("heldout_pct_oracle_median", "median %", "pct")]
-    columns = [c for c in columns if np.isfinite(table[c[0]]).any()]
+               ("heldout_pct_oracle_median", "median %", "pct"),
+               ("heldout_tracking_bps", "tracking held-out", "rate")]
+    columns = [c for c in columns if c[0] in table and np.isfinite(table[c[0]]).any()]
     rows = shown_rows(episodes, best_episode, limit)
     shown = f"{len(rows)} of {len(episodes)}" if len(rows) < len(episodes) else str(len(rows))
     result = Table("episode", *[title for _, title, _ in columns], "",

@@ -84,6 +84,12 @@ EVALUATIONS = (
     Field("heldout_pct_oracle_median", "float", ("V",), "%"),
     Field("score", "float", ("V",)),
 )
+# format 4 (optional: files of format 4 made before them lack both): the tracking baseline's
+# steady sum rate on the same draws, where users move
+TRACKING_EVALUATIONS = (
+    Field("tracking_bps", "float", ("V",), "bit/s"),
+    Field("heldout_tracking_bps", "float", ("V",), "bit/s"),
+)
 # /evaluation/ (format 2, when the run evaluates): the layouts and their oracle sum rates
 EVALUATION_SET = {"training": "the training layout", "heldout": "the held-out layouts"}
 # /seeds/<S>/trajectory/ and /seeds/<S>/trajectories/<e>/: time-major, attr episode
@@ -121,7 +127,7 @@ CONFIG_KEYS = {"train": ("episodes", "steps", "seeds", "checkpoint_every"),
 
 UNITS = {field.name: field.units for field in (*EPISODES, *ENERGY_EPISODES, *SERVICE_EPISODES,
                                                *TRAJECTORY, STEP_ENERGY, USERS_TRAJECTORY,
-                                               *EVALUATIONS)}
+                                               *EVALUATIONS, *TRACKING_EVALUATIONS)}
 UNITS |= {field.name: field.units for spec in ALGORITHMS.values() for field in spec.fields}
 UNITS |= {"training_layouts_m": "m", "heldout_layouts_m": "m", "training_oracle_bps": "bit/s",
           "heldout_oracle_bps": "bit/s"}
@@ -135,6 +141,11 @@ def episode_fields(version: int) -> tuple[Field, ...]:
     if version >= SERVICE_VERSION:
         fields += SERVICE_EPISODES
     return fields
+
+
+def evaluation_fields(version: int) -> tuple[Field, ...]:
+    """The greedy evaluations' columns of a file of format ``version``."""
+    return EVALUATIONS + (TRACKING_EVALUATIONS if version >= SERVICE_VERSION else ())
 
 
 def added_after(version: int) -> frozenset[str]:
@@ -436,15 +447,24 @@ class Validator:
         table = self.child(group, "evaluations", GROUP, optional=self.version == 1)
         if table is None:
             return
-        self.exact_members(table, [field.name for field in EVALUATIONS])
+        optional = evaluation_fields(self.version)[len(EVALUATIONS):]
+        names = [field.name for field in optional]
+        self.exact_members(table, [field.name for field in EVALUATIONS], extra_ok=tuple(names))
+        present = set(table.keys())
+        found = [field for field in optional if field.name in present]
+        if found and len(found) < len(optional):
+            missing = next(name for name in names if name not in present)
+            self.fail(f"{table.name}/{missing}", "missing", "both of " + " and ".join(names)
+                      + " or neither")
+        fields = EVALUATIONS + tuple(found)
         every = sizes.scenario.train.eval_every
         bound = planned // every if every else 0
-        first = self.child(table, EVALUATIONS[0].name, DATASET)
+        first = self.child(table, fields[0].name, DATASET)
         length = first.shape[0] if len(first.shape) == 1 else -1
         if not 0 <= length <= bound:
             self.fail(first.name, f"shape {first.shape}",
                       f"at most {bound} rows: one per {every} episodes")
-        for field in EVALUATIONS:
+        for field in fields:
             rows = self.dataset(table, field, {"V": length})
             if rows.id.get_space().get_simple_extent_dims(True)[0] != h5py.h5s.UNLIMITED:
                 self.fail(rows.name, "cannot grow", "a table extendible along its first axis")

@@ -27,7 +27,6 @@ from adaptsky.scenario import Scenario
 from adaptsky.store.atomic import rewrite, string_dataset, utc_timestamp
 from adaptsky.store.layout import (
     EPISODES,
-    EVALUATIONS,
     FORMAT_VERSION,
     KIND,
     SEED_ATTRS,
@@ -37,6 +36,7 @@ from adaptsky.store.layout import (
     RunFileError,
     added_after,
     episode_fields,
+    evaluation_fields,
     require_finite,
     validate_run,
 )
@@ -96,7 +96,7 @@ def create_run(path: Path, scenario_text: str, config: dict[str, Any],
             write_tree(group.create_group("episodes"), empty, compress=True, units=UNITS)
             write_tree(group.create_group("evaluations"), {
                 field.name: np.zeros(0, dtype=np.int64 if field.dtype == "int" else np.float64)
-                for field in EVALUATIONS}, compress=True, units=UNITS)
+                for field in evaluation_fields(FORMAT_VERSION)}, compress=True, units=UNITS)
 
 
 def set_planned_episodes(path: Path, config: dict[str, Any]) -> None:
@@ -173,8 +173,9 @@ def _write_checkpoint(group: h5py.Group, rows: dict[str, np.ndarray],
     _append_rows(group["episodes"], done, rows)
     if evaluations:
         table = group["evaluations"]
-        _append_rows(table, len(table["episode"]), {field.name: evaluations[field.name]
-                                                    for field in EVALUATIONS})
+        _append_rows(table, len(table["episode"]), {  # the columns the file has (format 4
+            field.name: evaluations[field.name]        # files made before tracking lack it)
+            for field in evaluation_fields(FORMAT_VERSION) if field.name in table})
     for episode, trajectory in trajectories.items():
         write_tree(group.require_group(f"trajectories/{episode}"),
                    {**trajectory, "episode": episode}, compress=True, units=UNITS)
@@ -345,12 +346,17 @@ class RunReader:
 
     def evaluations(self, seed: int) -> dict[str, np.ndarray]:
         """The greedy evaluations of ``seed`` during training, one row each (docs/training.md;
-        columns a run does not measure are NaN; files without evaluations: no rows)."""
+        columns a run does not measure are NaN, as are those its format lacks; files without
+        evaluations: no rows)."""
+        fields = evaluation_fields(FORMAT_VERSION)
+
         def read() -> dict[str, np.ndarray]:
             group = self.file[f"seeds/{seed}"].get("evaluations")
             if group is None:
-                return {field.name: np.zeros(0) for field in EVALUATIONS}
-            return {field.name: group[field.name][:] for field in EVALUATIONS}
+                return {field.name: np.zeros(0) for field in fields}
+            rows = len(group["episode"])
+            return {field.name: group[field.name][:] if field.name in group
+                    else np.full(rows, np.nan) for field in fields}
         table = self._guard(f"seed {seed}'s evaluations", read)
         for name, values in table.items():
             require_finite(self.path, f"/seeds/{seed}/evaluations/{name}", values,

@@ -13,6 +13,12 @@ reference is computed before the first episode, with progress (round, UAV, time 
 The evaluation has environments and generators of its own (LoS draws from seed 0, as
 ``eval``): it changes nothing of training, which gives the same numbers with or without it.
 
+Where the users move (docs/model.md §3) there is no oracle of a layout; each evaluation then
+also flies the tracking baseline (docs/evaluation.md) through the same draws (a twin of each
+environment, its generator copied before the greedy rollout: the same user moves, LoS draws and
+fading), and stores its steady sum rate beside the policy's. The per-step oracle, 100 searches
+a layout per evaluation, is left to ``adaptsky eval`` and ``baseline``.
+
 The score that chooses the best policy: percent of the oracle on the training layout, or, for
 ``fresh`` placement, the mean percent of the oracle over the held-out layouts; without an
 oracle, the same sum rates in bit/s.
@@ -33,19 +39,21 @@ from adaptsky.progress import Reporter, Silent, Tick, WorkProgress
 from adaptsky.rollouts.metrics import STEADY_STEPS, percent_of
 from adaptsky.rollouts.oracle import has_oracle
 from adaptsky.rollouts.several_uavs import OnSearch, best_response
+from adaptsky.rollouts.tracking import tracking_target
 from adaptsky.scenario import Scenario
 from adaptsky.scenario.variants import eval_scenario
 from adaptsky.sim.layout import user_layouts
 from adaptsky.sim.network import NetworkBatch
 from adaptsky.sim.noma import jain_fairness
-from adaptsky.store.layout import EVALUATIONS
+from adaptsky.sim.state import users_move
+from adaptsky.store.layout import FORMAT_VERSION, evaluation_fields
 from adaptsky.units import plural
 
 FloatArray = NDArray[np.float64]
 # the [train] keys of the evaluation: they change nothing of training
 EVALUATION_KEYS = ("eval_every", "eval_steps", "eval_layouts", "eval_layout_seed")
 # the columns of /seeds/<S>/evaluations (docs/file-format.md); NaN where a column does not apply
-COLUMNS = tuple(field.name for field in EVALUATIONS)
+COLUMNS = tuple(field.name for field in evaluation_fields(FORMAT_VERSION))
 
 
 @dataclass(frozen=True)
@@ -181,53 +189,74 @@ class GreedyEvaluator:
     """Greedy rollouts of a stack on the members' :class:`EvaluationSet` s, which share their
     layouts (a stack's members share everything but ``reward`` and ``train``) and may differ
     in their oracles (``reward.min_se``); ``greedy`` maps observations (S, n, obs) to
-    actions (S, n)."""
+    actions (S, n). Where the users move, each environment has a twin that flies the
+    tracking baseline through the same draws (module docstring)."""
 
     def __init__(self, evaluations: list[EvaluationSet], steps: int) -> None:
         self.evaluations, self.members, self.steps = evaluations, len(evaluations), steps
-        self.envs = [NetworkBatch(group.scenario, num_envs=self.members * len(group.layouts_m),
-                                   seed=0,
-                                   users_m=np.concatenate([group.layouts_m] * self.members))
-                     for group in evaluations[0].groups]
+        self.envs = [self._env(group) for group in evaluations[0].groups]
+        self.twins = [self._env(group) if users_move(group.scenario) else None
+                      for group in evaluations[0].groups]
+
+    def _env(self, group: LayoutGroup) -> NetworkBatch:
+        return NetworkBatch(group.scenario, num_envs=self.members * len(group.layouts_m),
+                            seed=0, users_m=np.concatenate([group.layouts_m] * self.members))
 
     def run(self, greedy: object) -> list[dict[str, float]]:
         """One evaluation: per member its row of :data:`COLUMNS` (without ``episode``)."""
         results: list[dict[str, float]] = [{} for _ in range(self.members)]
-        for index, env in enumerate(self.envs):
+        for index, (env, twin) in enumerate(zip(self.envs, self.twins, strict=True)):
+            if twin is not None:  # the same draws as the greedy rollout's, from its start
+                twin.rng.bit_generator.state = env.rng.bit_generator.state
             rates = self._rollout(env, greedy)  # (steady steps, S, L, N)
             steady = rates.sum(axis=-1).mean(axis=0)  # (S, L)
             fairness = jain_fairness(rates).mean(axis=0)
+            tracking = (np.full_like(steady, np.nan) if twin is None
+                        else self._tracking(twin).sum(axis=-1).mean(axis=0))
             for member, (row, evaluation) in enumerate(zip(results, self.evaluations,
                                                            strict=True)):
                 group = evaluation.groups[index]
                 pct = percent_of(steady[member], group.oracle_bps)
                 if group is evaluation.training:
                     row.update(sum_rate_bps=float(steady[member, 0]),
-                               fairness=float(fairness[member, 0]), pct_oracle=float(pct[0]))
+                               fairness=float(fairness[member, 0]), pct_oracle=float(pct[0]),
+                               tracking_bps=float(tracking[member, 0]))
                 else:
                     row.update(heldout_sum_rate_bps=float(steady[member].mean()),
                                heldout_fairness=float(fairness[member].mean()),
                                heldout_pct_oracle=_nan_reduce(np.nanmean, pct),
-                               heldout_pct_oracle_median=_nan_reduce(np.nanmedian, pct))
+                               heldout_pct_oracle_median=_nan_reduce(np.nanmedian, pct),
+                               heldout_tracking_bps=float(tracking[member].mean()))
         for row, evaluation in zip(results, self.evaluations, strict=True):
-            for column in COLUMNS[1:-1]:
-                row.setdefault(column, float("nan"))
+            for column in COLUMNS:
+                if column not in ("episode", "score"):
+                    row.setdefault(column, float("nan"))
             row["score"] = score(row, evaluation)
         return results
 
     def _rollout(self, env: NetworkBatch, greedy: object) -> FloatArray:
         """Rates (K, S, L, N) of the last K = min(100, steps) steps of a greedy rollout."""
+        return self._steady(env, lambda obs: env.step(np.asarray(greedy(  # type: ignore[operator]
+            obs.reshape(self.members, env.num_envs // self.members, -1))).reshape(-1)))
+
+    def _tracking(self, twin: NetworkBatch) -> FloatArray:
+        """Rates (K, S, L, N) of the tracking baseline's last K steps on ``twin``."""
+        return self._steady(twin, lambda _: (None, None, None,
+                                             twin.fly_step(*tracking_target(twin))))
+
+    def _steady(self, env: NetworkBatch, step: object) -> FloatArray:
+        """Rates (K, S, L, N) of the last K = min(100, steps) of ``steps`` calls of ``step``
+        (observation -> (observation, reward, done, state)) from a reset of ``env``."""
         members = self.members
         layouts = env.num_envs // members
         obs, _ = env.reset()
         kept = min(STEADY_STEPS, self.steps)
         rates = np.empty((kept, members, layouts, env.num_users))
         with np.errstate(all="ignore"):
-            for step in range(self.steps):
-                actions = greedy(obs.reshape(members, layouts, -1))  # type: ignore[operator]
-                obs, _, _, state = env.step(np.asarray(actions).reshape(-1))
-                if step >= self.steps - kept:
-                    rates[step - self.steps + kept] = state.rate_bps.reshape(
+            for index in range(self.steps):
+                obs, _, _, state = step(obs)  # type: ignore[operator]
+                if index >= self.steps - kept:
+                    rates[index - self.steps + kept] = state.rate_bps.reshape(
                         members, layouts, -1)
         return rates
 

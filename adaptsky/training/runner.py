@@ -42,7 +42,7 @@ from adaptsky.training.messages import (
     Progress,
     WorkerLost,
 )
-from adaptsky.training.progress import TrainingProgress
+from adaptsky.training.progress import PROGRESS_METRICS, TrainingProgress
 
 if TYPE_CHECKING:  # torch is imported where training starts: commands start without it
     import torch
@@ -119,7 +119,7 @@ def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
                 rows[task.key].append(result.metrics)
                 if task.trajectory_every and result.episode % task.trajectory_every == 0:
                     trajectories[task.key][result.episode] = result.trajectory
-                shown = {k: result.metrics[k] for k in ("sum_rate_bps", "fairness", "epsilon")}
+                shown = {k: result.metrics[k] for k in PROGRESS_METRICS if k in result.metrics}
                 if result.evaluation is not None:
                     evaluations[task.key].append(result.evaluation)
                     shown["greedy"] = result.evaluation

@@ -165,6 +165,49 @@ def test_steady_state_is_the_mean_of_the_last_100_steps_and_sampled_los_scores_i
     assert row["fairness"] == pytest.approx(np.mean(jain), rel=1e-9)
 
 
+MOVING = {"mobility": {"model": "gauss-markov", "mean_speed_mps": 3.0}}
+
+
+def _tracking_steady(scenario, layouts_m: np.ndarray, steps: int) -> np.ndarray:
+    """The tracking baseline's steady sum rate (L,) run alone from seed 0, as ``baseline``
+    runs it (its rule is tested in tests/unit/rollouts)."""
+    from adaptsky.rollouts.tracking import track
+    return track(scenario, steps, layouts_m, seed=0).sum_rate_bps[-100:].mean(axis=0)
+
+
+def test_moving_users_evaluations_fly_tracking_through_the_same_draws():
+    """Where users move, each evaluation flies tracking on a twin with the greedy rollout's
+    draws: the first evaluation of one member equals tracking run alone from seed 0 (the same
+    user moves), and the policy's numbers are those of an evaluator without the twin."""
+    steps, action = 130, 5
+    scenario = make_scenario(**sections(users=MOVING, train={"eval_steps": steps}))
+    evaluation = evaluation_set(scenario)
+    evaluator = GreedyEvaluator([evaluation], steps)
+    first, second = (evaluator.run(_constant(action))[0] for _ in range(2))
+    alone = _tracking_steady(scenario, np.array([TRAINING_LAYOUT_M]), steps)
+    assert first["tracking_bps"] == pytest.approx(alone[0], rel=1e-12)
+    assert second["tracking_bps"] != first["tracking_bps"]  # each evaluation: new draws
+    plain = GreedyEvaluator([evaluation], steps)
+    plain.twins = [None]
+    rows = [plain.run(_constant(action))[0] for _ in range(2)]
+    assert [r["sum_rate_bps"] for r in rows] == [first["sum_rate_bps"], second["sum_rate_bps"]]
+    assert all(np.isnan(r["tracking_bps"]) for r in rows)
+    assert first["score"] == first["sum_rate_bps"]          # tracking does not score
+    static = make_scenario(**sections(train={"eval_steps": steps}))
+    row = GreedyEvaluator([evaluation_set(static)], steps).run(_constant(action))[0]
+    assert np.isnan(row["tracking_bps"]) and np.isnan(row["heldout_tracking_bps"])
+
+
+def test_greedy_text_gives_the_gain_over_tracking():
+    from adaptsky.training.progress import greedy_text
+    row = {"pct_oracle": float("nan"), "heldout_pct_oracle": float("nan"),
+           "sum_rate_bps": 2.75e9, "heldout_sum_rate_bps": float("nan"),
+           "tracking_bps": 2.5e9, "heldout_tracking_bps": float("nan")}
+    assert greedy_text(row) == "2.75 Gbit/s, +10.0% over tracking"
+    assert greedy_text(row, short=True) == "2.75 Gbit/s +10.0% tr"
+    assert greedy_text(row | {"tracking_bps": float("nan")}, short=True) == "2.75 Gbit/s"
+
+
 def test_held_out_layouts_score_the_mean_percent_of_their_oracles():
     """users.placement = "fresh": no training layout; 3 held-out uniform layouts from
     eval_layout_seed, paired near-far."""
@@ -395,6 +438,24 @@ def test_format_1_files_open_without_evaluations_and_resume(full, tmp_path, caps
         assert len(run.evaluations(0)["score"]) == 0 and run.best(0) is None
 
 
+def test_format_4_files_without_the_tracking_columns_open_and_resume(full, tmp_path):
+    """Files of format 4 made before the tracking columns: NaN there, resumed without them."""
+    path = tmp_path / "before.h5"
+    shutil.copyfile(full, path)
+    with h5py.File(path, "a") as f:
+        for seed in SEEDS:
+            for name in ("tracking_bps", "heldout_tracking_bps"):
+                del f[f"seeds/{seed}/evaluations/{name}"]
+    with RunReader(path) as run:
+        rows = run.evaluations(0)
+        assert len(rows["score"]) == 3 and np.isnan(rows["tracking_bps"]).all()
+    assert main(["train", "--resume", str(path), "--episodes", "8", "--workers", "1",
+                 "--quiet"]) == 0
+    with RunReader(path) as run, h5py.File(path) as f:
+        assert len(run.evaluations(0)["score"]) == 4
+        assert "tracking_bps" not in f["seeds/0/evaluations"]
+
+
 def _replace(name: str, **dataset: object) -> Callable[[h5py.File], None]:
     def damage(f: h5py.File) -> None:
         del f[name]
@@ -431,6 +492,9 @@ DAMAGES = {
     "column_missing": (_delete(f"{EVALS[1:]}/heldout_pct_oracle"),
                        f"{EVALS}/heldout_pct_oracle: missing"),
     "table_missing": (_delete(EVALS[1:]), f"{EVALS}: missing"),
+    "one_tracking_column_of_two": (_delete(f"{EVALS[1:]}/heldout_tracking_bps"),
+                                   f"{EVALS}/heldout_tracking_bps: missing (expected both of "
+                                   "tracking_bps and heldout_tracking_bps or neither)"),
     "best_episode_0": (_best_attr("episode", 0), f"{BEST}/@episode: is 0 (expected 1 to 6)"),
     "best_after_the_checkpoint": (_best_attr("episode", 7),
                                   f"{BEST}/@episode: is 7 (expected 1 to 6)"),
