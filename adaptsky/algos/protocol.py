@@ -28,7 +28,8 @@ class Algorithm(Protocol):
 
     size: int
     epsilon: float
-    """The exploration rate of the last :meth:`act` (a learning-curve column)."""
+    """The exploration rate of the last :meth:`act` (a learning-curve column); NaN for a
+    learner without one (PPO)."""
     reward_parts: int
     """1: :meth:`observe` takes eq. 13's reward (S,); G > 1: its parts per UAV (S, G), from
     the environment's ``reward_parts`` (the BDQ with ``agent.reward_split`` "per-uav" or
@@ -37,27 +38,38 @@ class Algorithm(Protocol):
     def begin_episode(self, global_step: int) -> None:
         """A new episode starts at ``global_step`` (its schedules move on)."""
 
-    def act(self, observations: NDArray[np.float32], global_step: int) -> NDArray[np.int64]:
-        """Exploring actions (S,) for one observation per member (S, obs)."""
+    def act(self, observations: NDArray[np.float32], global_step: int) -> NDArray[Any]:
+        """Exploring actions (S E,) (continuous: (S E, D)) for one observation per
+        environment (S E, obs), member-major: E environments per member
+        (:meth:`AlgorithmSpec.envs_per_member`, 1 for the DQN and the BDQ)."""
         ...
 
-    def greedy(self, observations: NDArray[np.float32]) -> NDArray[np.int64]:
-        """Greedy actions (S, n) for n observations per member (S, n, obs)."""
+    def greedy(self, observations: NDArray[np.float32]) -> NDArray[Any]:
+        """Greedy actions (S, n) (continuous: (S, n, D)) for n observations per member
+        (S, n, obs)."""
         ...
 
-    def observe(self, observations: NDArray[np.float32], actions: NDArray[np.int64],
+    def observe(self, observations: NDArray[np.float32], actions: NDArray[Any],
                 rewards: NDArray[np.float64], next_observations: NDArray[np.float32]) -> None:
-        """One step of every member (S, ...), to learn from (stored, for the DQN); rewards
-        (S,), or (S, G) with :attr:`reward_parts` G > 1."""
+        """One step of every environment (S E, ...), to learn from (stored, for the DQN;
+        kept for the rollout, for PPO); rewards (S E,), or (S, G) with :attr:`reward_parts`
+        G > 1."""
 
     def update(self) -> None:
-        """Learn: one update of every member where it is due (after :meth:`observe`)."""
+        """Learn after a step where the algorithm learns per step (off-policy: one update of
+        every member where it is due); nothing for an on-policy learner."""
 
     def end_episode(self, episodes_before: int) -> None:
-        """The episode after ``episodes_before`` episodes is over."""
+        """The episode after ``episodes_before`` episodes is over (an on-policy learner
+        learns from its rollout here: PPO's epochs of minibatches)."""
 
     def take_mean_loss(self) -> NDArray[np.float64] | None:
         """Each member's mean loss since the last call (S,), None without an update."""
+        ...
+
+    def take_stats(self) -> dict[str, NDArray[np.float64]]:
+        """Each member's statistics of its last update (S,) by name (PPO: entropy, policy
+        and value loss, approximate KL, clip fraction); {} for a learner with none."""
         ...
 
     def device_name(self) -> str:
@@ -124,6 +136,14 @@ class AlgorithmSpec(Protocol):
 
     def check_policy(self, check: LayoutCheck, group: Node, scenario: Scenario) -> None:
         """Check a stored greedy policy (a checkpoint's best policy)."""
+
+    def check_scenario(self, scenario: Scenario, source: str) -> None:
+        """A one-line ScenarioError where the algorithm's settings do not fit the scenario
+        (after its action kind is known to be learnt)."""
+
+    def envs_per_member(self, scenario: Scenario) -> int:
+        """E, the environments each member collects from at once (1 for off-policy)."""
+        ...
 
     def memory_parts(self, scenario: Scenario, seeds: int, workers: int) -> dict[str, float]:
         """Bytes it needs at its peak by part, for ``seeds`` members in ``workers`` processes

@@ -5,11 +5,12 @@ from __future__ import annotations
 
 from adaptsky.algos.bdq.spec import BDQ
 from adaptsky.algos.dqn.spec import DQN
+from adaptsky.algos.ppo.spec import PPO
 from adaptsky.algos.protocol import AlgorithmSpec
 from adaptsky.errors import ScenarioError
 from adaptsky.scenario.models import Scenario
 
-ALGORITHMS: dict[str, AlgorithmSpec] = {DQN.name: DQN, BDQ.name: BDQ}
+ALGORITHMS: dict[str, AlgorithmSpec] = {DQN.name: DQN, BDQ.name: BDQ, PPO.name: PPO}
 
 
 def algorithm_named(name: str) -> AlgorithmSpec:
@@ -26,13 +27,14 @@ def algorithm_of(scenario: Scenario) -> AlgorithmSpec:
 
 def check_actions(scenario: Scenario, source: str) -> None:
     """A one-line :class:`ScenarioError` where the scenario's algorithm does not learn its
-    ``uav.actions``: continuous controls are for the Gymnasium env and outside learners."""
+    ``uav.actions`` (the DQN and the BDQ: dense kinds only; PPO: every kind), or where its
+    own settings do not fit them."""
     spec, kind = algorithm_of(scenario), scenario.uav.actions
-    if kind in spec.action_kinds:
-        return
-    kinds = " or ".join(f"'{name}'" for name in spec.action_kinds)
-    raise ScenarioError([
-        f"{source}: uav.actions: agent.algorithm '{spec.name}' learns {kinds} actions, not "
-        f"'{kind}'; continuous controls are for the Gymnasium env adaptsky/NomaUav-v0 and "
-        f"outside learners (e.g. Stable-Baselines3) for now, adaptsky's learners for them "
-        f"come later"])
+    if kind not in spec.action_kinds:
+        kinds = " or ".join(f"'{name}'" for name in spec.action_kinds)
+        learners = ", ".join(f"'{other.name}'" for other in ALGORITHMS.values()
+                             if kind in other.action_kinds)
+        raise ScenarioError([
+            f"{source}: uav.actions: agent.algorithm '{spec.name}' learns {kinds} actions, "
+            f"not '{kind}'; for '{kind}' choose agent.algorithm {learners}"])
+    spec.check_scenario(scenario, source)

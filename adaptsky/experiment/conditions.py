@@ -22,6 +22,8 @@ from adaptsky.experiment.evaluation import Evaluations, Metrics
 from adaptsky.experiment.plan import Plan
 from adaptsky.report import figures
 from adaptsky.report.curves import band
+from adaptsky.scenario import parse_scenario
+from adaptsky.sim.state import users_move
 from adaptsky.units import rate_unit
 
 BOUNDS = (("oracle", "oracle"), ("best-response", "best response"))
@@ -57,6 +59,17 @@ def _mean(metrics: Metrics | None, key: str = "mean_sum_rate_bps") -> float | No
     return None if metrics is None else float(np.mean(metrics[key]))
 
 
+def baseline_key(plan: Plan, group: str) -> str:
+    """What a baseline of ``group`` is valued by: the mean over every step of the evaluation
+    (a held configuration, or fading that is stationary: the same in expectation as the
+    policies' last steps, with less noise), or where the users move the policies' own window,
+    the last 100 steps (the users drift from their layout: the early steps are another
+    distribution of positions than the last ones)."""
+    runs = plan.group_runs(group)
+    moving = bool(runs) and users_move(parse_scenario(runs[0].config, runs[0].name))
+    return "steady_sum_rate_bps" if moving else "mean_sum_rate_bps"
+
+
 def conditions(plan: Plan, evaluations: Evaluations, out: Outputs) -> Analysis:
     """Each evaluated group (``evaluation.policy`` and ``also``) as one condition: the greedy
     steady state of its policies (last, best) against SoA, its bound (the oracle, or best
@@ -77,10 +90,11 @@ def conditions(plan: Plan, evaluations: Evaluations, out: Outputs) -> Analysis:
         base = {method: evaluations.baselines.get((method, name)) for method, _ in BASELINES}
         bound_name, bound_label = next(((m, label) for m, label in BOUNDS if base[m]),
                                        (None, None))
-        bound = _mean(base[bound_name]) if bound_name else None
-        soa, oma = _mean(base["soa"]), _mean(base["oma"])
+        key = baseline_key(plan, name)
+        bound = _mean(base[bound_name], key) if bound_name else None
+        soa, oma = _mean(base["soa"], key), _mean(base["oma"], key)
         policy_mean = None
-        tracking = _mean(base["tracking"])
+        tracking = _mean(base["tracking"], key)
         for policy in spec.policies:
             rates = _policy_rates(plan, evaluations.of(policy), analysis, name, policy,
                                   bound, soa, oma, tracking)
@@ -93,7 +107,7 @@ def conditions(plan: Plan, evaluations: Evaluations, out: Outputs) -> Analysis:
             csv_rows.append([group.panel, group.title, label, mean, low, high, len(rates)])
             policy_mean = mean if policy_mean is None else policy_mean
         for method, label in BASELINES:
-            value = _mean(base[method])
+            value = _mean(base[method], key)
             if value is not None:
                 panel.add(label, (value, value, value, 1))
                 csv_rows.append([group.panel, group.title, label, value, value, value, 1])
@@ -120,7 +134,8 @@ def conditions(plan: Plan, evaluations: Evaluations, out: Outputs) -> Analysis:
     analysis.notes.append(
         f"each group is one condition on its own layouts; a policy's value is the mean of the "
         f"last {min(100, spec.steps)} of {spec.steps} greedy steps (mean and spread over its "
-        "runs), the baselines hold their configuration; the bound is the oracle for one UAV "
+        "runs), the baselines hold their configuration (the mean over every step; where the "
+        "users move, the same last steps as the policies'); the bound is the oracle for one UAV "
         "and best response (a reference, not an optimum) for several, and under fading what "
         "each label of the eval files says")
     analysis.files += out.save(figure)

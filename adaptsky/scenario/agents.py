@@ -149,7 +149,46 @@ class BdqAgent(Section):
         return self
 
 
-AGENT_MODELS: dict[str, type[Section]] = {"dqn": DqnAgent, "bdq": BdqAgent}
+class PpoAgent(Section):
+    """PPO (Schulman et al. 2017) with CleanRL's details (docs/agent.md): GAE(lambda), the
+    clipped surrogate and value loss, an entropy bonus, advantages normalised per minibatch,
+    epochs of minibatches, orthogonal initialisation, a global gradient-norm clip per seed and
+    a linearly annealed learning rate; it collects a rollout of T steps (one episode) from
+    ``envs_per_seed`` copies of the layout per seed, then updates."""
+
+    algorithm: Literal["ppo"] = Field(description="the learning algorithm: 'ppo'")
+    hidden_sizes: list[LayerSize] = Field([64, 64], min_length=1, max_length=100,
+                                          description="hidden layers of actor and critic")
+    activation: Literal["tanh", "relu"] = Field("tanh", description="hidden activation")
+    action_head: Literal["auto", "dense", "branches", "gaussian"] = Field(
+        "auto", description="the policy's distribution: 'dense' (one Categorical over the "
+        "dense action set), 'branches' (one per component), 'gaussian' (continuous "
+        "controls); 'auto': dense for uav.actions 'paper'/'with-hover', gaussian for "
+        "'continuous'")
+    envs_per_seed: int = Field(8, ge=1, le=4096, description="E, environments per seed "
+                               "collecting each rollout")
+    lr: float = Field(3e-4, ge=1e-10, le=1.0, description="Adam learning rate")
+    anneal_lr: bool = Field(True, description="anneal the learning rate linearly to 0 over "
+                            "train.episodes")
+    gamma: float = Field(0.99, ge=0, le=1, description="discount factor")
+    gae_lambda: float = Field(0.95, ge=0, le=1, description="GAE lambda")
+    epochs: int = Field(4, ge=1, le=1000, description="epochs over each rollout")
+    minibatches: int = Field(4, ge=1, le=MAX_COUNT, description="minibatches per epoch")
+    clip_coef: float = Field(0.2, gt=0, le=10, description="surrogate clipping epsilon")
+    clip_vloss: bool = Field(True, description="clip the value loss as the surrogate")
+    ent_coef: float = Field(0.01, ge=0, le=100, description="entropy bonus coefficient")
+    vf_coef: float = Field(0.5, ge=0, le=100, description="value loss coefficient")
+    max_grad_norm: float = Field(0.5, ge=0, le=1e6, description="global gradient-norm clip "
+                                 "per seed; 0 disables")
+    norm_adv: bool = Field(True, description="normalise advantages per minibatch")
+    init_log_std: float = Field(0.0, ge=-20, le=2, description="initial log standard "
+                                "deviation of the Gaussian head")
+    observation: Literal["scaled", "raw"] = _as_dqn("observation")
+    user_order: Literal["listed", "clusters"] = _as_dqn("user_order")
+    reward_scale: float = _as_dqn("reward_scale")
+
+
+AGENT_MODELS: dict[str, type[Section]] = {"dqn": DqnAgent, "bdq": BdqAgent, "ppo": PpoAgent}
 
 
 def algorithm_tag(value: Any) -> str | None:
@@ -161,7 +200,8 @@ def algorithm_tag(value: Any) -> str | None:
 
 
 AgentConfig = Annotated[
-    Annotated[DqnAgent, Tag("dqn")] | Annotated[BdqAgent, Tag("bdq")],
+    Annotated[DqnAgent, Tag("dqn")] | Annotated[BdqAgent, Tag("bdq")]
+    | Annotated[PpoAgent, Tag("ppo")],
     Discriminator(algorithm_tag, custom_error_type=UNKNOWN_ALGORITHM,
                   custom_error_message="unknown algorithm")]
 """The ``[agent]`` section: the model its ``algorithm`` names."""

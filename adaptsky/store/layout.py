@@ -29,16 +29,17 @@ from adaptsky.channels.registry import get_model_class
 from adaptsky.errors import AdaptskyError, PluginError
 from adaptsky.scenario import Scenario, parse_scenario
 from adaptsky.scenario.agents import algorithm_tag
-from adaptsky.sim.actions import ActionSet
+from adaptsky.sim.controls import controls_of
 from adaptsky.sim.observation import observation_size_of
 
 KIND = "adaptsky-run"
 # what this adaptsky writes (2: greedy evaluations and the best policy; 3: energy; 4: the
 # service metrics of every episode and every user's position at every step)
-FORMAT_VERSION = 4
-SUPPORTED_VERSIONS = (1, 2, 3, 4)  # what it reads
+FORMAT_VERSION = 5
+SUPPORTED_VERSIONS = (1, 2, 3, 4, 5)  # what it reads
 ENERGY_VERSION = 3  # the first format with the energy of every episode and step
 SERVICE_VERSION = 4  # the first with the service metrics and the users' positions
+LEARNER_VERSION = 5  # the first with the policy's entropy (learners beyond the DQN family)
 MAX_PLUGINS = 64
 
 Needs = Literal["curves", "all"]
@@ -71,6 +72,8 @@ SERVICE_EPISODES = (
     Field("mean_least_rate_bps", "float", ("E",), "bit/s"),
     Field("p5_rate_bps", "float", ("E",), "bit/s"),
 )
+# format 5: the policy's mean entropy in the episode's update (PPO; NaN for Q-learners)
+LEARNER_EPISODES = (Field("entropy", "float", ("E",)),)
 # /seeds/<S>/evaluations/ (format 2): one row per greedy evaluation ("V" rows), NaN where a
 # column does not apply (adaptsky.training.evaluation)
 EVALUATIONS = (
@@ -107,6 +110,8 @@ STEP_ENERGY = Field("energy_j", "float", ("T",), "J")
 SEVERAL_UAVS_STEP_ENERGY = Field("energy_j", "float", ("T", "U"), "J")
 # format 4: every user's position at every step (docs/model.md §3: users that move)
 USERS_TRAJECTORY = Field("users_m", "float", ("T", "N", 2), "m")
+# continuous controls (docs/model.md §3): each step's action in [-1, 1]^D, as the env took it
+CONTINUOUS_ACTIONS = Field("action", "float", ("T", "D"))
 # several UAVs (docs/model.md §9): every UAV's position per step
 SEVERAL_UAVS_POSITIONS = Field("uav_m", "float", ("T", "U", 3), "m")
 # attributes: name -> type ("int", "str", "json", "rng": a numpy bit generator's state as JSON)
@@ -115,7 +120,7 @@ ROOT_ATTRS = {"kind": "str", "format_version": "int", "adaptsky_version": "str",
 PROVENANCE_ATTRS = {"python_version": "str", "numpy_version": "str", "torch_version": "str",
                     "h5py_version": "str", "platform": "str", "command_line": "json"}
 ATTR_KINDS = {"int": "an integer", "float": "a number", "str": "text", "json": "JSON text",
-              "rng": "a numpy generator state as JSON text"}
+              "rng": "a numpy generator state (or a list of them) as JSON text"}
 SEED_ATTRS = {"seed": "int", "episodes_done": "int", "episodes_planned": "int"}
 CHECKPOINT_ATTRS = {"episode": "int", "global_step": "int", "seed": "int"}
 CHECKPOINT_OPTIONAL_ATTRS = {"device": "str"}  # since the stacked trainer; older files lack it
@@ -126,6 +131,7 @@ CONFIG_KEYS = {"train": ("episodes", "steps", "seeds", "checkpoint_every"),
                "users": ("count",), "uav": ("actions",), "channel": ("model",)}
 
 UNITS = {field.name: field.units for field in (*EPISODES, *ENERGY_EPISODES, *SERVICE_EPISODES,
+                                               *LEARNER_EPISODES,
                                                *TRAJECTORY, STEP_ENERGY, USERS_TRAJECTORY,
                                                *EVALUATIONS, *TRACKING_EVALUATIONS)}
 UNITS |= {field.name: field.units for spec in ALGORITHMS.values() for field in spec.fields}
@@ -140,6 +146,8 @@ def episode_fields(version: int) -> tuple[Field, ...]:
         fields += ENERGY_EPISODES
     if version >= SERVICE_VERSION:
         fields += SERVICE_EPISODES
+    if version >= LEARNER_VERSION:
+        fields += LEARNER_EPISODES
     return fields
 
 
@@ -149,13 +157,17 @@ def evaluation_fields(version: int) -> tuple[Field, ...]:
 
 
 def added_after(version: int) -> frozenset[str]:
-    """The names of episode and trajectory datasets that formats after ``version`` add (a
-    run continued by ``train --resume`` keeps its format: these are left out of it)."""
+    """The names of episode, evaluation and trajectory datasets that formats after
+    ``version`` add (a run continued by ``train --resume`` keeps its format: these are left
+    out of it)."""
     names: set[str] = set()
     if version < ENERGY_VERSION:
         names |= {field.name for field in ENERGY_EPISODES} | {STEP_ENERGY.name}
     if version < SERVICE_VERSION:
-        names |= {field.name for field in SERVICE_EPISODES} | {USERS_TRAJECTORY.name}
+        names |= {field.name for field in (*SERVICE_EPISODES, *TRACKING_EVALUATIONS)}
+        names |= {USERS_TRAJECTORY.name}
+    if version < LEARNER_VERSION:
+        names |= {field.name for field in LEARNER_EPISODES}
     return frozenset(names)
 
 
@@ -176,15 +188,17 @@ class Sizes:
     def symbols(self) -> dict[str, int]:
         s = self.scenario
         return {"N": s.num_users, "O": observation_size_of(s), "T": s.train.steps,
-                "U": s.uav.count}
+                "U": s.uav.count, "D": sum(3 + k for k in s.clusters_of_uavs)}
 
     @property
     def trajectory(self) -> tuple[Field, ...]:
         """The trajectory's datasets: :data:`TRAJECTORY`, with every UAV's position
         (T, U, 3) for several UAVs, and from format 3 each step's energy."""
         several = self.scenario.uav.count > 1
-        fields = TRAJECTORY if not several else tuple(
-            SEVERAL_UAVS_POSITIONS if field.name == "uav_m" else field for field in TRAJECTORY)
+        continuous = self.scenario.uav.actions == "continuous"
+        replaced = {"uav_m": SEVERAL_UAVS_POSITIONS if several else None,
+                    "action": CONTINUOUS_ACTIONS if continuous else None}
+        fields = tuple(replaced.get(field.name) or field for field in TRAJECTORY)
         if self.version < ENERGY_VERSION:
             return fields
         fields = (*fields, SEVERAL_UAVS_STEP_ENERGY if several else STEP_ENERGY)
@@ -314,8 +328,9 @@ class Validator:
             return value
         try:
             parsed = json.loads(value)
-            if kind == "rng":
-                np.random.PCG64().state = parsed
+            if kind == "rng":  # one state, or a list of them (E environments per seed)
+                for state in parsed if isinstance(parsed, list) and parsed else [parsed]:
+                    np.random.PCG64().state = state
         except (ValueError, TypeError, KeyError, OverflowError) as error:
             reason = f"no {error}" if isinstance(error, KeyError) else str(error).splitlines()[0]
             self.fail(where, f"is not valid ({reason})", ATTR_KINDS[kind])
@@ -418,7 +433,7 @@ class Validator:
                 from None
         try:
             scenario = parse_scenario(config, "")
-            ActionSet.of(scenario)
+            controls_of(scenario, 1)  # its actions exist (a dense set fits an int64)
         except (AdaptskyError, ValueError) as error:
             self.fail("/config", str(error).splitlines()[0].removeprefix(": "),
                       "a valid scenario")

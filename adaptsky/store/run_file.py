@@ -49,6 +49,9 @@ __all__ = ["FORMAT_VERSION", "KIND", "RunFileError", "RunReader", "SeedCheckpoin
            "append_checkpoint", "append_checkpoints", "create_run", "environment",
            "record_session", "set_planned_episodes"]
 
+# episode columns that may be NaN: the loss before the first update, epsilon for a learner
+# without one (PPO), the entropy for a learner without a stochastic policy (the Q-learners)
+NAN_ALLOWED = ("loss", "epsilon", "entropy")
 EPISODE_METRICS = tuple(field.name for field in episode_fields(FORMAT_VERSION)
                         if len(field.shape) == 1)
 PER_USER_METRICS = tuple(field.name for field in EPISODES if len(field.shape) == 2)
@@ -332,7 +335,8 @@ class RunReader:
         return self._guard(f"seed {seed}", lambda: f"seeds/{seed}/checkpoint" in self.file)
 
     def episodes(self, seed: int) -> dict[str, np.ndarray]:
-        """Learning curves of ``seed`` up to its last checkpoint (only ``loss`` may be NaN)."""
+        """Learning curves of ``seed`` up to its last checkpoint (only ``loss``, and where a
+        learner has none ``epsilon`` and ``entropy``, may be NaN)."""
         def read() -> dict[str, np.ndarray]:
             done = int(self.file[f"seeds/{seed}"].attrs["episodes_done"])
             group = self.file[f"seeds/{seed}/episodes"]
@@ -341,7 +345,7 @@ class RunReader:
         curves = self._guard(f"seed {seed}'s episodes", read)
         for name, values in curves.items():
             require_finite(self.path, f"/seeds/{seed}/episodes/{name}", values,
-                           allow_nan=name == "loss")
+                           allow_nan=name in NAN_ALLOWED)
         return curves
 
     def evaluations(self, seed: int) -> dict[str, np.ndarray]:

@@ -236,8 +236,12 @@ class GreedyEvaluator:
 
     def _rollout(self, env: NetworkBatch, greedy: object) -> FloatArray:
         """Rates (K, S, L, N) of the last K = min(100, steps) steps of a greedy rollout."""
-        return self._steady(env, lambda obs: env.step(np.asarray(greedy(  # type: ignore[operator]
-            obs.reshape(self.members, env.num_envs // self.members, -1))).reshape(-1)))
+        def step(obs: np.ndarray) -> tuple[object, ...]:
+            actions = np.asarray(greedy(  # type: ignore[operator]
+                obs.reshape(self.members, env.num_envs // self.members, -1)))
+            # (S, L) indices, or (S, L, D) continuous controls, to one row per environment
+            return env.step(actions.reshape(env.num_envs, *actions.shape[2:]))
+        return self._steady(env, step)
 
     def _tracking(self, twin: NetworkBatch) -> FloatArray:
         """Rates (K, S, L, N) of the tracking baseline's last K steps on ``twin``."""

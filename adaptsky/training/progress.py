@@ -15,7 +15,7 @@ from adaptsky.units import format_rate
 
 MOVING_WINDOW = 100
 # the episode metrics that progress shows (those a run's format lacks are left out)
-PROGRESS_METRICS = ("sum_rate_bps", "fairness", "epsilon", "outage_share",
+PROGRESS_METRICS = ("sum_rate_bps", "fairness", "epsilon", "entropy", "outage_share",
                     "mean_least_rate_bps")
 
 
@@ -59,7 +59,7 @@ class TrainingProgress:
         self.least[seed] = deque(maxlen=MOVING_WINDOW)
         self.totals[seed], self.logs[seed] = total, _SeedLog(done, total)
         self.reporter.start(seed, total, done, seed=seed, rate="-", fairness="-", outage="-",
-                            epsilon="-",
+                            epsilon="eps -",
                             greedy="-", left=self.logs[seed].pace.left(short=True))
 
     def episode(self, seed: int, episode: int, metrics: dict[str, float]) -> None:
@@ -80,10 +80,10 @@ class TrainingProgress:
                   if seed in self.greedy else "-")
         self.reporter.advance(seed, episode, rate=rate, fairness=f"{mean_fairness:.3f}",
                               outage=f"{100 * outage:.0f}%" if math.isfinite(outage) else "-",
-                              epsilon=f"{metrics['epsilon']:.3f}", greedy=greedy,
+                              epsilon=_exploration(metrics, short=True), greedy=greedy,
                               left=pace.left(short=True))
         if not self.reporter.live and not self.reporter.quiet:
-            self._log(seed, episode, rate, mean_fairness, metrics["epsilon"])
+            self._log(seed, episode, rate, mean_fairness, _exploration(metrics))
 
     def _service(self, seed: int) -> str:
         """', outage 25.3%, least 10.96 Mbit/s': the seed's moving averages ('' before
@@ -93,7 +93,8 @@ class TrainingProgress:
             return ""
         return f", outage {100 * outage:.1f}%, least {format_rate(least)}"
 
-    def _log(self, seed: int, episode: int, rate: str, fairness: float, epsilon: float) -> None:
+    def _log(self, seed: int, episode: int, rate: str, fairness: float, exploration: str
+             ) -> None:
         log, total, now = self.logs[seed], self.totals[seed], time.monotonic()
         due = (log.last_log is None or episode >= total
                or now - log.last_log >= self.log_every_s)
@@ -106,12 +107,23 @@ class TrainingProgress:
                   if seed in self.greedy else "")
         self.reporter.log(f"seed {seed}: episode {episode}/{total}, mean of the last "
                           f"{averaged}: sum rate {rate}, J {fairness:.3f}{self._service(seed)}; "
-                          f"eps {epsilon:.3f}"
+                          f"{exploration}"
                           f"{greedy}" + (f", {speed}" if speed else ""))
 
     def message(self, text: str) -> None:
         """A line above the live rows; timestamped where there are none (a log)."""
         self.reporter.message(text)
+
+
+def _exploration(metrics: dict[str, float], short: bool = False) -> str:
+    """How the seed explores: its epsilon ('eps 0.100'), or for a learner without one its
+    policy's entropy ('entropy 1.23' in a line, 'H 1.23' in the row)."""
+    epsilon = metrics.get("epsilon", math.nan)
+    if math.isfinite(epsilon):
+        return f"eps {epsilon:.3f}"
+    entropy = metrics.get("entropy", math.nan)
+    value = f"{entropy:.2f}" if math.isfinite(entropy) else "-"
+    return f"H {value}" if short else f"entropy {value}"
 
 
 def _mean(values: deque[float]) -> float:

@@ -112,13 +112,21 @@ class StackRun:
         self.members = members
         self.scenario = scenario = members[0].scenario
         seeds = [member.seed for member in members]
-        self.env = NetworkBatch(scenario, num_envs=len(members),
-                                 seed=[np.random.SeedSequence([s, 0]) for s in seeds],
-                                 weights=[reward_weights(m.scenario) for m in members])
+        spec = algorithm_of(scenario)
+        # E environments per member (PPO's rollout), member-major; environment e of seed s
+        # draws from (s, 0) where E = 1, else (s, 0, e)
+        self.envs = envs = spec.envs_per_member(scenario)
+        self.env = NetworkBatch(scenario, num_envs=len(members) * envs,
+                                 seed=[np.random.SeedSequence([s, 0] if envs == 1 else [s, 0, e])
+                                       for s in seeds for e in range(envs)],
+                                 weights=[reward_weights(m.scenario) for m in members
+                                          for _ in range(envs)])
         self.rngs = [np.random.default_rng([s, 1]) for s in seeds]
-        self.algorithm = algorithm_of(scenario).build(
+        controls = self.env.controls
+        self.algorithm = spec.build(
             scenario, seeds, self.rngs, observation_size_of(scenario),
-            self.env.actions.count, torch.device(device), graphs)
+            controls.count if controls.form == "index" else controls.num_components,
+            torch.device(device), graphs)
         self._seeds = seeds
         self.episodes_done = 0
         self.evaluators = _evaluators(members)
@@ -141,7 +149,8 @@ class StackRun:
             split = functools.partial(env.reward_parts, split=agent.reward_split)
         algorithm.begin_episode(start)
         if self.scenario.users.placement == "fresh":
-            self.env.set_layouts(episode_layouts(self.scenario, self._seeds, self.episodes_done))
+            self.env.set_layouts(np.repeat(episode_layouts(
+                self.scenario, self._seeds, self.episodes_done), self.envs, axis=0))
         # a NaN or infinity is reported once, by _check_finite, not as numpy warnings
         with np.errstate(all="ignore"):
             obs, _ = self.env.reset(alpha_first=self._start_shares())
@@ -160,15 +169,19 @@ class StackRun:
         self.episodes_done += 1
         losses = algorithm.take_mean_loss()
         trajectory = {name: np.stack([getattr(state, name) for state in states])
-                      for name in STATE_FIELDS}  # time-major, (T, S, ...)
+                      for name in STATE_FIELDS}  # time-major, (T, S E, ...)
         trajectory["reward"], trajectory["action"] = np.stack(rewards), np.stack(chosen)
-        trajectory["users_m"] = np.stack(users)           # (T, S, N, 2): every user's position
+        trajectory["users_m"] = np.stack(users)        # (T, S E, N, 2): every user's position
         self._check_finite(trajectory, losses)
         if losses is None:  # no update yet: not an error
             losses = np.full(len(self.members), np.nan)
+        entropy = algorithm.take_stats().get("entropy", np.full(len(self.members), np.nan))
         evaluations = self._evaluate()
-        return [self._result({name: values[:, index] for name, values in trajectory.items()},
-                             algorithm.epsilon, losses[index], evaluations[index])
+        envs = self.envs
+        return [self._result([{name: values[:, index * envs + e]
+                               for name, values in trajectory.items()} for e in range(envs)],
+                             algorithm.epsilon, losses[index], float(entropy[index]),
+                             evaluations[index])
                 for index in range(len(self.members))]
 
     def _start_shares(self) -> np.ndarray | None:
@@ -221,7 +234,7 @@ class StackRun:
             if np.isfinite(values).all():
                 continue
             where = tuple(int(i) for i in np.argwhere(~np.isfinite(values))[0])
-            seed = self.members[where[1]].seed  # axis 1 is the member
+            seed = self.members[where[1] // self.envs].seed  # axis 1: the member's envs
             value = values[where]
             step = "" if name == "loss" else f", step {where[0] + 1}"
             user = f" of user {where[2] + 1}" if len(where) > 2 else ""
@@ -230,17 +243,27 @@ class StackRun:
                 f"{name}{user} is {value}; it depends on {DEPENDS_ON[name]}. Training stopped; "
                 "the run file keeps its last checkpoint")
 
-    def _result(self, trajectory: dict[str, np.ndarray], eps: float, loss: float,
-                evaluation: dict[str, float] | None) -> EpisodeResult:
-        trajectory = {name: np.ascontiguousarray(values) for name, values in trajectory.items()}
+    def _result(self, trajectories: list[dict[str, np.ndarray]], eps: float, loss: float,
+                entropy: float, evaluation: dict[str, float] | None) -> EpisodeResult:
+        """One member's episode from its E environments' trajectories: the learning-curve
+        values averaged over them, the first one's trajectory."""
+        trajectories = [{name: np.ascontiguousarray(values) for name, values in t.items()}
+                        for t in trajectories]
+        each = [self._metrics(t) for t in trajectories]
+        metrics = each[0] if len(each) == 1 else {
+            name: np.mean([m[name] for m in each], axis=0) for name in each[0]}
+        metrics |= {"epsilon": eps, "loss": float(loss), "entropy": entropy}
+        trajectory = trajectories[0]
+        return EpisodeResult(self.episodes_done, metrics, trajectory, evaluation)
+
+    def _metrics(self, trajectory: dict[str, np.ndarray]) -> dict[str, Any]:
+        """The learning-curve values of one environment's episode (but epsilon and loss)."""
         rates = trajectory["rate_bps"]
-        metrics = {
+        return {
             "sum_rate_bps": rates.sum(axis=1).mean(),
             "fairness": float(np.mean(jain_fairness(rates))),
             "reward": trajectory["reward"].sum(),
             "mean_height_m": trajectory["uav_m"][..., 2].mean(),   # over every UAV
-            "epsilon": eps,
-            "loss": float(loss),
             "mean_rate_bps": rates.mean(axis=0),
             "mean_alpha": trajectory["alpha"].mean(axis=0),
             **episode_energy(rates.sum(axis=1), trajectory["energy_j"],
@@ -249,7 +272,6 @@ class StackRun:
                 rates[:, None], self.scenario.radio.bandwidth_hz,
                 self.scenario.metrics.outage_se).items()},
         }
-        return EpisodeResult(self.episodes_done, metrics, trajectory, evaluation)
 
     def best(self, index: int) -> Tree | None:
         """Member ``index``'s best policy so far (None before it has one): the episode that
@@ -271,12 +293,18 @@ class StackRun:
             "device": self.algorithm.device_name(),
             **self.algorithm.checkpoint(index),
             "rng": {"numpy_agent_json": json.dumps(self.rngs[index].bit_generator.state),
-                    "numpy_env_json": json.dumps(self._env_rng(index).bit_generator.state)},
+                    "numpy_env_json": json.dumps(self._env_rng_states(index))},
         }
 
-    def _env_rng(self, index: int) -> np.random.Generator:
+    def _env_rngs(self, index: int) -> list[np.random.Generator]:
+        """Member ``index``'s environments' generators (E of them)."""
         assert self.env.rngs is not None
-        return self.env.rngs[index]
+        return self.env.rngs[index * self.envs:(index + 1) * self.envs]
+
+    def _env_rng_states(self, index: int) -> object:
+        """Its generators' states: one (E = 1), else a list."""
+        states = [rng.bit_generator.state for rng in self._env_rngs(index)]
+        return states[0] if self.envs == 1 else states
 
     def restore(self, index: int, checkpoint: Tree) -> None:
         """Inverse of :meth:`checkpoint` for member ``index``; every member of a stack must be
@@ -287,8 +315,10 @@ class StackRun:
                              f"{episode}, member 0 at {self.episodes_done}")
         self.algorithm.restore(index, checkpoint)
         self.rngs[index].bit_generator.state = json.loads(checkpoint["rng"]["numpy_agent_json"])
-        self._env_rng(index).bit_generator.state = json.loads(
-            checkpoint["rng"]["numpy_env_json"])
+        states = json.loads(checkpoint["rng"]["numpy_env_json"])
+        for rng, state in zip(self._env_rngs(index), states if self.envs > 1 else [states],
+                              strict=True):
+            rng.bit_generator.state = state
         best = checkpoint.get("best")
         if best is not None:
             self.best_score[index] = float(best["score"])

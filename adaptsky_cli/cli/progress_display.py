@@ -27,7 +27,7 @@ def _columns(layout: Layout) -> tuple[list[ProgressColumn], bool]:
     if layout == "seeds":
         return [TextColumn("seed {task.fields[seed]:>3}"), MofNCompleteColumn(),
                 TextColumn("R {task.fields[rate]} J {task.fields[fairness]} "
-                           "out {task.fields[outage]} eps {task.fields[epsilon]} "
+                           "out {task.fields[outage]} {task.fields[epsilon]} "
                            "greedy {task.fields[greedy]}"),
                 TextColumn("{task.fields[left]}")], False
     return [TextColumn("{task.fields[status]}"), BarColumn(), MofNCompleteColumn(),

@@ -94,6 +94,10 @@ class DqnLearner:
         losses = self.agent.take_mean_loss()
         return losses if updated else None
 
+    def take_stats(self) -> dict[str, NDArray[np.float64]]:
+        """None beyond the loss (an epsilon-greedy policy has no entropy to report)."""
+        return {}
+
     def device_name(self) -> str:
         return describe(self.agent.device)
 

@@ -89,6 +89,12 @@ class DqnSpec:
         "batch activations": "lower agent.batch_size or agent.hidden_sizes",
     }
 
+    def check_scenario(self, scenario: Scenario, source: str) -> None:
+        """Nothing beyond the action kind."""
+
+    def envs_per_member(self, scenario: Scenario) -> int:
+        return 1  # one environment per seed: step, store, update
+
     # ---- the checkpoint -------------------------------------------------------------------
 
     replay_fields = REPLAY

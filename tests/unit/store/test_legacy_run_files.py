@@ -1,5 +1,6 @@
 """Run files written by earlier versions (tests/data/legacy/README.md): format 1 (before the
-greedy evaluations) and format 2 (before ``[agent] algorithm``) open, resume to the asked
+greedy evaluations), format 2 (before ``[agent] algorithm``), 3 (before the service metrics)
+and 4 (before the policy's entropy) open, resume to the asked
 episodes and evaluate as a new run's file does.
 
 The shipped files were written on another machine, and floats are reproducible on one machine
@@ -30,6 +31,7 @@ FILES = {  # file -> (format, the --set options it was trained with)
     "format1-f76bddf.h5": (1, []),
     "format2-4b487ea.h5": (2, EVALUATING),
     "format3-f2c7d5a.h5": (3, EVALUATING),
+    "format4-0e61058.h5": (4, EVALUATING),
 }
 RUN = ["--workers", "1", "--quiet"]
 SKIP = {"created_utc", "sessions", "command_line", "adaptsky_version", "wall_time_s",
@@ -69,14 +71,15 @@ def counted(key: str) -> bool:
 def added(key: str, version: int) -> bool:
     """Whether ``key`` (a path, maybe with ``@attribute``) is a dataset that formats after
     ``version`` add (the energy from format 3, the service metrics and the users' positions
-    from format 4)."""
+    from format 4, the policy's entropy from format 5)."""
     return key.split("@")[0].rsplit("/", 1)[-1] in added_after(version)
 
 
 def in_format(arrays: dict[str, np.ndarray], version: int) -> dict[str, np.ndarray]:
-    """A new run's ``arrays`` without what a file of format ``version`` does not have: format 4
-    adds the service metrics and the users' positions, format 3 the energy of every episode
-    and step (a resumed file keeps its format), format 2 the greedy evaluations."""
+    """A new run's ``arrays`` without what a file of format ``version`` does not have: format 5
+    adds the policy's entropy, format 4 the service metrics, the users' positions and the
+    tracking columns, format 3 the energy of every episode and step (a resumed file keeps
+    its format), format 2 the greedy evaluations."""
     arrays = {k: v for k, v in arrays.items() if not added(k, version)}
     if version == 1:
         arrays = {k: v for k, v in arrays.items() if "evaluations" not in k and "best" not in k}

@@ -33,7 +33,7 @@ def test_paper_scenario_run_file_layout(tmp_path, capsys):
     assert code == 0
     assert "R_e^tot" in capsys.readouterr().out
     with h5py.File(out, "r") as f:          # h5py alone reads every dataset
-        assert f.attrs["format_version"] == 4 and f.attrs["kind"] == "adaptsky-run"
+        assert f.attrs["format_version"] == 5 and f.attrs["kind"] == "adaptsky-run"
         assert {"adaptsky_version", "created_utc"} <= set(f.attrs)
         assert f["scenario"][()].decode() == (SCENARIOS / "nyc_mmwave.toml").read_text()
         config = json.loads(f["config"][()])

@@ -118,7 +118,7 @@ def brute_force_oracle(layout_m: list, min_se: float = 0.0) -> float:
 def test_evaluation_rows_are_percent_of_the_oracle_and_the_best_is_their_maximum(full):
     oracle = brute_force_oracle(TRAINING_LAYOUT_M)
     with h5py.File(full, "r") as f:
-        assert f.attrs["format_version"] == 4
+        assert f.attrs["format_version"] == 5
         assert np.array_equal(f["evaluation/training_layouts_m"][()], [TRAINING_LAYOUT_M])
         stored = f["evaluation/training_oracle_bps"][()]
         assert "heldout_oracle_bps" not in f["evaluation"]

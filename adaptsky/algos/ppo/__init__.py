@@ -1,0 +1,2 @@
+"""PPO (Schulman et al. 2017) stacked over seeds, for dense, branching and continuous actions
+(docs/agent.md)."""

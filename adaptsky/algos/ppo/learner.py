@@ -1,0 +1,282 @@
+"""PPO as an :class:`~adaptsky.algos.protocol.Algorithm` (docs/agent.md), CleanRL's ``ppo.py``
+order stacked over S seeds: every episode is one rollout of T steps from E environments per
+seed (:meth:`act` samples and keeps log pi and V; :meth:`observe` keeps the reward), then
+:meth:`end_episode` computes GAE(lambda), bootstrapping the truncated last step with
+V(s_T), and runs ``epochs`` epochs of ``minibatches`` minibatches per seed (each seed its own
+permutation from its generator): the clipped surrogate, the (clipped) value loss, the entropy
+bonus, advantages normalised per minibatch, the gradient clipped to ``max_grad_norm`` per seed,
+one Adam step. The learning rate falls linearly to 0 over ``train.episodes`` (``anneal_lr``).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import torch
+from numpy.typing import NDArray
+
+from adaptsky.algos.device_step import describe
+from adaptsky.algos.ppo.heads import ActionHead
+from adaptsky.algos.ppo.parameters import HeadShape
+from adaptsky.algos.ppo.stacked import StackedActorCritic
+from adaptsky.arrays import Tree
+from adaptsky.scenario.agents import PpoAgent
+
+STATS = ("loss", "policy_loss", "value_loss", "entropy", "approx_kl", "clip_fraction")
+PAD = 16
+"""Per-member row counts are padded to a multiple of this (float32 lanes of an AVX-512 vector):
+elementwise kernels (exp, tanh) run a vector loop and a scalar tail that may round apart, so a
+member's block of rows must take the same lanes alone and in a stack (a seed then learns the
+same numbers alone, in a stack, and resumed in another stacking)."""
+
+
+def padded(rows: int) -> int:
+    """``rows`` rounded up to a multiple of :data:`PAD`."""
+    return -(-rows // PAD) * PAD
+
+
+def gae(rewards: np.ndarray, values: np.ndarray, last_value: np.ndarray, gamma: float,
+        lam: float) -> tuple[np.ndarray, np.ndarray]:
+    """GAE(lambda) advantages and returns (T, ...) of one rollout without terminal states:
+    delta_t = r_t + gamma V(s_{t+1}) - V(s_t), with V(s_T) = ``last_value`` (the truncation
+    bootstrapped), A_t = delta_t + gamma lambda A_{t+1}, returns A_t + V(s_t)."""
+    advantages = np.zeros_like(values)
+    running = np.zeros_like(last_value)
+    steps = len(values)
+    for t in reversed(range(steps)):
+        following = last_value if t == steps - 1 else values[t + 1]
+        delta = rewards[t] + gamma * following - values[t]
+        running = delta + gamma * lam * running
+        advantages[t] = running
+    return advantages, advantages + values
+
+
+def _minibatch_layout(rows: int) -> tuple[np.ndarray, torch.Tensor]:
+    """Where the padded rows of a minibatch of ``rows`` come from (its own rows, then its
+    first row again) and the mask (padded,) of the real ones."""
+    size = padded(rows)
+    where = np.concatenate([np.arange(rows), np.zeros(size - rows, dtype=np.int64)])
+    mask = torch.zeros(size)
+    mask[:rows] = 1.0
+    return where, mask
+
+
+class PpoLearner:
+    """Actor, critic, Adam and the rollout of S members of E environments each; ``rngs[s]``
+    draws member s's actions and minibatch permutations."""
+
+    reward_parts = 1
+
+    def __init__(self, config: PpoAgent, head: HeadShape, observation_size: int,
+                 seeds: list[int], rngs: list[np.random.Generator], steps: int, episodes: int,
+                 device: Any = "cpu") -> None:
+        self.config, self.rngs = config, rngs
+        self.size, self.envs = len(seeds), config.envs_per_seed
+        self.steps, self.episodes = steps, episodes
+        self.net = StackedActorCritic(observation_size, config.hidden_sizes, head, seeds,
+                                      config.activation, config.init_log_std, device)
+        self.head = ActionHead(head)
+        self.device = self.net.device
+        self.epsilon = math.nan  # no epsilon: progress leaves it out
+        self.lr = config.lr
+        shape = (steps, self.size, self.envs)
+        self.observations = np.zeros((*shape, observation_size), dtype=np.float32)
+        self.actions = np.zeros((*shape, *self.head.stored_shape),
+                                dtype=np.float32 if head.kind == "gaussian" else np.int64)
+        self.log_probs = np.zeros(shape, dtype=np.float32)
+        self.values = np.zeros(shape, dtype=np.float32)
+        self.rewards = np.zeros(shape, dtype=np.float64)
+        self.last_observations = np.zeros((self.size, self.envs, observation_size), np.float32)
+        self.t = 0
+        self.stats: dict[str, NDArray[np.float64]] | None = None
+
+    # ---- acting ---------------------------------------------------------------------------
+
+    def _outputs(self, observations: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """Head outputs (S, n, width) and the log std (S, 1, D) or None, as numpy."""
+        with torch.no_grad():
+            x = torch.tensor(observations, device=self.device)
+            out = self.net.actor(x).cpu().numpy()
+            log_std = (self.net.log_std().cpu().numpy() if self.head.head.kind == "gaussian"
+                       else None)
+        return out, log_std
+
+    def begin_episode(self, global_step: int) -> None:
+        self.t = 0
+        if self.config.anneal_lr:
+            done = global_step // self.steps
+            self.lr = self.config.lr * max(0.0, 1.0 - done / self.episodes)
+
+    def act(self, observations: NDArray[np.float32], global_step: int) -> np.ndarray:
+        """Sampled actions (S E, ...) for observations (S E, obs), member-major; keeps the
+        step's observations, actions, log pi and V."""
+        obs = np.ascontiguousarray(observations, dtype=np.float32).reshape(
+            self.size, self.envs, -1)
+        rows = padded(self.envs)  # zero rows after each member's E observations
+        x = torch.zeros((self.size, rows, obs.shape[-1]), device=self.device)
+        x[:, :self.envs] = torch.tensor(obs, device=self.device)
+        with torch.no_grad():
+            out = self.net.actor(x)
+            log_std = self.net.log_std() if self.head.head.kind == "gaussian" else None
+            host_out = out[:, :self.envs].cpu().numpy()
+            stored = self.head.sample(host_out, None if log_std is None
+                                      else log_std.cpu().numpy(), self.rngs)
+            chosen = torch.zeros((self.size, rows, *self.head.stored_shape),
+                                 dtype=torch.float32 if log_std is not None else torch.int64,
+                                 device=self.device)
+            chosen[:, :self.envs] = torch.tensor(stored, device=self.device)
+            log_prob, _ = self.head.log_prob_entropy(out, log_std, chosen)
+            value = self.net.critic(x)
+            log_prob, value = log_prob[:, :self.envs], value[:, :self.envs]
+        t = self.t
+        self.observations[t], self.actions[t] = obs, stored
+        self.log_probs[t], self.values[t] = log_prob.cpu().numpy(), value.cpu().numpy()
+        return self.head.env_actions(stored).reshape(self.size * self.envs,
+                                                     *self._env_shape())
+
+    def _env_shape(self) -> tuple[int, ...]:
+        return (self.head.head.components,) if self.head.head.kind == "gaussian" else ()
+
+    def greedy(self, observations: NDArray[np.float32]) -> np.ndarray:
+        """The mode's environment actions (S, n, ...) for observations (S, n, obs)."""
+        if self.device.type == "cpu":
+            out = self.net.host_actor(np.asarray(observations, dtype=np.float32))
+        else:
+            out, _ = self._outputs(np.asarray(observations, dtype=np.float32))
+        return self.head.env_actions(self.head.mode(out))
+
+    def observe(self, observations: NDArray[np.float32], actions: np.ndarray,
+                rewards: NDArray[np.float64], next_observations: NDArray[np.float32]) -> None:
+        """The step's rewards (S E,) and the observations after it."""
+        self.rewards[self.t] = np.asarray(rewards).reshape(self.size, self.envs)
+        self.last_observations[...] = np.asarray(next_observations).reshape(
+            self.size, self.envs, -1)
+        self.t += 1
+
+    def update(self) -> None:
+        """Nothing per step: PPO learns at the end of its rollout (:meth:`end_episode`)."""
+
+    # ---- learning -------------------------------------------------------------------------
+
+    def _advantages(self) -> tuple[np.ndarray, np.ndarray]:
+        """GAE(lambda) advantages and returns (T, S, E); the last step is a truncation,
+        bootstrapped with V(s_T)."""
+        config = self.config
+        rows = padded(self.envs)  # as in act: each member's block the size it has alone
+        x = torch.zeros((self.size, rows, self.last_observations.shape[-1]),
+                        device=self.device)
+        x[:, :self.envs] = torch.tensor(self.last_observations, device=self.device)
+        with torch.no_grad():
+            last = self.net.critic(x)[:, :self.envs].cpu().numpy().astype(np.float64)
+        return gae(self.rewards * config.reward_scale, self.values.astype(np.float64), last,
+                   config.gamma, config.gae_lambda)
+
+    def _per_member(self, array: np.ndarray) -> torch.Tensor:
+        """(T, S, E, ...) -> (S, T E, ...) on the device."""
+        moved = np.moveaxis(array, 1, 0)
+        flat = moved.reshape(self.size, self.steps * self.envs, *array.shape[3:])
+        return torch.tensor(flat, device=self.device)  # a copy in torch's aligned memory
+
+    def end_episode(self, episodes_before: int) -> None:
+        """GAE, then the epochs of minibatch updates (module docstring)."""
+        config, net = self.config, self.net
+        advantages, returns = self._advantages()
+        obs = self._per_member(self.observations)
+        actions = self._per_member(self.actions)
+        old_log_probs = self._per_member(self.log_probs)
+        old_values = self._per_member(self.values)
+        adv = self._per_member(advantages.astype(np.float32))
+        ret = self._per_member(returns.astype(np.float32))
+        count = self.steps * self.envs
+        parts = np.array_split(np.arange(count), min(config.minibatches, count))
+        # each minibatch padded to a multiple of PAD rows (repeats of its first row, masked)
+        layouts = {len(part): _minibatch_layout(len(part)) for part in parts}
+        sums = {name: torch.zeros(self.size, dtype=torch.float64) for name in STATS}
+        updates = 0
+        for _ in range(config.epochs):
+            order = torch.from_numpy(np.stack([rng.permutation(count) for rng in self.rngs]))
+            for part in parts:
+                where, mask = layouts[len(part)]
+                index = order[:, part[where]].to(self.device)             # (S, m padded)
+                stats = self._minibatch(index, mask.to(self.device), len(part), obs,
+                                        actions, old_log_probs, old_values, adv, ret)
+                net.apply_gradients(self.lr, config.max_grad_norm)
+                for name, value in stats.items():
+                    sums[name] += value.detach().cpu().double()
+                updates += 1
+        self.stats = {name: (value / updates).numpy() for name, value in sums.items()}
+
+    def _minibatch(self, index: torch.Tensor, mask: torch.Tensor, rows: int,
+                   obs: torch.Tensor, actions: torch.Tensor, old_log_probs: torch.Tensor,
+                   old_values: torch.Tensor, adv: torch.Tensor, ret: torch.Tensor
+                   ) -> dict[str, torch.Tensor]:
+        """The loss of one minibatch of ``rows`` rows per member (S, padded indices; ``mask``
+        1 on the real rows), its gradient computed; the per-member statistics of
+        :data:`STATS`."""
+        config, net = self.config, self.net
+
+        def mean(values: torch.Tensor) -> torch.Tensor:
+            return (values * mask).sum(dim=1) / rows
+
+        def take(values: torch.Tensor) -> torch.Tensor:
+            shape = (*index.shape, *values.shape[2:])
+            where = index.reshape(*index.shape, *([1] * (values.dim() - 2))).expand(shape)
+            return torch.gather(values, 1, where)
+
+        out = net.actor(take(obs))
+        log_std = net.log_std() if self.head.head.kind == "gaussian" else None
+        log_prob, entropy = self.head.log_prob_entropy(out, log_std, take(actions))
+        log_ratio = log_prob - take(old_log_probs)
+        ratio = log_ratio.exp()
+        advantage = take(adv)
+        if config.norm_adv:  # mean and (unbiased) std over the real rows
+            centred = advantage - mean(advantage)[:, None]
+            std = (mean(centred * centred) * rows / max(rows - 1, 1)).sqrt()
+            advantage = centred / (std[:, None] + 1e-8)
+        clip = config.clip_coef
+        policy_loss = mean(torch.max(-advantage * ratio,
+                                     -advantage * ratio.clamp(1 - clip, 1 + clip)))
+        value = net.critic(take(obs))
+        target = take(ret)
+        if config.clip_vloss:
+            before = take(old_values)
+            clipped = before + (value - before).clamp(-clip, clip)
+            value_loss = 0.5 * mean(torch.max((value - target) ** 2,
+                                              (clipped - target) ** 2))
+        else:
+            value_loss = 0.5 * mean((value - target) ** 2)
+        mean_entropy = mean(entropy)
+        loss = policy_loss - config.ent_coef * mean_entropy + config.vf_coef * value_loss
+        loss.sum().backward()  # members' gradients are independent
+        with torch.no_grad():
+            approx_kl = mean((ratio - 1) - log_ratio)
+            clipped_share = mean(((ratio - 1).abs() > clip).float())
+        return {"loss": loss, "policy_loss": policy_loss, "value_loss": value_loss,
+                "entropy": mean_entropy, "approx_kl": approx_kl,
+                "clip_fraction": clipped_share}
+
+    def take_mean_loss(self) -> NDArray[np.float64] | None:
+        """Each member's mean loss over the last update's minibatches, None before one."""
+        return None if self.stats is None else self.stats["loss"]
+
+    def take_stats(self) -> dict[str, NDArray[np.float64]]:
+        """The last update's per-member means of :data:`STATS` (NaN before one)."""
+        if self.stats is None:
+            return {name: np.full(self.size, np.nan) for name in STATS}
+        return dict(self.stats)
+
+    # ---- checkpoints ----------------------------------------------------------------------
+
+    def device_name(self) -> str:
+        return describe(self.device)
+
+    def checkpoint(self, member: int) -> Tree:
+        return {"agent": self.net.state_arrays(member)}
+
+    def restore(self, member: int, checkpoint: Tree) -> None:
+        self.net.load_state_arrays(member, checkpoint["agent"])
+
+    def policy(self, member: int) -> Tree:
+        return self.net.policy_arrays(member)

@@ -1,0 +1,161 @@
+"""PPO's torch-free half (:class:`~adaptsky.algos.protocol.AlgorithmSpec`): its head for a
+scenario, its part of a checkpoint (docs/file-format.md: ``agent/policy``, ``agent/critic``,
+``agent/optimizer``), its memory estimate, and the builders of its learner and of a greedy
+policy, which import torch only when called."""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+from adaptsky.algos.ppo.parameters import (
+    HeadShape,
+    critic_shapes,
+    parameter_count,
+    policy_shapes,
+)
+from adaptsky.algos.protocol import Algorithm, LayoutCheck, Node, Policy
+from adaptsky.arrays import Field, Tree
+from adaptsky.errors import ScenarioError
+from adaptsky.scenario.agents import PpoAgent
+from adaptsky.scenario.models import Scenario
+from adaptsky.sim.actions import DENSE_MODES, ActionSet
+from adaptsky.sim.observation import observation_size_of
+
+FLOAT32 = 4
+# /seeds/<S>/checkpoint/agent/optimizer/: Adam's step count and moments of every parameter
+ADAM_STEP = Field("step", "int", ())
+
+
+def _config(scenario: Scenario) -> PpoAgent:
+    agent = scenario.agent
+    assert isinstance(agent, PpoAgent), f"not a PPO agent: {agent.algorithm}"
+    return agent
+
+
+def head_kind(scenario: Scenario) -> str:
+    """The head ``agent.action_head`` names ('auto': dense, or gaussian for continuous)."""
+    kind = _config(scenario).action_head
+    if kind == "auto":
+        return "gaussian" if scenario.uav.actions == "continuous" else "dense"
+    return kind
+
+
+def head_of(scenario: Scenario) -> HeadShape:
+    """The actor's head for ``scenario``'s actions."""
+    kind = head_kind(scenario)
+    if kind == "gaussian":
+        components = sum(3 + k for k in scenario.clusters_of_uavs)
+        return HeadShape("gaussian", components, components=components)
+    actions = ActionSet.of(scenario)
+    if kind == "dense":
+        return HeadShape("dense", actions.count)
+    branches = (actions.base,) * actions.num_components
+    return HeadShape("branches", sum(branches), branches=branches)
+
+
+class PpoSpec:
+    """PPO, stacked over seeds (``adaptsky.algos.ppo``)."""
+
+    name = "ppo"
+    action_kinds = (*DENSE_MODES, "continuous")
+    checkpoint_members = ("agent",)
+    config_keys = ("hidden_sizes", "envs_per_seed", "action_head")
+    fields = (ADAM_STEP,)
+    remedies: ClassVar[dict[str, str]] = {
+        "rollout": "lower agent.envs_per_seed, train.steps or the number of seeds",
+        "networks and optimizer": "lower agent.hidden_sizes or the number of seeds",
+        "batch activations": "raise agent.minibatches or lower agent.hidden_sizes",
+    }
+
+    def check_scenario(self, scenario: Scenario, source: str) -> None:
+        """One line where ``agent.action_head`` does not fit ``uav.actions``."""
+        kind, actions = _config(scenario).action_head, scenario.uav.actions
+        continuous = actions == "continuous"
+        if kind == "auto" or (kind == "gaussian") == continuous:
+            return
+        fits = "'gaussian' (or 'auto')" if continuous else "'dense' or 'branches' (or 'auto')"
+        raise ScenarioError([f"{source}: agent.action_head: '{kind}' does not fit "
+                             f"uav.actions = '{actions}'; it takes {fits}"])
+
+    def envs_per_member(self, scenario: Scenario) -> int:
+        return _config(scenario).envs_per_seed
+
+    def shapes(self, scenario: Scenario) -> tuple[dict[str, tuple[int, ...]],
+                                                  dict[str, tuple[int, ...]]]:
+        """The policy's and the critic's parameters, torch-named and shaped."""
+        obs, hidden = observation_size_of(scenario), _config(scenario).hidden_sizes
+        return policy_shapes(obs, hidden, head_of(scenario)), critic_shapes(obs, hidden)
+
+    # ---- the checkpoint -------------------------------------------------------------------
+
+    @staticmethod
+    def _weights(check: LayoutCheck, group: Node, shapes: dict[str, tuple[int, ...]]) -> None:
+        check.exact_members(group, shapes)
+        for param, shape in shapes.items():
+            check.dataset(group, Field(param, "float", ()), {}, shape)
+
+    def check_policy(self, check: LayoutCheck, group: Node, scenario: Scenario) -> None:
+        self._weights(check, group, self.shapes(scenario)[0])
+
+    def check_checkpoint(self, check: LayoutCheck, group: Node, scenario: Scenario,
+                         episodes_done: int) -> None:
+        """``agent``: ``policy``, ``critic`` and ``optimizer`` (step, exp_avg, exp_avg_sq)."""
+        agent = check.group(group, "agent")
+        check.exact_members(agent, ("policy", "critic", "optimizer"))
+        policy, critic = self.shapes(scenario)
+        self._weights(check, check.group(agent, "policy"), policy)
+        self._weights(check, check.group(agent, "critic"), critic)
+        optimizer = check.group(agent, "optimizer")
+        check.exact_members(optimizer, ("step", "exp_avg", "exp_avg_sq"))
+        check.dataset(optimizer, ADAM_STEP, {})
+        for name in ("exp_avg", "exp_avg_sq"):
+            self._weights(check, check.group(optimizer, name), {**policy, **critic})
+
+    def policy_of(self, checkpoint: Tree) -> Tree:
+        return checkpoint["agent"]["policy"]
+
+    # ---- memory ---------------------------------------------------------------------------
+
+    def memory_parts(self, scenario: Scenario, seeds: int, workers: int) -> dict[str, float]:
+        """The rollout (T S E observations and five numbers a step, twice: as collected and
+        per member), networks and optimizer (parameters, gradients, two moments, a
+        checkpoint's copy), and a minibatch's activations, forward and backward."""
+        agent = _config(scenario)
+        obs, steps = observation_size_of(scenario), scenario.train.steps
+        policy, critic = self.shapes(scenario)
+        params = float(parameter_count(policy) + parameter_count(critic))
+        samples = steps * agent.envs_per_seed
+        head = head_of(scenario).width
+        hidden = float(sum(agent.hidden_sizes))
+        return {
+            "rollout": 2 * seeds * samples * (obs + 5 + head) * FLOAT32,
+            "networks and optimizer": 6 * seeds * params * FLOAT32,
+            "batch activations": seeds * (samples / agent.minibatches)
+            * 4 * (2 * obs + 2 * hidden + head) * FLOAT32,
+        }
+
+    # ---- builders (torch) -----------------------------------------------------------------
+
+    def build(self, scenario: Scenario, seeds: list[int], rngs: list[Any],
+              observation_size: int, num_actions: int, device: Any = "cpu",
+              graphs: bool | None = None) -> Algorithm:
+        from adaptsky.algos.ppo.learner import PpoLearner  # torch
+
+        train = scenario.train
+        return PpoLearner(_config(scenario), head_of(scenario), observation_size, seeds,
+                          rngs, train.steps, train.episodes, device)  # type: ignore[return-value]
+
+    def greedy_policy(self, scenario: Scenario, policy: Tree) -> Policy:
+        from adaptsky.algos.ppo.heads import ActionHead  # torch
+        from adaptsky.algos.ppo.stacked import StackedActorCritic
+
+        agent, head = _config(scenario), head_of(scenario)
+        net = StackedActorCritic(observation_size_of(scenario), agent.hidden_sizes, head,
+                                 [0], agent.activation)
+        net.load_policy(0, policy)
+        actions = ActionHead(head)
+        return lambda observations: actions.env_actions(actions.mode(
+            net.host_actor(observations[None].astype("float32"))))[0]
+
+
+PPO = PpoSpec()
