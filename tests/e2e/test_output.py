@@ -177,7 +177,8 @@ def test_train_logs_progress_where_stderr_is_no_terminal(tmp_path, capsys):
     lines = [line for line in capsys.readouterr().err.splitlines() if "seed 0: episode" in line]
     assert len(lines) >= 2                     # the first and the last episode at least
     assert re.match(STAMP + r"seed 0: episode 1/3, mean of the last 1: sum rate [\d.]+ "
-                    r"[kMG]?bit/s, J [\d.]+; eps [\d.]+, estimating time left$", lines[0])
+                    r"[kMG]?bit/s, J [\d.]+, outage [\d.]+%, least [\d.]+ [kMG]?bit/s; "
+                    r"eps [\d.]+, estimating time left$", lines[0])
     assert "episode 3/3, mean of the last 3" in lines[-1] and "left" not in lines[-1]
     assert re.search(r"eps [\d.]+, [\d.]+ m?s/episode$", lines[-1])  # episodes 2 and 3
 
