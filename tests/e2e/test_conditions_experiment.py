@@ -98,3 +98,55 @@ def test_each_condition_has_its_baselines_and_the_report_reads_them(reproduced):
     assert {row["condition"] for row in rows} == {f"epsilon = {eps:g}" for eps in RESIDUALS}
     assert {row["method"] for row in rows} == {"SoA", "oracle", "OMA (best found)",
                                                "agent, last policy"}
+
+
+MOVING_EXPERIMENT = """id = "small-e7"
+title = "moving"
+[[groups]]
+name = "standing"
+label = "0 m/s"
+scenario = "s.toml"
+runs = 1
+panel = "moving"
+[[groups]]
+name = "walking"
+label = "3 m/s"
+scenario = "s.toml"
+runs = 1
+set = ['users.mobility={model="gauss-markov", mean_speed_mps=3.0}']
+panel = "moving"
+[evaluation]
+policy = "standing"
+also = ["walking"]
+steps = 150
+baselines = ["soa", "tracking"]
+policies = ["last"]
+[figure]
+kind = "conditions"
+[[claims]]
+text = "gain over tracking"
+quantity = "gain_vs_tracking_pct"
+"""
+
+
+def test_moving_users_baselines_are_valued_over_the_policies_window(tmp_path):
+    """Where the users move, SoA and tracking are valued over the policies' window (the last
+    100 of 150 steps); standing users' held baselines over every step, as before."""
+    (tmp_path / "s.toml").write_text(dumps(SCENARIO | {"name": "small"}))
+    (tmp_path / "e.toml").write_text(MOVING_EXPERIMENT)
+    out = tmp_path / "out"
+    assert main(["reproduce", str(tmp_path / "e.toml"), "--out", str(out), "--workers", "1",
+                 "--quiet"]) == 0
+    with open(out / "small-e7.csv", newline="") as handle:
+        rows = {(row["condition"], row["method"]): float(row["mean"])
+                for row in csv.DictReader(handle)}
+    for method, name in (("SoA", "soa"), ("tracking", "tracking")):
+        steady = _mean(out / "evals" / f"{name}-walking.h5", "steady_sum_rate_bps")
+        whole = _mean(out / "evals" / f"{name}-walking.h5")
+        assert steady != pytest.approx(whole, rel=1e-6)   # the windows differ here
+        assert rows[("3 m/s", method)] == steady
+        assert rows[("0 m/s", method)] == _mean(out / "evals" / f"{name}-standing.h5")
+    policy = _mean(out / "evals" / "walking-seed0.h5", "steady_sum_rate_bps")
+    tracking = rows[("3 m/s", "tracking")]
+    report = (out / "report.md").read_text()
+    assert f"{100 * (policy - tracking) / tracking:+.1f}%" in report
