@@ -205,7 +205,9 @@ ADDED_NAMES = {"steady_user_rate_bps", "last_episode_user_rate_bps", "energy_j",
                # run-file format 4: every user's position in the trajectories
                "users_m",
                # format 4: the tracking baseline beside the greedy evaluations of moving users
-               "tracking_bps", "heldout_tracking_bps"}
+               "tracking_bps", "heldout_tracking_bps",
+               # format 5: the policy's entropy (NaN for the Q-learners)
+               "entropy"}
 
 
 def without_added(old: object, new: object) -> object:

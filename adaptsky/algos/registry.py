@@ -7,10 +7,12 @@ from adaptsky.algos.bdq.spec import BDQ
 from adaptsky.algos.dqn.spec import DQN
 from adaptsky.algos.ppo.spec import PPO
 from adaptsky.algos.protocol import AlgorithmSpec
+from adaptsky.algos.sac.spec import SAC
 from adaptsky.errors import ScenarioError
 from adaptsky.scenario.models import Scenario
 
-ALGORITHMS: dict[str, AlgorithmSpec] = {DQN.name: DQN, BDQ.name: BDQ, PPO.name: PPO}
+ALGORITHMS: dict[str, AlgorithmSpec] = {DQN.name: DQN, BDQ.name: BDQ, PPO.name: PPO,
+                                        SAC.name: SAC}
 
 
 def algorithm_named(name: str) -> AlgorithmSpec:
@@ -27,8 +29,8 @@ def algorithm_of(scenario: Scenario) -> AlgorithmSpec:
 
 def check_actions(scenario: Scenario, source: str) -> None:
     """A one-line :class:`ScenarioError` where the scenario's algorithm does not learn its
-    ``uav.actions`` (the DQN and the BDQ: dense kinds only; PPO: every kind), or where its
-    own settings do not fit them."""
+    ``uav.actions`` (the DQN and the BDQ: dense kinds only; PPO: every kind; SAC: continuous
+    controls only), or where its own settings do not fit them."""
     spec, kind = algorithm_of(scenario), scenario.uav.actions
     if kind not in spec.action_kinds:
         kinds = " or ".join(f"'{name}'" for name in spec.action_kinds)

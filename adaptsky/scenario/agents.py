@@ -188,7 +188,44 @@ class PpoAgent(Section):
     reward_scale: float = _as_dqn("reward_scale")
 
 
-AGENT_MODELS: dict[str, type[Section]] = {"dqn": DqnAgent, "bdq": BdqAgent, "ppo": PpoAgent}
+class SacAgent(Section):
+    """Soft actor-critic (Haarnoja et al. 2018) with CleanRL's details (docs/agent.md): twin Q
+    networks and their Polyak-averaged targets, a tanh-squashed Gaussian actor updated every
+    ``policy_frequency`` steps, and a learned temperature; for continuous controls. It acts
+    uniformly at random for ``learning_starts`` steps, then stores every step and updates."""
+
+    algorithm: Literal["sac"] = Field(description="the learning algorithm: 'sac'")
+    hidden_sizes: list[LayerSize] = Field([256, 256], min_length=1, max_length=100,
+                                          description="hidden ReLU layers of the actor and "
+                                          "of each Q network")
+    q_lr: float = Field(1e-3, ge=1e-10, le=1.0, description="Adam learning rate of the Q "
+                        "networks and of the temperature")
+    policy_lr: float = Field(3e-4, ge=1e-10, le=1.0, description="Adam learning rate of the "
+                             "actor")
+    gamma: float = Field(0.99, ge=0, le=1, description="discount factor")
+    tau: float = Field(0.005, gt=0, le=1, description="target smoothing: theta' <- tau theta "
+                       "+ (1 - tau) theta'")
+    batch_size: int = Field(256, ge=1, le=MAX_COUNT, description="mini-batch size, drawn "
+                            "with replacement")
+    memory_size: int = Field(100_000, ge=1, le=MAX_MEMORY, description="replay memory "
+                             "capacity")
+    learning_starts: int = Field(5000, ge=0, le=MAX_COUNT, description="steps of uniform "
+                                 "random actions before the first update")
+    policy_frequency: int = Field(2, ge=1, le=MAX_COUNT, description="every this many steps, "
+                                  "this many actor (and temperature) updates (delayed)")
+    target_network_frequency: int = Field(1, ge=1, le=MAX_COUNT, description="steps between "
+                                          "target updates")
+    autotune: bool = Field(True, description="learn the temperature alpha towards the target "
+                           "entropy -D (from alpha 1); false keeps alpha fixed")
+    alpha: float = Field(0.2, gt=0, le=1e6, description="the fixed temperature where "
+                         "autotune is false")
+    observation: Literal["scaled", "raw"] = _as_dqn("observation")
+    user_order: Literal["listed", "clusters"] = _as_dqn("user_order")
+    reward_scale: float = _as_dqn("reward_scale")
+
+
+AGENT_MODELS: dict[str, type[Section]] = {"dqn": DqnAgent, "bdq": BdqAgent, "ppo": PpoAgent,
+                                          "sac": SacAgent}
 
 
 def algorithm_tag(value: Any) -> str | None:
@@ -201,7 +238,7 @@ def algorithm_tag(value: Any) -> str | None:
 
 AgentConfig = Annotated[
     Annotated[DqnAgent, Tag("dqn")] | Annotated[BdqAgent, Tag("bdq")]
-    | Annotated[PpoAgent, Tag("ppo")],
+    | Annotated[PpoAgent, Tag("ppo")] | Annotated[SacAgent, Tag("sac")],
     Discriminator(algorithm_tag, custom_error_type=UNKNOWN_ALGORITHM,
                   custom_error_message="unknown algorithm")]
 """The ``[agent]`` section: the model its ``algorithm`` names."""

@@ -177,7 +177,8 @@ def _write_checkpoint(group: h5py.Group, rows: dict[str, np.ndarray],
     if evaluations:
         table = group["evaluations"]
         _append_rows(table, len(table["episode"]), {  # the columns the file has (format 4
-            field.name: evaluations[field.name]        # files made before tracking lack it)
+            field.name: evaluations.get(field.name,    # files made before tracking lack it)
+                                        np.full(len(evaluations["episode"]), np.nan))
             for field in evaluation_fields(FORMAT_VERSION) if field.name in table})
     for episode, trajectory in trajectories.items():
         write_tree(group.require_group(f"trajectories/{episode}"),

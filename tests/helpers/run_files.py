@@ -64,9 +64,9 @@ def soft_link(f: h5py.File) -> None:
 # damage -> what the one line must say; every case is refused by inspect, eval and --resume
 DAMAGES: dict[str, tuple[Callable[[h5py.File], None], str]] = {
     "version_0": (set_attr("format_version", 0),
-                  "/@format_version: is 0 (expected 1 or 2 or 3 or 4)"),
+                  "/@format_version: is 0 (expected 1 or 2 or 3 or 4 or 5)"),
     "version_negative": (set_attr("format_version", -1),
-                         "/@format_version: is -1 (expected 1 or 2 or 3 or 4)"),
+                         "/@format_version: is -1 (expected 1 or 2 or 3 or 4 or 5)"),
     "version_fraction": (set_attr("format_version", 1.5),
                          "/@format_version: is 1.5 (expected an integer)"),
     "version_text": (set_attr("format_version", "1"),

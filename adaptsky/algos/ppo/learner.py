@@ -21,20 +21,11 @@ from adaptsky.algos.device_step import describe
 from adaptsky.algos.ppo.heads import ActionHead
 from adaptsky.algos.ppo.parameters import HeadShape
 from adaptsky.algos.ppo.stacked import StackedActorCritic
+from adaptsky.algos.stacked_params import padded, padded_rows
 from adaptsky.arrays import Tree
 from adaptsky.scenario.agents import PpoAgent
 
 STATS = ("loss", "policy_loss", "value_loss", "entropy", "approx_kl", "clip_fraction")
-PAD = 16
-"""Per-member row counts are padded to a multiple of this (float32 lanes of an AVX-512 vector):
-elementwise kernels (exp, tanh) run a vector loop and a scalar tail that may round apart, so a
-member's block of rows must take the same lanes alone and in a stack (a seed then learns the
-same numbers alone, in a stack, and resumed in another stacking)."""
-
-
-def padded(rows: int) -> int:
-    """``rows`` rounded up to a multiple of :data:`PAD`."""
-    return -(-rows // PAD) * PAD
 
 
 def gae(rewards: np.ndarray, values: np.ndarray, last_value: np.ndarray, gamma: float,
@@ -51,16 +42,6 @@ def gae(rewards: np.ndarray, values: np.ndarray, last_value: np.ndarray, gamma: 
         running = delta + gamma * lam * running
         advantages[t] = running
     return advantages, advantages + values
-
-
-def _minibatch_layout(rows: int) -> tuple[np.ndarray, torch.Tensor]:
-    """Where the padded rows of a minibatch of ``rows`` come from (its own rows, then its
-    first row again) and the mask (padded,) of the real ones."""
-    size = padded(rows)
-    where = np.concatenate([np.arange(rows), np.zeros(size - rows, dtype=np.int64)])
-    mask = torch.zeros(size)
-    mask[:rows] = 1.0
-    return where, mask
 
 
 class PpoLearner:
@@ -192,7 +173,7 @@ class PpoLearner:
         count = self.steps * self.envs
         parts = np.array_split(np.arange(count), min(config.minibatches, count))
         # each minibatch padded to a multiple of PAD rows (repeats of its first row, masked)
-        layouts = {len(part): _minibatch_layout(len(part)) for part in parts}
+        layouts = {len(part): padded_rows(len(part)) for part in parts}
         sums = {name: torch.zeros(self.size, dtype=torch.float64) for name in STATS}
         updates = 0
         for _ in range(config.epochs):

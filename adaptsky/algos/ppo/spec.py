@@ -26,6 +26,21 @@ FLOAT32 = 4
 ADAM_STEP = Field("step", "int", ())
 
 
+def check_weights(check: LayoutCheck, group: Node, shapes: dict[str, tuple[int, ...]]) -> None:
+    """A group of torch-named parameters: every one of ``shapes``, nothing else."""
+    check.exact_members(group, shapes)
+    for param, shape in shapes.items():
+        check.dataset(group, Field(param, "float", ()), {}, shape)
+
+
+def check_adam(check: LayoutCheck, group: Node, shapes: dict[str, tuple[int, ...]]) -> None:
+    """Adam's state of parameters ``shapes``: ``step``, ``exp_avg`` and ``exp_avg_sq``."""
+    check.exact_members(group, ("step", "exp_avg", "exp_avg_sq"))
+    check.dataset(group, ADAM_STEP, {})
+    for name in ("exp_avg", "exp_avg_sq"):
+        check_weights(check, check.group(group, name), shapes)
+
+
 def _config(scenario: Scenario) -> PpoAgent:
     agent = scenario.agent
     assert isinstance(agent, PpoAgent), f"not a PPO agent: {agent.algorithm}"
@@ -88,14 +103,8 @@ class PpoSpec:
 
     # ---- the checkpoint -------------------------------------------------------------------
 
-    @staticmethod
-    def _weights(check: LayoutCheck, group: Node, shapes: dict[str, tuple[int, ...]]) -> None:
-        check.exact_members(group, shapes)
-        for param, shape in shapes.items():
-            check.dataset(group, Field(param, "float", ()), {}, shape)
-
     def check_policy(self, check: LayoutCheck, group: Node, scenario: Scenario) -> None:
-        self._weights(check, group, self.shapes(scenario)[0])
+        check_weights(check, group, self.shapes(scenario)[0])
 
     def check_checkpoint(self, check: LayoutCheck, group: Node, scenario: Scenario,
                          episodes_done: int) -> None:
@@ -103,13 +112,9 @@ class PpoSpec:
         agent = check.group(group, "agent")
         check.exact_members(agent, ("policy", "critic", "optimizer"))
         policy, critic = self.shapes(scenario)
-        self._weights(check, check.group(agent, "policy"), policy)
-        self._weights(check, check.group(agent, "critic"), critic)
-        optimizer = check.group(agent, "optimizer")
-        check.exact_members(optimizer, ("step", "exp_avg", "exp_avg_sq"))
-        check.dataset(optimizer, ADAM_STEP, {})
-        for name in ("exp_avg", "exp_avg_sq"):
-            self._weights(check, check.group(optimizer, name), {**policy, **critic})
+        check_weights(check, check.group(agent, "policy"), policy)
+        check_weights(check, check.group(agent, "critic"), critic)
+        check_adam(check, check.group(agent, "optimizer"), {**policy, **critic})
 
     def policy_of(self, checkpoint: Tree) -> Tree:
         return checkpoint["agent"]["policy"]

@@ -41,9 +41,10 @@ def test_a_scenario_without_algorithm_is_a_dqn_and_says_so():
 
 
 @pytest.mark.parametrize(("agent", "line"), [
-    ({"algorithm": "ppo"},
-     "s.toml: agent.algorithm: unknown algorithm 'ppo'; choose from dqn, bdq"),
-    ({"algorithm": 3}, "s.toml: agent.algorithm: unknown algorithm 3; choose from dqn, bdq"),
+    ({"algorithm": "a2c"},
+     "s.toml: agent.algorithm: unknown algorithm 'a2c'; choose from dqn, bdq, ppo, sac"),
+    ({"algorithm": 3},
+     "s.toml: agent.algorithm: unknown algorithm 3; choose from dqn, bdq, ppo, sac"),
     ({"lr": "fast"}, "s.toml: agent.lr: Input should be a valid number (got 'fast')"),
     ({"algorithm": "dqn", "gamma": 2.0}, "s.toml: agent.gamma: Input should be less than or "
                                          "equal to 1 (got 2.0)"),
@@ -60,7 +61,8 @@ def test_validate_refuses_an_unknown_algorithm_in_one_line(tmp_path: Path, capsy
     assert main(["scenario", "validate", str(path)]) == 1
     printed = capsys.readouterr()
     lines = (printed.out + printed.err).strip().splitlines()
-    assert lines == [f"{path}: agent.algorithm: unknown algorithm 'a2c'; choose from dqn, bdq"]
+    assert lines == [f"{path}: agent.algorithm: unknown algorithm 'a2c'; choose from dqn, "
+                     "bdq, ppo, sac"]
 
 
 def test_every_agent_model_has_its_algorithm_and_back():
@@ -71,8 +73,8 @@ def test_every_agent_model_has_its_algorithm_and_back():
 
 
 def test_unknown_algorithm_lookup_names_the_known_ones():
-    with pytest.raises(KeyError, match="choose from dqn, bdq"):
-        registry.algorithm_named("sac")
+    with pytest.raises(KeyError, match="choose from dqn, bdq, ppo, sac"):
+        registry.algorithm_named("a2c")
 
 
 def test_the_dqn_learner_has_every_method_of_the_protocol():

@@ -4,10 +4,7 @@ resume bit for bit on every head, greedy = the mode, and the scenario's refusals
 
 from __future__ import annotations
 
-import signal
-import subprocess
 import sys
-import time
 from pathlib import Path
 
 import h5py
@@ -27,6 +24,7 @@ from adaptsky.store.run_file import RunReader
 from adaptsky.training import api
 from adaptsky_cli.cli.main import main
 from tests.conftest import SCENARIOS, make_scenario
+from tests.helpers.learners import _arrays, _assert_same_arrays, _killed_and_resumed
 
 ADAPTSKY = Path(sys.executable).with_name("adaptsky")
 PPO = {"algorithm": "ppo", "hidden_sizes": [16, 16], "envs_per_seed": 2, "minibatches": 2,
@@ -143,24 +141,6 @@ def test_adam_and_the_clip_are_torch_s_for_each_member():
 # ---- training ---------------------------------------------------------------------------
 
 
-def _arrays(path: Path) -> dict[str, np.ndarray]:
-    """Every array of every seed of a run file (curves, evaluations, trajectory, checkpoint
-    with its best policy), by path."""
-    found: dict[str, np.ndarray] = {}
-    with h5py.File(path) as f:
-        def visit(name: str, node: object) -> None:
-            if isinstance(node, h5py.Dataset):
-                found[name] = node[()]
-        f["seeds"].visititems(visit)
-    return found
-
-
-def _assert_same_arrays(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> None:
-    assert a.keys() == b.keys()
-    for name in a:
-        assert np.array_equal(a[name], b[name], equal_nan=True), name
-
-
 def test_a_seed_alone_is_the_seed_in_a_stack(tmp_path):
     path = ppo_scenario(tmp_path, episodes=4)
     alone, _ = api.train(scenario_path=path, out=tmp_path / "alone.h5", seeds=[1],
@@ -179,31 +159,6 @@ def test_a_seed_alone_is_the_seed_in_a_stack(tmp_path):
         curves = run.episodes(0)
         assert np.isnan(curves["epsilon"]).all() and np.isfinite(curves["entropy"]).all()
         assert np.isfinite(curves["loss"]).all()
-
-
-def _killed_and_resumed(tmp_path: Path, scenario_path: Path) -> Path:
-    out = tmp_path / "killed.h5"
-    process = subprocess.Popen(
-        [str(ADAPTSKY), "train", str(scenario_path), "--seeds", "0,1", "--workers", "1",
-         "--out", str(out), "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    deadline = time.monotonic() + 120
-    while True:
-        try:
-            with RunReader(out) as run:
-                if min(run.seed_attrs(s)["episodes_done"] for s in run.seeds) >= 3:
-                    break
-        except Exception:
-            pass
-        assert process.poll() is None, process.communicate()
-        assert time.monotonic() < deadline
-        time.sleep(0.05)
-    process.send_signal(signal.SIGKILL)
-    process.wait()
-    with RunReader(out) as run:
-        done = run.seed_attrs(0)["episodes_done"]
-    assert 3 <= done < 12 and done % 3 == 0
-    assert main(["train", "--resume", str(out), "--workers", "2", "--quiet"]) == 0
-    return out
 
 
 @pytest.mark.parametrize("head", ["dense", "branches", "gaussian"])

@@ -87,9 +87,8 @@ def test_the_learners_refuse_continuous_actions_in_one_line(continuous_file, alg
     scenario = load_scenario(continuous_file)
     assert scenario.agent.algorithm == algorithm
     expected = (f"{continuous_file}: uav.actions: agent.algorithm '{algorithm}' learns "
-                f"'paper' or 'with-hover' actions, not 'continuous'; continuous controls are "
-                f"for the Gymnasium env adaptsky/NomaUav-v0 and outside learners (e.g. "
-                f"Stable-Baselines3) for now, adaptsky's learners for them come later")
+                f"'paper' or 'with-hover' actions, not 'continuous'; for 'continuous' choose "
+                f"agent.algorithm 'ppo', 'sac'")
     with pytest.raises(ScenarioError) as error:
         check_fits(scenario, str(continuous_file))
     assert error.value.lines == [expected]
