@@ -36,6 +36,17 @@ def ignore_stop_signals() -> None:
     signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
 
 
+def in_finaliser(frame: Any) -> bool:
+    """Whether the signal came while a weakref callback or a ``__del__`` ran: Python would
+    print an exception raised there ("Exception ignored in ...") and drop it."""
+    while frame is not None:
+        code = frame.f_code
+        if code.co_name == "__del__" or code.co_filename.endswith(("weakref.py", "_weakrefset.py")):
+            return True
+        frame = frame.f_back
+    return False
+
+
 class StopOnInterrupt:
     """First Ctrl-C (or SIGTERM): ``request_stop()`` (the work checkpoints and stops) and say
     ``notice``. Second, or the first once ``stopping()`` (a failure asked for a stop already):
@@ -53,8 +64,8 @@ class StopOnInterrupt:
 
     def _handle(self, signum: int, frame: Any) -> None:
         if self.interrupted or self.stopping():
-            self.quit_pending = True  # kept: check() raises it again if Python swallows it
-            if self.writing:
+            self.quit_pending = True  # kept: check() raises it later where it cannot now
+            if self.writing or in_finaliser(frame):
                 return
             raise KeyboardInterrupt
         self.interrupted = True
@@ -62,9 +73,9 @@ class StopOnInterrupt:
         self.say(self.notice)
 
     def check(self) -> None:
-        """Raise the second Ctrl-C's KeyboardInterrupt if it was lost: Python prints and drops
-        an exception raised while the signal interrupted a weakref callback or ``__del__``.
-        Loops that wait on work call this on every turn."""
+        """Raise the second Ctrl-C's KeyboardInterrupt where the handler held it back (it came
+        while a weakref callback or ``__del__`` ran) or Python dropped it. Loops that wait on
+        work call this on every turn."""
         if self.quit_pending and not self.writing:
             raise KeyboardInterrupt
 

@@ -1,8 +1,9 @@
 """``adaptsky reproduce all --episodes 2 --steps 20 --seeds 1`` (seed 1 of every group), as a
-user types it, once for the module (about 3 min on 2 cores, most of it E3's oracle on 100
-layouts): every shipped experiment reported, the index, the last and best rows, the oracle's
-bound computed here from the eval files, the fresh-layout group of E3, and the calls
-recorded."""
+user types it, once for the module (3 to 5 min on 2 cores, most of it E3's oracle on 100
+layouts, so marked slow: ``pytest -m slow``): every shipped experiment reported, the index, the
+last and best rows, the oracle's bound computed here from the eval files, the fresh-layout group
+of E3, and the calls recorded. The default run reproduces single experiments
+(tests/e2e/test_reproduce.py)."""
 
 from __future__ import annotations
 
@@ -16,6 +17,8 @@ import pytest
 from adaptsky.experiment.plan import paper_experiments
 from adaptsky.store.eval_file import read_eval_metrics
 from adaptsky_cli.cli.main import main
+
+pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")

@@ -104,3 +104,38 @@ def test_a_second_ctrl_c_that_python_dropped_is_raised_again():
         interrupts._handle(signal.SIGINT, None)  # the second, here "dropped" by the caller
     with pytest.raises(KeyboardInterrupt):
         interrupts.check()
+
+
+def test_a_second_ctrl_c_inside_a_finaliser_waits_for_the_loop():
+    """A second Ctrl-C that comes while a ``__del__`` or a callback of weakref.py runs (in CI:
+    WeakValueDictionary's remove) is not raised there (Python would print "Exception ignored"
+    and a traceback) but by the waiting loop's next check()."""
+    import sys
+    import weakref
+
+    from adaptsky.training.interrupts import StopOnInterrupt
+
+    interrupts = StopOnInterrupt(lambda: None, lambda text: None, "stopping")
+    interrupts._handle(signal.SIGINT, None)
+    returned: list[str] = []
+
+    def second_ctrl_c(where: str) -> None:
+        interrupts._handle(signal.SIGINT, sys._getframe())
+        returned.append(where)  # reached only if the handler did not raise
+
+    class Finalised:
+        def __del__(self) -> None:
+            second_ctrl_c("__del__")
+
+    class Target:
+        pass
+
+    Finalised()  # unreferenced: its __del__ runs at once
+    target = Target()
+    weakref.finalize(target, second_ctrl_c, "weakref callback")
+    del target
+    assert returned == ["__del__", "weakref callback"]
+    with pytest.raises(KeyboardInterrupt):
+        interrupts.check()
+    with pytest.raises(KeyboardInterrupt):  # elsewhere it is raised at once
+        second_ctrl_c("plain code")
