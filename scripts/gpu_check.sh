@@ -40,6 +40,9 @@ steps=(
   "one paper-length seed (1000 x 300)|$python -m adaptsky_cli train scenarios/nyc_mmwave.toml --device cuda --seeds 0 --workers 1 --quiet --out /tmp/gpu-check/one.h5"
   "64 paper-length seeds in one stack|$python -m adaptsky_cli train scenarios/nyc_mmwave.toml --device cuda --seeds $seeds64 --quiet --out /tmp/gpu-check/sixty-four.h5"
   "E2 at full length (48 runs, one stack)|$python -m adaptsky_cli reproduce e2 --device cuda --quiet --out /tmp/gpu-check/e2"
+  "PPO, 64 seeds in one stack (100 episodes)|$python -m adaptsky_cli train scenarios/nyc_mmwave.toml --device cuda --seeds $seeds64 --episodes 100 --set 'agent={algorithm=\"ppo\"}' --quiet --out /tmp/gpu-check/ppo.h5"
+  "SAC on continuous controls, 64 seeds in one stack (50 episodes)|$python -m adaptsky_cli train scenarios/nyc_mmwave.toml --device cuda --seeds $seeds64 --episodes 50 --set 'uav.actions=\"continuous\"' --set 'agent={algorithm=\"sac\"}' --quiet --out /tmp/gpu-check/sac.h5"
+  "MAPPO on two UAVs, 64 seeds in one stack (100 episodes)|$python -m adaptsky_cli train scenarios/two_uavs_mmwave.toml --device cuda --seeds $seeds64 --episodes 100 --set 'agent={algorithm=\"mappo\"}' --quiet --out /tmp/gpu-check/mappo.h5"
 )
 
 if [ -n "$dry_run" ]; then

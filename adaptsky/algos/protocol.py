@@ -120,6 +120,8 @@ class AlgorithmSpec(Protocol):
     name: str
     action_kinds: tuple[str, ...]
     """The ``uav.actions`` kinds it learns (the DQN and the BDQ: the dense ones)."""
+    min_uavs: int
+    """The fewest UAVs it learns (MAPPO and IPPO act per UAV: 2)."""
     checkpoint_members: tuple[str, ...]
     """The groups of a checkpoint the algorithm writes and checks (the envelope holds the
     rest: attributes, ``rng``, ``best``)."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from adaptsky.algos.bdq.spec import BDQ
 from adaptsky.algos.dqn.spec import DQN
+from adaptsky.algos.mappo.spec import IPPO, MAPPO
 from adaptsky.algos.ppo.spec import PPO
 from adaptsky.algos.protocol import AlgorithmSpec
 from adaptsky.algos.sac.spec import SAC
@@ -12,7 +13,7 @@ from adaptsky.errors import ScenarioError
 from adaptsky.scenario.models import Scenario
 
 ALGORITHMS: dict[str, AlgorithmSpec] = {DQN.name: DQN, BDQ.name: BDQ, PPO.name: PPO,
-                                        SAC.name: SAC}
+                                        SAC.name: SAC, MAPPO.name: MAPPO, IPPO.name: IPPO}
 
 
 def algorithm_named(name: str) -> AlgorithmSpec:
@@ -29,13 +30,14 @@ def algorithm_of(scenario: Scenario) -> AlgorithmSpec:
 
 def check_actions(scenario: Scenario, source: str) -> None:
     """A one-line :class:`ScenarioError` where the scenario's algorithm does not learn its
-    ``uav.actions`` (the DQN and the BDQ: dense kinds only; PPO: every kind; SAC: continuous
-    controls only), or where its own settings do not fit them."""
+    ``uav.actions`` (the DQN and the BDQ: dense kinds only; PPO, MAPPO and IPPO: every kind;
+    SAC: continuous controls only), or where its own settings do not fit them."""
     spec, kind = algorithm_of(scenario), scenario.uav.actions
     if kind not in spec.action_kinds:
         kinds = " or ".join(f"'{name}'" for name in spec.action_kinds)
         learners = ", ".join(f"'{other.name}'" for other in ALGORITHMS.values()
-                             if kind in other.action_kinds)
+                             if kind in other.action_kinds
+                             and scenario.uav.count >= other.min_uavs)
         raise ScenarioError([
             f"{source}: uav.actions: agent.algorithm '{spec.name}' learns {kinds} actions, "
             f"not '{kind}'; for '{kind}' choose agent.algorithm {learners}"])

@@ -9,7 +9,7 @@ A new algorithm adds its model here and an entry in :data:`AGENT_MODELS`; its le
 from __future__ import annotations
 
 from copy import copy
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, ClassVar, Literal
 
 from pydantic import Discriminator, Field, Tag, model_validator
 
@@ -224,8 +224,26 @@ class SacAgent(Section):
     reward_scale: float = _as_dqn("reward_scale")
 
 
+class MappoAgent(PpoAgent):
+    """MAPPO and IPPO (Yu et al. 2022) for several UAVs (docs/agent.md): PPO's details and
+    keys, with one actor shared by the UAVs, each acting on its local observation and a
+    one-hot UAV id; the critic reads every UAV's local observation and the id (``"mappo"``:
+    centralised) or the UAV's own and the id (``"ippo"``: local). ``action_head`` is each
+    UAV's: 'dense' one Categorical over its own 2^(3 + K) (or 3^(3 + K)) moves, 'branches'
+    one per component, 'gaussian' its continuous controls."""
+
+    local_view: ClassVar[bool] = True  # the environment gives every UAV's local observation
+    algorithm: Literal["mappo", "ippo"] = Field(description="the learning algorithm: 'mappo' "
+                                                "(centralised critic) or 'ippo' (local critic)")
+    reward_split: Literal["team", "per-uav", "difference"] = Field(
+        "team", description="what each UAV learns from: 'team', eq. 13's one reward; "
+        "'per-uav', the part of eq. 13 from its own users; 'difference', that part minus "
+        "what its interference costs the other UAVs' users (docs/agent.md)")
+
+
 AGENT_MODELS: dict[str, type[Section]] = {"dqn": DqnAgent, "bdq": BdqAgent, "ppo": PpoAgent,
-                                          "sac": SacAgent}
+                                          "sac": SacAgent, "mappo": MappoAgent,
+                                          "ippo": MappoAgent}
 
 
 def algorithm_tag(value: Any) -> str | None:
@@ -238,7 +256,8 @@ def algorithm_tag(value: Any) -> str | None:
 
 AgentConfig = Annotated[
     Annotated[DqnAgent, Tag("dqn")] | Annotated[BdqAgent, Tag("bdq")]
-    | Annotated[PpoAgent, Tag("ppo")] | Annotated[SacAgent, Tag("sac")],
+    | Annotated[PpoAgent, Tag("ppo")] | Annotated[SacAgent, Tag("sac")]
+    | Annotated[MappoAgent, Tag("mappo")] | Annotated[MappoAgent, Tag("ippo")],
     Discriminator(algorithm_tag, custom_error_type=UNKNOWN_ALGORITHM,
                   custom_error_message="unknown algorithm")]
 """The ``[agent]`` section: the model its ``algorithm`` names."""

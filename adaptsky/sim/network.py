@@ -63,7 +63,14 @@ from adaptsky.sim.links import (
 )
 from adaptsky.sim.mobility import MODELS as MOBILITY_MODELS
 from adaptsky.sim.mobility import MobilityStage
-from adaptsky.sim.observation import FEATURES_PER_USER, MultiObserver, Observer
+from adaptsky.sim.observation import (
+    FEATURES_PER_USER,
+    MultiObserver,
+    Observer,
+    local_gather,
+    local_view,
+    observes_locally,
+)
 from adaptsky.sim.reward import RewardFromSums, reward_per_uav, reward_weights, stack_weights
 from adaptsky.sim.separation import separated
 from adaptsky.sim.state import (
@@ -310,6 +317,10 @@ class NetworkBatch:
         self._one_in_order = num_uavs == 1 and self.observation_order is None
         observed_base = np.take_along_axis(uav_base, order, axis=1)
         self._observed_uav_xy = np.stack([observed_base, observed_base + 1])
+        # every UAV's local observation where the agent acts per UAV (MAPPO, IPPO)
+        self._local_gather = (local_gather(np.take_along_axis(serving, order, axis=1),
+                                           num_uavs, 2 * self.scenario.clusters_per_uav)
+                              if observes_locally(self.scenario) else None)
         self._repeated_of: FloatArray | None = None    # see _repeated_users
         self._repeated: tuple[FloatArray, FloatArray] | None = None
         self._no_interference = np.zeros((num_envs, n))
@@ -719,9 +730,11 @@ class NetworkBatch:
             assert isinstance(self._observer, Observer)
             return self._observer(features, gain, config[:, 0, 2])
         assert isinstance(self._observer, MultiObserver)
-        return self._observer.from_offsets(
+        network = self._observer.from_offsets(
             uav_xy[0] - users[0], uav_xy[1] - users[1], config[..., :3], alpha, gain,
             interference.take(observed))
+        return network if self._local_gather is None else local_view(network,
+                                                                     self._local_gather)
 
     def observation(self) -> NDArray[np.float32]:
         """The observations of the last evaluated state (B, size), float32."""

@@ -45,8 +45,24 @@ def observation_size(num_users: int, num_uavs: int = 1) -> int:
 
 
 def observation_size_of(scenario: Scenario) -> int:
-    """The observation size of ``scenario`` (its users and UAVs)."""
+    """The observation size of ``scenario`` (its users and UAVs): U local observations one
+    after the other where its agent observes locally (:func:`observes_locally`)."""
+    if observes_locally(scenario):
+        return scenario.uav.count * local_observation_size(scenario)
     return observation_size(scenario.num_users, scenario.uav.count)
+
+
+def observes_locally(scenario: Scenario) -> bool:
+    """Whether the environment's observation is every UAV's local one, one after the other
+    (B, U L) (docs/environment.md, "Local observations"): for the agents that act per UAV
+    (``agent.algorithm`` "mappo" or "ippo"); every other agent sees the network's."""
+    return bool(getattr(scenario.agent, "local_view", False))
+
+
+def local_observation_size(scenario: Scenario) -> int:
+    """L = 5 S + 3 U, one UAV's local observation (S = 2 K_max user slots)."""
+    return (MULTI_FEATURES_PER_USER * 2 * scenario.clusters_per_uav
+            + FEATURES_PER_UAV * scenario.uav.count)
 
 
 class Observer:
@@ -98,6 +114,9 @@ def bounds_of(scenario: Scenario, gains: tuple[float, float] | None = None
               ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
     """The observation's bounds of ``scenario``: :func:`observation_bounds` for one UAV,
     :func:`multi_observation_bounds` for several."""
+    if observes_locally(scenario):
+        low, high = local_observation_bounds(scenario, gains)
+        return np.tile(low, scenario.uav.count), np.tile(high, scenario.uav.count)
     if scenario.uav.count == 1:
         return observation_bounds(scenario, gains)
     return multi_observation_bounds(scenario, gains)
@@ -256,10 +275,7 @@ class LocalObserver:
     def __init__(self, scenario: Scenario) -> None:
         self._observer = MultiObserver(scenario)
         self.num_slots = 2 * scenario.clusters_per_uav
-        num_uavs = scenario.uav.count
-        # row u: UAV u, then the others in UAV order
-        self._uav_rows = np.array([[u, *(v for v in range(num_uavs) if v != u)]
-                                   for u in range(num_uavs)], dtype=np.intp)
+        self.num_uavs = scenario.uav.count
 
     def __call__(self, uav_m: FloatArray, users_m: FloatArray, serving_uav: NDArray[np.intp],
                  alpha: FloatArray, gain: FloatArray, interference_w: FloatArray,
@@ -270,19 +286,37 @@ class LocalObserver:
                                  order)
         if order is not None:
             serving_uav = np.take_along_axis(serving_uav, order, axis=1)
-        num_envs, num_users = serving_uav.shape
-        num_uavs = self._uav_rows.shape[0]
-        width = MULTI_FEATURES_PER_USER * num_users
-        # each user's features, then a row of zeros (index N) for the padded slots
-        features = np.zeros((num_envs, num_users + 1, MULTI_FEATURES_PER_USER),
-                            dtype=np.float32)
-        features[:, :num_users] = network[:, :width].reshape(num_envs, num_users, -1)
-        slots = _user_slots(serving_uav, num_uavs, self.num_slots)        # (B, U, S)
-        users = features[np.arange(num_envs)[:, None, None], slots]       # (B, U, S, 5)
-        uavs = network[:, width:].reshape(num_envs, num_uavs, FEATURES_PER_UAV)
-        return np.concatenate([users.reshape(num_envs, num_uavs, -1),
-                               uavs[:, self._uav_rows].reshape(num_envs, num_uavs, -1)],
-                              axis=-1)
+        gather = local_gather(serving_uav, self.num_uavs, self.num_slots)
+        return local_view(network, gather).reshape(len(network), self.num_uavs, -1)
+
+
+def local_gather(serving_uav: NDArray[np.intp], num_uavs: int, num_slots: int
+                 ) -> NDArray[np.intp]:
+    """Where every component of every UAV's local observation (B, U L) comes from in the
+    network's observation (:class:`MultiObserver`, B, 5 N + 3 U) with a zero appended
+    (position 5 N + 3 U: the padded slots), from every user's serving UAV (B, N) in
+    observation order (:class:`LocalObserver`'s layout)."""
+    num_envs, num_users = serving_uav.shape
+    width = MULTI_FEATURES_PER_USER * num_users
+    zero = width + FEATURES_PER_UAV * num_uavs
+    slots = _user_slots(serving_uav, num_uavs, num_slots)                  # (B, U, S)
+    feature = np.arange(MULTI_FEATURES_PER_USER)
+    users = np.where(slots[..., None] < num_users,
+                     MULTI_FEATURES_PER_USER * slots[..., None] + feature, zero)   # (B, U, S, 5)
+    rows = np.array([[u, *(v for v in range(num_uavs) if v != u)] for u in range(num_uavs)],
+                    dtype=np.intp)          # row u: UAV u, then the others in UAV order
+    uavs = width + FEATURES_PER_UAV * rows[..., None] + np.arange(FEATURES_PER_UAV)  # (U, U, 3)
+    uavs = np.broadcast_to(uavs.reshape(num_uavs, -1), (num_envs, num_uavs, uavs[0].size))
+    return np.concatenate([users.reshape(num_envs, num_uavs, -1), uavs],
+                          axis=-1).reshape(num_envs, -1)
+
+
+def local_view(network: NDArray[np.float32], gather: NDArray[np.intp]) -> NDArray[np.float32]:
+    """Every UAV's local observation (B, U L) from the network's (B, 5 N + 3 U) and
+    :func:`local_gather`'s positions: the same float32 values, copied."""
+    padded = np.zeros((len(network), network.shape[1] + 1), dtype=np.float32)
+    padded[:, :-1] = network
+    return np.take_along_axis(padded, gather, axis=1)
 
 
 def _user_slots(serving_uav: NDArray[np.intp], num_uavs: int, num_slots: int

@@ -30,7 +30,7 @@ from adaptsky.algos.registry import algorithm_of
 from adaptsky.arrays import Tree
 from adaptsky.errors import NonFiniteError
 from adaptsky.rollouts.metrics import service_metrics
-from adaptsky.scenario.agents import BdqAgent
+from adaptsky.scenario.agents import BdqAgent, MappoAgent
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.energy import episode_energy
 from adaptsky.sim.lattice import exploring_shares
@@ -140,13 +140,13 @@ class StackRun:
         algorithm, steps = self.algorithm, self.scenario.train.steps
         start = self.episodes_done * steps
         states, users, rewards, chosen = [], [], [], []
-        # the reward per UAV where the algorithm learns from its parts (the BDQ's
-        # reward_split with several UAVs)
+        # the reward per UAV where the algorithm learns from its parts (agent.reward_split
+        # of the BDQ, MAPPO and IPPO with several UAVs)
         split = None
         if algorithm.reward_parts > 1:
-            env, agent = self.env, self.scenario.agent
-            assert isinstance(agent, BdqAgent)
-            split = functools.partial(env.reward_parts, split=agent.reward_split)
+            agent = self.scenario.agent
+            assert isinstance(agent, BdqAgent | MappoAgent)
+            split = functools.partial(self.env.reward_parts, split=agent.reward_split)
         algorithm.begin_episode(start)
         if self.scenario.users.placement == "fresh":
             self.env.set_layouts(np.repeat(episode_layouts(

@@ -23,12 +23,16 @@ def test_the_dry_run_lists_every_step_and_writes_nothing(tmp_path):
     lines = done.stdout.strip().splitlines()
     assert lines[0].startswith(f"gpu_check: would write {out}")
     steps = lines[1:]
-    assert [line.split(".")[0].strip() for line in steps] == ["1", "2", "3", "4", "5"]
+    assert [line.split(".")[0].strip() for line in steps] == [str(n) for n in range(1, 9)]
     text = "\n".join(steps)
     assert "test_gpu.py" in text
     assert "train_throughput.py --device cuda --seeds 1,8,64,256,1024" in text
     assert "--seeds 0 " in steps[2] and "--seeds 0,1,2," in steps[3] and ",63 " in steps[3]
     assert "reproduce e2 --device cuda" in steps[4]
+    # the new learners' stacks (issue 39): PPO, SAC on continuous controls, MAPPO
+    for step, learner in zip(steps[5:], ("ppo", "sac", "mappo"), strict=True):
+        assert "--device cuda --seeds 0,1,2," in step and f'algorithm="{learner}"' in step
+    assert 'uav.actions="continuous"' in steps[6] and "two_uavs_mmwave" in steps[7]
     assert not out.exists()
 
 

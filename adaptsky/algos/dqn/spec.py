@@ -78,6 +78,7 @@ class DqnSpec:
 
     name = "dqn"
     action_kinds = DENSE_MODES
+    min_uavs = 1
     checkpoint_members = ("agent", "replay")
     config_keys = ("hidden_sizes", "dueling", "memory_size", "batch_size")
     fields = (*REPLAY, *ADAM_STATE)

@@ -46,32 +46,66 @@ def gae(rewards: np.ndarray, values: np.ndarray, last_value: np.ndarray, gamma: 
 
 class PpoLearner:
     """Actor, critic, Adam and the rollout of S members of E environments each; ``rngs[s]``
-    draws member s's actions and minibatch permutations."""
+    draws member s's actions and minibatch permutations.
+
+    A rollout row is one environment (PPO) or one agent of one (MAPPO: ``agents`` rows per
+    environment, :mod:`adaptsky.algos.mappo`); :meth:`_inputs`, :meth:`_joint` and
+    :meth:`_row_rewards` map environments onto rows and back."""
 
     reward_parts = 1
+    agents = 1  # rollout rows per environment
 
     def __init__(self, config: PpoAgent, head: HeadShape, observation_size: int,
                  seeds: list[int], rngs: list[np.random.Generator], steps: int, episodes: int,
-                 device: Any = "cpu") -> None:
+                 device: Any = "cpu", critic_size: int | None = None) -> None:
+        """``observation_size``: the actor's inputs; ``critic_size`` the critic's where they
+        differ (its inputs then come from :meth:`_inputs`)."""
         self.config, self.rngs = config, rngs
         self.size, self.envs = len(seeds), config.envs_per_seed
+        self.rows = self.envs * self.agents
         self.steps, self.episodes = steps, episodes
         self.net = StackedActorCritic(observation_size, config.hidden_sizes, head, seeds,
-                                      config.activation, config.init_log_std, device)
+                                      config.activation, config.init_log_std, device,
+                                      critic_size)
         self.head = ActionHead(head)
         self.device = self.net.device
         self.epsilon = math.nan  # no epsilon: progress leaves it out
         self.lr = config.lr
-        shape = (steps, self.size, self.envs)
+        shape = (steps, self.size, self.rows)
         self.observations = np.zeros((*shape, observation_size), dtype=np.float32)
+        self.critic_observations = (None if critic_size is None else
+                                    np.zeros((*shape, critic_size), dtype=np.float32))
         self.actions = np.zeros((*shape, *self.head.stored_shape),
                                 dtype=np.float32 if head.kind == "gaussian" else np.int64)
         self.log_probs = np.zeros(shape, dtype=np.float32)
         self.values = np.zeros(shape, dtype=np.float32)
         self.rewards = np.zeros(shape, dtype=np.float64)
-        self.last_observations = np.zeros((self.size, self.envs, observation_size), np.float32)
+        self.last_observations: np.ndarray | None = None  # the environments' (S, E, obs)
         self.t = 0
         self.stats: dict[str, NDArray[np.float64]] | None = None
+
+    # ---- environments and rows --------------------------------------------------------------
+
+    def _inputs(self, observations: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """The actor's inputs (S, n R, obs) for the environments' observations (S, n, ...)
+        and the critic's where they differ (None: the actor's); R = :attr:`agents`."""
+        return observations, None
+
+    def _joint(self, actions: np.ndarray) -> np.ndarray:
+        """The environments' actions (S, n, ...) from every row's (S, n R, ...)."""
+        return actions
+
+    def _row_rewards(self, rewards: np.ndarray) -> np.ndarray:
+        """Every row's reward (S, E R) from the environments' (S E,) (or (S E, G) parts)."""
+        return np.asarray(rewards).reshape(self.size, self.envs)
+
+    def _padded(self, inputs: np.ndarray) -> torch.Tensor:
+        """Rows (S, m, width) on the device, zero rows after each member's m (PAD rows: each
+        member's block the size it has alone)."""
+        x = torch.zeros((self.size, padded(inputs.shape[1]), inputs.shape[-1]),
+                        device=self.device)
+        x[:, :inputs.shape[1]] = torch.tensor(inputs, device=self.device)
+        return x
 
     # ---- acting ---------------------------------------------------------------------------
 
@@ -92,47 +126,56 @@ class PpoLearner:
 
     def act(self, observations: NDArray[np.float32], global_step: int) -> np.ndarray:
         """Sampled actions (S E, ...) for observations (S E, obs), member-major; keeps the
-        step's observations, actions, log pi and V."""
+        step's inputs, actions, log pi and V of every row."""
         obs = np.ascontiguousarray(observations, dtype=np.float32).reshape(
             self.size, self.envs, -1)
-        rows = padded(self.envs)  # zero rows after each member's E observations
-        x = torch.zeros((self.size, rows, obs.shape[-1]), device=self.device)
-        x[:, :self.envs] = torch.tensor(obs, device=self.device)
+        inputs, critic_inputs = self._inputs(obs)
+        rows = self.rows
+        x = self._padded(inputs)
         with torch.no_grad():
             out = self.net.actor(x)
             log_std = self.net.log_std() if self.head.head.kind == "gaussian" else None
-            host_out = out[:, :self.envs].cpu().numpy()
+            host_out = out[:, :rows].cpu().numpy()
             stored = self.head.sample(host_out, None if log_std is None
                                       else log_std.cpu().numpy(), self.rngs)
-            chosen = torch.zeros((self.size, rows, *self.head.stored_shape),
+            chosen = torch.zeros((self.size, x.shape[1], *self.head.stored_shape),
                                  dtype=torch.float32 if log_std is not None else torch.int64,
                                  device=self.device)
-            chosen[:, :self.envs] = torch.tensor(stored, device=self.device)
+            chosen[:, :rows] = torch.tensor(stored, device=self.device)
             log_prob, _ = self.head.log_prob_entropy(out, log_std, chosen)
-            value = self.net.critic(x)
-            log_prob, value = log_prob[:, :self.envs], value[:, :self.envs]
+            value = self.net.critic(x if critic_inputs is None else
+                                    self._padded(critic_inputs))
+            log_prob, value = log_prob[:, :rows], value[:, :rows]
         t = self.t
-        self.observations[t], self.actions[t] = obs, stored
+        self.observations[t], self.actions[t] = inputs, stored
+        if critic_inputs is not None:
+            assert self.critic_observations is not None
+            self.critic_observations[t] = critic_inputs
         self.log_probs[t], self.values[t] = log_prob.cpu().numpy(), value.cpu().numpy()
-        return self.head.env_actions(stored).reshape(self.size * self.envs,
-                                                     *self._env_shape())
+        return self._joint(self.head.env_actions(stored)).reshape(self.size * self.envs,
+                                                                  *self._env_shape())
 
     def _env_shape(self) -> tuple[int, ...]:
-        return (self.head.head.components,) if self.head.head.kind == "gaussian" else ()
+        """The trailing shape of one environment's action: () for an index, (D,) for
+        continuous controls."""
+        if self.head.head.kind != "gaussian":
+            return ()
+        return (self.head.head.components * self.agents,)
 
     def greedy(self, observations: NDArray[np.float32]) -> np.ndarray:
         """The mode's environment actions (S, n, ...) for observations (S, n, obs)."""
+        inputs, _ = self._inputs(np.asarray(observations, dtype=np.float32))
         if self.device.type == "cpu":
-            out = self.net.host_actor(np.asarray(observations, dtype=np.float32))
+            out = self.net.host_actor(inputs)
         else:
-            out, _ = self._outputs(np.asarray(observations, dtype=np.float32))
-        return self.head.env_actions(self.head.mode(out))
+            out, _ = self._outputs(inputs)
+        return self._joint(self.head.env_actions(self.head.mode(out)))
 
     def observe(self, observations: NDArray[np.float32], actions: np.ndarray,
                 rewards: NDArray[np.float64], next_observations: NDArray[np.float32]) -> None:
-        """The step's rewards (S E,) and the observations after it."""
-        self.rewards[self.t] = np.asarray(rewards).reshape(self.size, self.envs)
-        self.last_observations[...] = np.asarray(next_observations).reshape(
+        """The step's rewards (S E,) (or parts (S E, G)) and the observations after it."""
+        self.rewards[self.t] = self._row_rewards(rewards)
+        self.last_observations = np.array(next_observations, dtype=np.float32).reshape(
             self.size, self.envs, -1)
         self.t += 1
 
@@ -145,19 +188,18 @@ class PpoLearner:
         """GAE(lambda) advantages and returns (T, S, E); the last step is a truncation,
         bootstrapped with V(s_T)."""
         config = self.config
-        rows = padded(self.envs)  # as in act: each member's block the size it has alone
-        x = torch.zeros((self.size, rows, self.last_observations.shape[-1]),
-                        device=self.device)
-        x[:, :self.envs] = torch.tensor(self.last_observations, device=self.device)
+        assert self.last_observations is not None
+        inputs, critic_inputs = self._inputs(self.last_observations)
+        x = self._padded(inputs if critic_inputs is None else critic_inputs)  # as in act
         with torch.no_grad():
-            last = self.net.critic(x)[:, :self.envs].cpu().numpy().astype(np.float64)
+            last = self.net.critic(x)[:, :self.rows].cpu().numpy().astype(np.float64)
         return gae(self.rewards * config.reward_scale, self.values.astype(np.float64), last,
                    config.gamma, config.gae_lambda)
 
     def _per_member(self, array: np.ndarray) -> torch.Tensor:
-        """(T, S, E, ...) -> (S, T E, ...) on the device."""
+        """(T, S, R, ...) -> (S, T R, ...) on the device (R rows per member)."""
         moved = np.moveaxis(array, 1, 0)
-        flat = moved.reshape(self.size, self.steps * self.envs, *array.shape[3:])
+        flat = moved.reshape(self.size, self.steps * self.rows, *array.shape[3:])
         return torch.tensor(flat, device=self.device)  # a copy in torch's aligned memory
 
     def end_episode(self, episodes_before: int) -> None:
@@ -165,12 +207,14 @@ class PpoLearner:
         config, net = self.config, self.net
         advantages, returns = self._advantages()
         obs = self._per_member(self.observations)
+        critic_obs = (obs if self.critic_observations is None
+                      else self._per_member(self.critic_observations))
         actions = self._per_member(self.actions)
         old_log_probs = self._per_member(self.log_probs)
         old_values = self._per_member(self.values)
         adv = self._per_member(advantages.astype(np.float32))
         ret = self._per_member(returns.astype(np.float32))
-        count = self.steps * self.envs
+        count = self.steps * self.rows
         parts = np.array_split(np.arange(count), min(config.minibatches, count))
         # each minibatch padded to a multiple of PAD rows (repeats of its first row, masked)
         layouts = {len(part): padded_rows(len(part)) for part in parts}
@@ -182,7 +226,8 @@ class PpoLearner:
                 where, mask = layouts[len(part)]
                 index = order[:, part[where]].to(self.device)             # (S, m padded)
                 stats = self._minibatch(index, mask.to(self.device), len(part), obs,
-                                        actions, old_log_probs, old_values, adv, ret)
+                                        critic_obs, actions, old_log_probs, old_values, adv,
+                                        ret)
                 net.apply_gradients(self.lr, config.max_grad_norm)
                 for name, value in stats.items():
                     sums[name] += value.detach().cpu().double()
@@ -190,7 +235,8 @@ class PpoLearner:
         self.stats = {name: (value / updates).numpy() for name, value in sums.items()}
 
     def _minibatch(self, index: torch.Tensor, mask: torch.Tensor, rows: int,
-                   obs: torch.Tensor, actions: torch.Tensor, old_log_probs: torch.Tensor,
+                   obs: torch.Tensor, critic_obs: torch.Tensor, actions: torch.Tensor,
+                   old_log_probs: torch.Tensor,
                    old_values: torch.Tensor, adv: torch.Tensor, ret: torch.Tensor
                    ) -> dict[str, torch.Tensor]:
         """The loss of one minibatch of ``rows`` rows per member (S, padded indices; ``mask``
@@ -219,7 +265,7 @@ class PpoLearner:
         clip = config.clip_coef
         policy_loss = mean(torch.max(-advantage * ratio,
                                      -advantage * ratio.clamp(1 - clip, 1 + clip)))
-        value = net.critic(take(obs))
+        value = net.critic(take(obs) if critic_obs is obs else take(critic_obs))
         target = take(ret)
         if config.clip_vloss:
             before = take(old_values)

@@ -73,6 +73,7 @@ class PpoSpec:
 
     name = "ppo"
     action_kinds = (*DENSE_MODES, "continuous")
+    min_uavs = 1
     checkpoint_members = ("agent",)
     config_keys = ("hidden_sizes", "envs_per_seed", "action_head")
     fields = (ADAM_STEP,)

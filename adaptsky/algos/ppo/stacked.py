@@ -43,12 +43,14 @@ class StackedActorCritic(StackedParameters):
 
     def __init__(self, observation_size: int, hidden_sizes: list[int], head: HeadShape,
                  seeds: list[int], activation: str = "tanh", init_log_std: float = 0.0,
-                 device: str | torch.device = "cpu") -> None:
+                 device: str | torch.device = "cpu", critic_size: int | None = None) -> None:
+        """``critic_size``: the critic's inputs where they differ from the actor's
+        ``observation_size`` (MAPPO's centralised critic)."""
         self.observation_size, self.hidden_sizes, self.head = (observation_size,
                                                                list(hidden_sizes), head)
         self.policy_names = list(policy_shapes(observation_size, hidden_sizes, head))
         shapes = {**policy_shapes(observation_size, hidden_sizes, head),
-                  **critic_shapes(observation_size, hidden_sizes)}
+                  **critic_shapes(critic_size or observation_size, hidden_sizes)}
         super().__init__(shapes, [_initial_named(shapes, seed, init_log_std) for seed in seeds],
                          ADAM_EPS, device)
         self._act, self._act_host = activation_functions(activation)

@@ -54,6 +54,7 @@ class SacSpec:
 
     name = "sac"
     action_kinds = ("continuous",)
+    min_uavs = 1
     checkpoint_members = ("agent", "replay")
     config_keys = ("hidden_sizes", "memory_size", "batch_size")
     replay_fields = tuple(CONTROL_ACTIONS if field.name == "actions" else field

@@ -42,9 +42,11 @@ def test_a_scenario_without_algorithm_is_a_dqn_and_says_so():
 
 @pytest.mark.parametrize(("agent", "line"), [
     ({"algorithm": "a2c"},
-     "s.toml: agent.algorithm: unknown algorithm 'a2c'; choose from dqn, bdq, ppo, sac"),
+     "s.toml: agent.algorithm: unknown algorithm 'a2c'; choose from dqn, bdq, ppo, sac, "
+     "mappo, ippo"),
     ({"algorithm": 3},
-     "s.toml: agent.algorithm: unknown algorithm 3; choose from dqn, bdq, ppo, sac"),
+     "s.toml: agent.algorithm: unknown algorithm 3; choose from dqn, bdq, ppo, sac, mappo, "
+     "ippo"),
     ({"lr": "fast"}, "s.toml: agent.lr: Input should be a valid number (got 'fast')"),
     ({"algorithm": "dqn", "gamma": 2.0}, "s.toml: agent.gamma: Input should be less than or "
                                          "equal to 1 (got 2.0)"),
@@ -62,7 +64,7 @@ def test_validate_refuses_an_unknown_algorithm_in_one_line(tmp_path: Path, capsy
     printed = capsys.readouterr()
     lines = (printed.out + printed.err).strip().splitlines()
     assert lines == [f"{path}: agent.algorithm: unknown algorithm 'a2c'; choose from dqn, "
-                     "bdq, ppo, sac"]
+                     "bdq, ppo, sac, mappo, ippo"]
 
 
 def test_every_agent_model_has_its_algorithm_and_back():
@@ -73,7 +75,7 @@ def test_every_agent_model_has_its_algorithm_and_back():
 
 
 def test_unknown_algorithm_lookup_names_the_known_ones():
-    with pytest.raises(KeyError, match="choose from dqn, bdq, ppo, sac"):
+    with pytest.raises(KeyError, match="choose from dqn, bdq, ppo, sac, mappo, ippo"):
         registry.algorithm_named("a2c")
 
 
