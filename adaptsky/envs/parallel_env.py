@@ -17,14 +17,22 @@ Observation Space
     ``state()`` is the global observation and ``state_space`` its ``Box`` (for centralised
     critics).
 Rewards
-    Every agent gets the network's reward (eq. 13 over all users).
+    ``reward_split="team"``: every agent gets the network's reward (eq. 13 over all users,
+    the Gymnasium env's). ``"per-uav"``: UAV u's agent gets the part of eq. 13 from its own
+    users plus its own energy term; ``"difference"``: that part plus what its interference
+    costs the other UAVs' users in eq. 13's rate term (at most 0); both are
+    ``NetworkBatch.reward_parts`` of the step's state (docs/agent.md, "A reward per UAV").
+    The default is the scenario's ``agent.reward_split`` where its agent has one (the BDQ;
+    the shipped several-UAV scenarios: ``"difference"``), else ``"team"``. With one UAV every
+    split gives the network's reward.
 Episode End
     Every agent truncated after ``train.steps`` steps, then ``agents`` is empty until
     :meth:`reset`; never terminated.
 Arguments
     Those of :class:`adaptsky.envs.gym_env.NomaUavEnv` but ``action_space``: ``scenario``,
     ``users_m``, ``render_mode`` (``None``, ``"ansi"`` or ``"rgb_array"``), ``layout_index``;
-    and ``observation``, ``"global"`` or ``"local"``.
+    ``observation``, ``"global"`` or ``"local"``; and ``reward_split``, ``"team"``,
+    ``"per-uav"`` or ``"difference"`` (None: the scenario's, above).
     Seeds, layouts and ``info`` (the same dict for every agent, copied) are the Gymnasium
     env's.
 """
@@ -45,10 +53,12 @@ from adaptsky.sim.observation import LocalObserver, local_observation_bounds
 
 AgentID = str
 OBSERVATIONS = ("global", "local")
+REWARD_SPLITS = ("team", "per-uav", "difference")
 
 
 class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
-    """One agent per UAV over one layout, all given the network's reward."""
+    """One agent per UAV over one layout, given the network's reward or its own part of it
+    (``reward_split``)."""
 
     metadata: ClassVar[dict[str, Any]] = {
         "name": "adaptsky_noma_uav_v0", "render_modes": RENDER_MODES,
@@ -56,10 +66,17 @@ class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
 
     def __init__(self, scenario: Scenario | str | Path | None = None,
                  users_m: np.ndarray | None = None, render_mode: str | None = None,
-                 layout_index: int = 0, observation: str = "global") -> None:
+                 layout_index: int = 0, observation: str = "global",
+                 reward_split: str | None = None) -> None:
         if observation not in OBSERVATIONS:
             raise ValueError(f"observation must be 'global' or 'local', got {observation!r}")
+        if reward_split is not None and reward_split not in REWARD_SPLITS:
+            raise ValueError(f"reward_split must be 'team', 'per-uav' or 'difference' (None: "
+                             f"the scenario's agent.reward_split), got {reward_split!r}")
         scenario = resolve_scenario(scenario)
+        # the scenario's agent's split where it has one (the BDQ), else one reward for all
+        self.reward_split: str = (getattr(scenario.agent, "reward_split", "team")
+                                  if reward_split is None else reward_split)
         self.env = NomaUavEnv(scenario, users_m=users_m, render_mode=render_mode,
                               layout_index=layout_index,
                               action_space=per_component_kind(scenario))
@@ -128,9 +145,21 @@ class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
         agents = self.agents
         if terminated or truncated:
             self.agents = []
-        return (self._observations(agents), dict.fromkeys(agents, reward),
+        return (self._observations(agents), self._rewards(agents, reward),
                 dict.fromkeys(agents, terminated), dict.fromkeys(agents, truncated),
                 {agent: dict(info) for agent in agents})
+
+    def _rewards(self, agents: list[AgentID], reward: float) -> dict[AgentID, float]:
+        """Every agent's reward of the step just taken: the network's ``reward`` (``team``,
+        or one UAV), or its UAV's part of it from the network's state after the step
+        (:meth:`NetworkBatch.reward_parts`, docs/agent.md)."""
+        if self.reward_split == "team" or len(self.possible_agents) == 1:
+            return dict.fromkeys(agents, reward)
+        batch = self.env.batch
+        assert batch.state is not None
+        parts = batch.reward_parts(batch.state, split=self.reward_split)[0]
+        return {agent: float(parts[u]) for u, agent in enumerate(self.possible_agents)
+                if agent in agents}
 
     def _observations(self, agents: list[AgentID]) -> dict[AgentID, np.ndarray]:
         """Every agent's observation of the last state: the global one, or its own local one

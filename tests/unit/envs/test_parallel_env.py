@@ -1,5 +1,6 @@
-"""The PettingZoo ParallelEnv: the API test for several UAVs and one, determinism, every agent's
-action landing in its own UAV's components, state() for centralised critics."""
+"""The PettingZoo ParallelEnv: the API test for several UAVs and one (every observation and
+reward_split), determinism, every agent's action landing in its own UAV's components, state()
+for centralised critics. The rewards per agent: test_parallel_rewards.py."""
 
 import warnings
 
@@ -26,8 +27,9 @@ UNEVEN = make_scenario(
                                       make_scenario(train={"steps": 10}), UNEVEN],
                          ids=["two-uavs", "one-uav", "uneven-groups"])
 @pytest.mark.parametrize("observation", ["global", "local"])
-def test_parallel_api_test_passes(scenario, observation):
-    env = NomaUavParallelEnv(scenario, observation=observation)
+@pytest.mark.parametrize("reward_split", ["team", "per-uav", "difference"])
+def test_parallel_api_test_passes(scenario, observation, reward_split):
+    env = NomaUavParallelEnv(scenario, observation=observation, reward_split=reward_split)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         parallel_api_test(env, num_cycles=30)
@@ -40,7 +42,7 @@ def test_each_uav_acts_on_its_own_clusters():
 
 
 def test_agents_spaces_and_state():
-    env = NomaUavParallelEnv(two_uavs(steps=2))
+    env = NomaUavParallelEnv(two_uavs(steps=2), reward_split="team")
     assert env.possible_agents == ["uav_0", "uav_1"] and env.agents == []
     assert env.metadata["is_parallelizable"] and env.render_mode is None
     for agent in env.possible_agents:
@@ -96,7 +98,7 @@ def test_same_seed_same_rollout_bit_for_bit():
 @pytest.mark.parametrize("climber", [0, 1])
 def test_an_agents_action_moves_only_its_own_uav(climber):
     scenario = two_uavs(actions="with-hover")        # sub-action 1 holds, 2 climbs
-    env, gym_env = NomaUavParallelEnv(scenario), NomaUavEnv(scenario)
+    env, gym_env = NomaUavParallelEnv(scenario, reward_split="team"), NomaUavEnv(scenario)
     _, infos = env.reset(seed=0)
     gym_env.reset(seed=0)
     before = infos["uav_0"]["uav_m"]
