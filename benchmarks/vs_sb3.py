@@ -1,23 +1,58 @@
 """adaptsky's learners beside what users would pick instead (issue 39): Stable-Baselines3's PPO
-(and SAC, once adaptsky has it) and ours on the same adaptsky environment, with the same
-hyperparameters and the same number of environment steps, one process per side and one thread
-each. Prints each side's environment steps per second and their ratio, and each seed's final
-greedy objective (the last policy's steady sum rate on the training layout, the last 100 of
-1000 steps, as a percentage of the oracle), with the interquartile mean and its 95% bootstrap
-interval over the seeds.
+and SAC and ours on the same adaptsky environment, with the same hyperparameters and the same
+number of environment steps, one process per side and one thread each. Prints each side's
+environment steps per second and their ratio, and each seed's final greedy objective (the last
+policy's steady sum rate on the training layout, the last 100 of 1000 steps, as a percentage
+of the lattice oracle), with the interquartile mean and its 95% bootstrap interval over the
+seeds.
 
-    .venv/bin/python benchmarks/vs_sb3.py [--algo ppo] [--seeds 5] [--env-steps 240000]
-        [--scenario scenarios/nyc_mmwave.toml] [--out DIR]
+    .venv/bin/python benchmarks/vs_sb3.py [--algo ppo|sac] [--seeds 5] [--env-steps N]
+        [--learning-starts N] [--scenario scenarios/nyc_mmwave.toml] [--out DIR]
 
-Ours trains every seed as one stack (``adaptsky train --workers 1``); SB3 trains them one after
-another in one process, each on a ``DummyVecEnv`` of E Gymnasium environments
-(``adaptsky/NomaUav-v0``), as its documentation shows. Both wall times include the training's
-own overheads after the imports (ours: the session's wall time the run file records, with the
-greedy evaluations during training off, ``train.eval_every = 0``; SB3: ``learn``, with its
-logger). PASS where ours takes at least ``--ratio`` (5 for PPO, issue 39) times SB3's
-steps per second, and where our objective is no worse: our interval's upper end at least
-SB3's interquartile mean. A script, not a test: no time is asserted anywhere. Needs the dev
-extra (``stable-baselines3``, ``scipy``).
+Ours trains every seed as one stack (``adaptsky train --workers 1``, the code of the tree this
+script is in); SB3 trains them one after another in one process, each on a ``DummyVecEnv`` of
+E Gymnasium environments (``adaptsky/NomaUav-v0``), as its documentation shows. Both wall
+times include the training's own overheads after the imports (ours: the session's wall time
+the run file records, with the greedy evaluations during training off, ``train.eval_every =
+0``; SB3: ``learn``, with its logger). PASS where ours takes at least 5 (PPO) or 3 (SAC) times
+SB3's steps per second (issue 39), and where our objective is no worse: our interval's upper
+end at least SB3's interquartile mean. A script, not a test: no time is asserted anywhere.
+Needs the dev extra (``stable-baselines3``, ``scipy``).
+
+PPO (``--algo ppo``, default 240,000 steps per seed): the scenario's own action kind (the
+paper's dense set on ``nyc_mmwave.toml``), E = 8 environments per seed; ``PPO`` below maps
+one to one onto SB3's arguments.
+
+SAC (``--algo sac``, default 100,000 steps per seed, as many as the replay memory holds):
+continuous controls (``uav.actions = "continuous"``: the env's ``Box([-1, 1]^D)``), one
+environment per seed on both sides (ours: the SAC learner's ``envs_per_member`` is 1; SB3:
+a ``DummyVecEnv`` of 1, ``train_freq`` 1, ``gradient_steps`` 1). ``SAC`` below is adaptsky's
+defaults (CleanRL's, docs/agent.md#sac); on SB3's side:
+
+- ``hidden_sizes`` -> ``policy_kwargs={"net_arch": [256, 256]}`` (actor and both critics, ReLU,
+  SB3's default activation); ``memory_size`` -> ``buffer_size``; ``learning_starts``,
+  ``batch_size``, ``tau``, ``gamma`` as they are; ``target_network_frequency`` ->
+  ``target_update_interval``; ``autotune`` -> ``ent_coef="auto"`` (alpha from 1, as ours) and
+  ``target_entropy="auto"`` (-D, as ours). Both act uniformly in the box before
+  ``learning_starts`` and bootstrap at the time limit (a truncation).
+- ``q_lr`` and ``policy_lr``: SAC takes one ``learning_rate`` (a schedule of the progress),
+  which ``train`` sets on the actor's, the critics' and the temperature's optimisers alike
+  before every update; no ``policy_kwargs`` or optimiser argument splits them. SB3's side is
+  therefore ``SAC`` with that one method (``_update_learning_rate``) overridden to set the
+  actor's Adam at ``policy_lr`` (3e-4) and the critics' and the temperature's at ``q_lr``
+  (1e-3), as ours; ``learning_rate=policy_lr`` is what SB3 logs. The update itself is SB3's.
+- ``policy_frequency`` 2: SB3's SAC has no policy delay (its TD3 has ``policy_delay``); it
+  updates the actor and the temperature once every step, ours twice every second step: the
+  same number of updates of each, at other times.
+- Left as SB3 has them (its SAC, not CleanRL's): the actor's log std clamped to [-20, 2] (ours
+  squashes it into [-5, 2] with a tanh), the temperature loss taken on log alpha (ours on
+  alpha), the temperature updated before the critics (ours after the actor); Adam eps 1e-8 on
+  both sides.
+
+The objective is a percentage of the oracle on the lattice (docs/evaluation.md, "Oracle"): a
+ceiling for the dense moves PPO takes on ``nyc_mmwave.toml``, a reference but not a bound for
+continuous controls, whose positions and shares also fall between the lattice's points (a
+policy may pass 100%); the output says which.
 """
 
 from __future__ import annotations
@@ -40,16 +75,35 @@ PPO = {"algorithm": "ppo", "hidden_sizes": [64, 64], "activation": "tanh", "envs
        "lr": 3e-4, "anneal_lr": True, "gamma": 0.99, "gae_lambda": 0.95, "epochs": 4,
        "minibatches": 4, "clip_coef": 0.2, "clip_vloss": True, "ent_coef": 0.01,
        "vf_coef": 0.5, "max_grad_norm": 0.5, "norm_adv": True}
+# the SAC settings both sides train with (CleanRL's, docs/agent.md#sac), on continuous controls
+SAC = {"algorithm": "sac", "hidden_sizes": [256, 256], "q_lr": 1e-3, "policy_lr": 3e-4,
+       "gamma": 0.99, "tau": 0.005, "batch_size": 256, "memory_size": 100_000,
+       "learning_starts": 5000, "policy_frequency": 2, "target_network_frequency": 1,
+       "autotune": True}
+AGENTS = {"ppo": PPO, "sac": SAC}
+ENV_STEPS = {"ppo": 240_000, "sac": 100_000}
+"""The default environment steps per seed."""
 
 
-def scenario_file(base: Path, out: Path, episodes: int, seeds: int) -> Path:
-    """The benchmark's scenario: ``base`` with PPO's settings, ``episodes`` episodes, no
-    greedy evaluations during training."""
+def envs_per_seed(algo: str) -> int:
+    """E, the environments per seed of both sides: PPO's ``envs_per_seed``, 1 for SAC."""
+    return int(AGENTS[algo].get("envs_per_seed", 1))
+
+
+def scenario_file(base: Path, out: Path, algo: str, episodes: int, seeds: int,
+                  learning_starts: int | None = None) -> Path:
+    """The benchmark's scenario: ``base`` with the algorithm's settings (SAC: on continuous
+    controls, ``learning_starts`` where given), ``episodes`` episodes, no greedy evaluations
+    during training."""
     from adaptsky.scenario import load_scenario
     from adaptsky.scenario.toml_writer import dumps
 
     data = load_scenario(base).model_dump(mode="json")
-    data["agent"] = dict(PPO)
+    data["agent"] = dict(AGENTS[algo])
+    if algo == "sac":
+        data["uav"]["actions"] = "continuous"
+        if learning_starts is not None:
+            data["agent"]["learning_starts"] = learning_starts
     data["train"] |= {"episodes": episodes, "seeds": list(range(seeds)), "eval_every": 0,
                       "checkpoint_every": episodes}
     path = out / "vs_sb3.toml"
@@ -62,7 +116,7 @@ def ours(path: Path, out: Path) -> tuple[float, list[float]]:
     run = out / "ours.h5"
     subprocess.run([ADAPTSKY, "train", str(path),
                     "--workers", "1", "--out", str(run), "--quiet"], check=True,
-                   stdout=subprocess.DEVNULL)
+                   stdout=subprocess.DEVNULL, env=_env())
     scores = []
     from adaptsky.store.run_file import RunReader
 
@@ -74,9 +128,16 @@ def ours(path: Path, out: Path) -> tuple[float, list[float]]:
             [ADAPTSKY, "eval", "--checkpoint", str(run),
              "--seed", str(seed), "--policy", "last", "--compare", "oracle", "--steps", "1000",
              "--json", "--out", str(out / f"ours-eval-{seed}.h5")],
-            check=True, capture_output=True, text=True)
+            check=True, capture_output=True, text=True, env=_env())
         scores.append(_pct_of_oracle(json.loads(result.stdout)))
     return wall, scores
+
+
+def _env() -> dict[str, str]:
+    """The environment of both sides' processes: this tree's adaptsky first on the path (the
+    ``adaptsky`` command and ``python -c`` would otherwise import the installed one)."""
+    path = os.environ.get("PYTHONPATH")
+    return os.environ | {"PYTHONPATH": os.pathsep.join([str(ROOT), *([path] if path else [])])}
 
 
 def _pct_of_oracle(results: dict) -> float:
@@ -98,28 +159,55 @@ import gymnasium
 import adaptsky
 from adaptsky.envs.registration import ENV_ID, register_envs
 from adaptsky.scenario import load_scenario
-from stable_baselines3 import PPO
+from stable_baselines3 import PPO, SAC
 from stable_baselines3.common.env_util import make_vec_env
+from stable_baselines3.common.utils import update_learning_rate
 register_envs()
 path, seeds, out = Path(sys.argv[1]), int(sys.argv[2]), Path(sys.argv[3])
 scenario = load_scenario(path)
 agent, train = scenario.agent, scenario.train
-total = train.episodes * train.steps * agent.envs_per_seed
+envs = getattr(agent, "envs_per_seed", 1)
+total = train.episodes * train.steps * envs
+
+
+class TwoRateSAC(SAC):
+    """SB3's SAC with the actor's Adam at policy_lr and the critics' and the temperature's
+    at q_lr (SAC's one learning_rate would set all three alike before every update)."""
+
+    def _update_learning_rate(self, optimizers):
+        self.logger.record("train/learning_rate", agent.policy_lr)
+        for optimizer in optimizers:
+            update_learning_rate(optimizer, agent.policy_lr if optimizer is self.actor.optimizer
+                                 else agent.q_lr)
+
+
+def model_of(seed, env):
+    if agent.algorithm == "sac":
+        return TwoRateSAC(
+            "MlpPolicy", env, learning_rate=agent.policy_lr, buffer_size=agent.memory_size,
+            learning_starts=agent.learning_starts, batch_size=agent.batch_size, tau=agent.tau,
+            gamma=agent.gamma, train_freq=1, gradient_steps=1,
+            ent_coef="auto" if agent.autotune else agent.alpha,
+            target_update_interval=agent.target_network_frequency, target_entropy="auto",
+            policy_kwargs={"net_arch": list(agent.hidden_sizes)},
+            seed=seed, device="cpu", verbose=0)
+    batch = train.steps * envs
+    return PPO("MlpPolicy", env, learning_rate=lambda left: agent.lr * left,
+               n_steps=train.steps, batch_size=batch // agent.minibatches,
+               n_epochs=agent.epochs, gamma=agent.gamma, gae_lambda=agent.gae_lambda,
+               clip_range=agent.clip_coef, clip_range_vf=agent.clip_coef,
+               ent_coef=agent.ent_coef, vf_coef=agent.vf_coef,
+               max_grad_norm=agent.max_grad_norm, normalize_advantage=agent.norm_adv,
+               policy_kwargs={"net_arch": {"pi": list(agent.hidden_sizes),
+                                           "vf": list(agent.hidden_sizes)},
+                              "activation_fn": torch.nn.Tanh},
+               seed=seed, device="cpu", verbose=0)
+
+
 models, start = [], time.monotonic()
 for seed in range(seeds):
-    env = make_vec_env(ENV_ID, n_envs=agent.envs_per_seed, seed=seed,
-                       env_kwargs={"scenario": scenario})
-    batch = train.steps * agent.envs_per_seed
-    model = PPO("MlpPolicy", env, learning_rate=lambda left: agent.lr * left,
-                n_steps=train.steps, batch_size=batch // agent.minibatches,
-                n_epochs=agent.epochs, gamma=agent.gamma, gae_lambda=agent.gae_lambda,
-                clip_range=agent.clip_coef, clip_range_vf=agent.clip_coef,
-                ent_coef=agent.ent_coef, vf_coef=agent.vf_coef,
-                max_grad_norm=agent.max_grad_norm, normalize_advantage=agent.norm_adv,
-                policy_kwargs={"net_arch": {"pi": list(agent.hidden_sizes),
-                                            "vf": list(agent.hidden_sizes)},
-                               "activation_fn": torch.nn.Tanh},
-                seed=seed, device="cpu", verbose=0)
+    env = make_vec_env(ENV_ID, n_envs=envs, seed=seed, env_kwargs={"scenario": scenario})
+    model = model_of(seed, env)
     model.learn(total_timesteps=total)
     models.append(model)
 wall = time.monotonic() - start
@@ -138,7 +226,7 @@ print(json.dumps({"wall_s": wall, "scores": scores, "steps_per_seed": total}))
 def sb3(path: Path, seeds: int) -> tuple[float, list[float]]:
     """SB3's side in one process; (wall s of the training, last policies' % of oracle)."""
     result = subprocess.run([sys.executable, "-c", SB3_SIDE, str(path), str(seeds), "-"],
-                            capture_output=True, text=True)
+                            capture_output=True, text=True, env=_env())
     if result.returncode:
         raise SystemExit(f"the SB3 side failed:\n{result.stderr[-3000:]}")
     found = json.loads(result.stdout.strip().splitlines()[-1])
@@ -166,30 +254,47 @@ def iqm_interval(scores: list[float]) -> tuple[float, float, float]:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--algo", default="ppo", choices=("ppo",))
+    parser.add_argument("--algo", default="ppo", choices=tuple(AGENTS))
     parser.add_argument("--seeds", type=int, default=5)
-    parser.add_argument("--env-steps", type=int, default=240_000,
-                        help="environment steps per seed (rounded to whole episodes of E)")
+    parser.add_argument("--env-steps", type=int, default=None,
+                        help="environment steps per seed, rounded to whole episodes of E "
+                        "environments (default: 240,000 for PPO, 100,000 for SAC)")
+    parser.add_argument("--learning-starts", type=int, default=None,
+                        help=f"SAC only: steps of uniform actions before the first update "
+                        f"(default {SAC['learning_starts']}; lower for a short smoke run)")
     parser.add_argument("--scenario", type=Path, default=ROOT / "scenarios" / "nyc_mmwave.toml")
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args()
+    if args.learning_starts is not None and args.algo != "sac":
+        parser.error("--learning-starts is SAC's (--algo sac)")
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     out = args.out or Path(tempfile.mkdtemp(prefix="vs_sb3-"))
     out.mkdir(parents=True, exist_ok=True)
     from adaptsky.scenario import load_scenario
 
     steps = load_scenario(args.scenario).train.steps
-    episodes = max(1, round(args.env_steps / (steps * PPO["envs_per_seed"])))
-    path = scenario_file(args.scenario, out, episodes, args.seeds)
-    per_seed = episodes * steps * PPO["envs_per_seed"]
+    envs = envs_per_seed(args.algo)
+    env_steps = ENV_STEPS[args.algo] if args.env_steps is None else args.env_steps
+    episodes = max(1, round(env_steps / (steps * envs)))
+    path = scenario_file(args.scenario, out, args.algo, episodes, args.seeds,
+                         args.learning_starts)
+    agent = load_scenario(path).agent
+    per_seed = episodes * steps * envs
+    shape = (f"{episodes} rollouts of {steps} steps x {envs} envs" if args.algo == "ppo" else
+             f"{episodes} episodes of {steps} steps, 1 env, continuous controls, "
+             f"learning_starts {agent.learning_starts}")
     print(f"{args.algo.upper()}: {args.seeds} seeds x {per_seed:,} environment steps "
-          f"({episodes} rollouts of {steps} steps x {PPO['envs_per_seed']} envs) on "
-          f"{args.scenario.name}; load {os.getloadavg()[0]:.1f}; files in {out}")
+          f"({shape}) on {args.scenario.name}; load {os.getloadavg()[0]:.1f}; files in {out}")
     our_wall, our_scores = ours(path, out)
     their_wall, their_scores = sb3(path, args.seeds)
     total = per_seed * args.seeds
     ours_rate, theirs_rate = total / our_wall, total / their_wall
     ratio = ours_rate / theirs_rate
+    if load_scenario(path).uav.actions == "continuous":
+        print("objective: % of the lattice oracle, a reference, not a bound (continuous "
+              "positions and shares fall between its points; above 100% is possible)")
+    else:
+        print("objective: % of the lattice oracle, a ceiling for these moves")
     print(f"{'':8} {'env steps/s':>12} {'wall':>9}   final greedy objective, % of oracle")
     for name, rate, wall, scores in (("adaptsky", ours_rate, our_wall, our_scores),
                                      ("SB3", theirs_rate, their_wall, their_scores)):
