@@ -181,6 +181,9 @@ class PpoAgent(Section):
     max_grad_norm: float = Field(0.5, ge=0, le=1e6, description="global gradient-norm clip "
                                  "per seed; 0 disables")
     norm_adv: bool = Field(True, description="normalise advantages per minibatch")
+    norm_reward: bool = Field(True, description="divide rewards by a running standard "
+                              "deviation of the discounted return, per seed, and clip them "
+                              "to [-10, 10] (CleanRL's continuous PPO)")
     init_log_std: float = Field(0.0, ge=-20, le=2, description="initial log standard "
                                 "deviation of the Gaussian head")
     observation: Literal["scaled", "raw"] = _as_dqn("observation")

@@ -36,7 +36,7 @@ def _assert_same_arrays(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> N
         assert np.array_equal(a[name], b[name], equal_nan=True), name
 
 
-def _killed_and_resumed(tmp_path: Path, scenario_path: Path) -> Path:
+def _killed_and_resumed(tmp_path: Path, scenario_path: Path, episodes: int = 12) -> Path:
     out = tmp_path / "killed.h5"
     process = subprocess.Popen(
         [str(ADAPTSKY), "train", str(scenario_path), "--seeds", "0,1", "--workers", "1",
@@ -56,6 +56,6 @@ def _killed_and_resumed(tmp_path: Path, scenario_path: Path) -> Path:
     process.wait()
     with RunReader(out) as run:
         done = run.seed_attrs(0)["episodes_done"]
-    assert 3 <= done < 12 and done % 3 == 0
+    assert 3 <= done < episodes and done % 3 == 0
     assert main(["train", "--resume", str(out), "--workers", "2", "--quiet"]) == 0
     return out

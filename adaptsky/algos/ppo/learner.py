@@ -6,6 +6,8 @@ V(s_T), and runs ``epochs`` epochs of ``minibatches`` minibatches per seed (each
 permutation from its generator): the clipped surrogate, the (clipped) value loss, the entropy
 bonus, advantages normalised per minibatch, the gradient clipped to ``max_grad_norm`` per seed,
 one Adam step. The learning rate falls linearly to 0 over ``train.episodes`` (``anneal_lr``).
+Rewards are multiplied by ``reward_scale`` and, with ``norm_reward``, divided by a running
+standard deviation of the return (:mod:`adaptsky.algos.ppo.reward_norm`) as they come.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from numpy.typing import NDArray
 from adaptsky.algos.device_step import describe
 from adaptsky.algos.ppo.heads import ActionHead
 from adaptsky.algos.ppo.parameters import HeadShape
+from adaptsky.algos.ppo.reward_norm import RewardNormaliser
 from adaptsky.algos.ppo.stacked import StackedActorCritic
 from adaptsky.algos.stacked_params import padded, padded_rows
 from adaptsky.arrays import Tree
@@ -81,6 +84,8 @@ class PpoLearner:
         self.values = np.zeros(shape, dtype=np.float32)
         self.rewards = np.zeros(shape, dtype=np.float64)
         self.last_observations: np.ndarray | None = None  # the environments' (S, E, obs)
+        self.normaliser = (RewardNormaliser(self.size, self.rows, config.gamma)
+                           if config.norm_reward else None)
         self.t = 0
         self.stats: dict[str, NDArray[np.float64]] | None = None
 
@@ -120,6 +125,8 @@ class PpoLearner:
 
     def begin_episode(self, global_step: int) -> None:
         self.t = 0
+        if self.normaliser is not None:
+            self.normaliser.begin_episode()
         if self.config.anneal_lr:
             done = global_step // self.steps
             self.lr = self.config.lr * max(0.0, 1.0 - done / self.episodes)
@@ -174,7 +181,8 @@ class PpoLearner:
     def observe(self, observations: NDArray[np.float32], actions: np.ndarray,
                 rewards: NDArray[np.float64], next_observations: NDArray[np.float32]) -> None:
         """The step's rewards (S E,) (or parts (S E, G)) and the observations after it."""
-        self.rewards[self.t] = self._row_rewards(rewards)
+        scaled = self._row_rewards(rewards) * self.config.reward_scale
+        self.rewards[self.t] = scaled if self.normaliser is None else self.normaliser(scaled)
         self.last_observations = np.array(next_observations, dtype=np.float32).reshape(
             self.size, self.envs, -1)
         self.t += 1
@@ -193,7 +201,7 @@ class PpoLearner:
         x = self._padded(inputs if critic_inputs is None else critic_inputs)  # as in act
         with torch.no_grad():
             last = self.net.critic(x)[:, :self.rows].cpu().numpy().astype(np.float64)
-        return gae(self.rewards * config.reward_scale, self.values.astype(np.float64), last,
+        return gae(self.rewards, self.values.astype(np.float64), last,
                    config.gamma, config.gae_lambda)
 
     def _per_member(self, array: np.ndarray) -> torch.Tensor:
@@ -300,10 +308,15 @@ class PpoLearner:
         return describe(self.device)
 
     def checkpoint(self, member: int) -> Tree:
-        return {"agent": self.net.state_arrays(member)}
+        agent: dict[str, object] = self.net.state_arrays(member)
+        if self.normaliser is not None:
+            agent["reward_norm"] = self.normaliser.state(member)
+        return {"agent": agent}
 
     def restore(self, member: int, checkpoint: Tree) -> None:
         self.net.load_state_arrays(member, checkpoint["agent"])
+        if self.normaliser is not None:
+            self.normaliser.load(member, checkpoint["agent"]["reward_norm"])
 
     def policy(self, member: int) -> Tree:
         return self.net.policy_arrays(member)

@@ -24,6 +24,9 @@ from adaptsky.sim.observation import observation_size_of
 FLOAT32 = 4
 # /seeds/<S>/checkpoint/agent/optimizer/: Adam's step count and moments of every parameter
 ADAM_STEP = Field("step", "int", ())
+# /seeds/<S>/checkpoint/agent/reward_norm/: the running statistics of the return (norm_reward)
+REWARD_NORM = (Field("mean", "float", ()), Field("var", "float", ()),
+               Field("count", "float", ()))
 
 
 def check_weights(check: LayoutCheck, group: Node, shapes: dict[str, tuple[int, ...]]) -> None:
@@ -76,7 +79,7 @@ class PpoSpec:
     min_uavs = 1
     checkpoint_members = ("agent",)
     config_keys = ("hidden_sizes", "envs_per_seed", "action_head")
-    fields = (ADAM_STEP,)
+    fields = (ADAM_STEP, *REWARD_NORM)
     remedies: ClassVar[dict[str, str]] = {
         "rollout": "lower agent.envs_per_seed, train.steps or the number of seeds",
         "networks and optimizer": "lower agent.hidden_sizes or the number of seeds",
@@ -111,11 +114,18 @@ class PpoSpec:
                          episodes_done: int) -> None:
         """``agent``: ``policy``, ``critic`` and ``optimizer`` (step, exp_avg, exp_avg_sq)."""
         agent = check.group(group, "agent")
-        check.exact_members(agent, ("policy", "critic", "optimizer"))
+        normalised = _config(scenario).norm_reward
+        check.exact_members(agent, ("policy", "critic", "optimizer",
+                                    *(("reward_norm",) if normalised else ())))
         policy, critic = self.shapes(scenario)
         check_weights(check, check.group(agent, "policy"), policy)
         check_weights(check, check.group(agent, "critic"), critic)
         check_adam(check, check.group(agent, "optimizer"), {**policy, **critic})
+        if normalised:
+            norm = check.group(agent, "reward_norm")
+            check.exact_members(norm, [field.name for field in REWARD_NORM])
+            for field in REWARD_NORM:
+                check.dataset(norm, field, {})
 
     def policy_of(self, checkpoint: Tree) -> Tree:
         return checkpoint["agent"]["policy"]

@@ -131,7 +131,7 @@ def test_sizes_of_the_actor_and_the_critics():
 def test_every_uav_learns_from_its_reward(tmp_path, split):
     """After one episode of 30 steps the rollout's rewards are, per UAV row, the team's
     reward (the run file's) or the network's reward_parts of every step."""
-    scenario = parse_scenario(mappo_data(agent={"reward_split": split},
+    scenario = parse_scenario(mappo_data(agent={"reward_split": split, "norm_reward": False},
                                          train={"episodes": 1}), "m")
     from adaptsky.training.stack_run import Member, StackRun
 
@@ -180,10 +180,11 @@ def test_a_seed_alone_is_the_seed_in_a_stack(tmp_path, changes):
 def test_kill_9_and_resume_give_the_uninterrupted_file(tmp_path):
     """MAPPO with each UAV's own reward part: killed after a checkpoint and resumed as two
     processes, every array the uninterrupted run's (evaluations off)."""
-    path = mappo_scenario(tmp_path, agent={"reward_split": "per-uav"})
+    # 30 episodes of 30 steps: the process still runs when a checkpoint is seen
+    path = mappo_scenario(tmp_path, agent={"reward_split": "per-uav"}, train={"episodes": 30})
     through, _ = api.train(scenario_path=path, out=tmp_path / "through.h5", seeds=[0, 1],
                            workers=1, quiet=True)
-    _assert_same_arrays(_arrays(_killed_and_resumed(tmp_path, path)), _arrays(through))
+    _assert_same_arrays(_arrays(_killed_and_resumed(tmp_path, path, 30)), _arrays(through))
 
 
 def test_eval_flies_the_greedy_policy_of_every_uav(tmp_path):

@@ -221,3 +221,31 @@ def test_heads_that_do_not_fit_the_actions_are_refused_in_one_line(agent, uav, s
     with pytest.raises(ScenarioError) as error:
         check_actions(scenario, "s.toml")
     assert says in str(error.value) and len(str(error.value).splitlines()) == 1
+
+
+def test_rewards_are_divided_by_the_running_deviation_of_the_return():
+    """One member, two rows, gamma 0.5: returns (1, 3), then (0.5 + 2, 1.5 + 0) = (2.5, 1.5);
+    the running statistics start at mean 0, variance 1, count 1e-4 and take each step's rows
+    by the parallel update (a plain scalar version here); a reward beyond 10 deviations is
+    clipped."""
+    from adaptsky.algos.ppo.reward_norm import RewardNormaliser
+
+    norm = RewardNormaliser(1, 2, gamma=0.5)
+    mean, var, count = 0.0, 1.0, 1e-4
+    for rewards, returns in (([1.0, 3.0], [1.0, 3.0]), ([2.0, 0.0], [2.5, 1.5])):
+        got = norm(np.array([rewards]))
+        batch_mean = sum(returns) / 2
+        batch_var = sum((g - batch_mean) ** 2 for g in returns) / 2
+        delta, total = batch_mean - mean, count + 2
+        mean = mean + delta * 2 / total
+        var = (var * count + batch_var * 2 + delta**2 * count * 2 / total) / total
+        count = total
+        assert got[0] == pytest.approx([r / (var + 1e-8) ** 0.5 for r in rewards], rel=1e-12)
+    state = norm.state(0)
+    other = RewardNormaliser(1, 2, gamma=0.5)
+    other.load(0, state)
+    assert (other.mean, other.var, other.count) == (norm.mean, norm.var, norm.count)
+    calm = RewardNormaliser(1, 2, gamma=0.5)   # 1000 steps of 0: variance about 1e-7
+    for _ in range(1000):
+        calm(np.zeros((1, 2)))
+    assert calm(np.array([[1.0, -1.0]])).tolist() == [[10.0, -10.0]]
