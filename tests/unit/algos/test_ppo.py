@@ -161,7 +161,11 @@ def test_a_seed_alone_is_the_seed_in_a_stack(tmp_path):
         assert np.isfinite(curves["loss"]).all()
 
 
-@pytest.mark.parametrize("head", ["dense", "branches", "gaussian"])
+# the default run resumes the Gaussian head (its float actions and log std); the two
+# discrete heads share its code path and run with -m slow
+@pytest.mark.parametrize("head", [pytest.param("dense", marks=pytest.mark.slow),
+                                  pytest.param("branches", marks=pytest.mark.slow),
+                                  "gaussian"])
 def test_kill_9_and_resume_give_the_uninterrupted_file(tmp_path, head):
     """Trained as one stack of two, killed after a checkpoint, resumed as two processes of
     one seed each: every array of the learning (curves, trajectories, checkpoints) is the
