@@ -7,12 +7,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from adaptsky.algos.ppo.parameters import (
-    HeadShape,
-    critic_shapes,
-    parameter_count,
-    policy_shapes,
-)
+from adaptsky.algos.ppo.parameters import HeadShape
 from adaptsky.algos.ppo.spec import PpoSpec
 from adaptsky.algos.protocol import Algorithm, Policy
 from adaptsky.arrays import Tree
@@ -21,8 +16,6 @@ from adaptsky.scenario.agents import MappoAgent
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.actions import DENSE_MODES, ActionSet
 from adaptsky.sim.observation import local_observation_size
-
-FLOAT32 = 4
 
 
 def _config(scenario: Scenario) -> MappoAgent:
@@ -81,29 +74,16 @@ class MappoSpec(PpoSpec):
                                  f"have {', '.join(map(str, clusters))}"])
         super().check_scenario(scenario, source)
 
-    def shapes(self, scenario: Scenario) -> tuple[dict[str, tuple[int, ...]],
-                                                  dict[str, tuple[int, ...]]]:
-        actor, critic = input_sizes(scenario)
-        hidden = _config(scenario).hidden_sizes
-        return (policy_shapes(actor, hidden, uav_head(scenario)[0]),
-                critic_shapes(critic, hidden))
+    def head(self, scenario: Scenario) -> HeadShape:
+        return uav_head(scenario)[0]
 
-    def memory_parts(self, scenario: Scenario, seeds: int, workers: int) -> dict[str, float]:
-        """PPO's parts over U rows per environment, each with the actor's and the critic's
-        inputs."""
-        agent = _config(scenario)
+    def inputs(self, scenario: Scenario) -> tuple[int, int | None]:
+        """L + U, and U L + U for MAPPO's critic (IPPO's reads the actor's rows)."""
         actor, critic = input_sizes(scenario)
-        policy, critic_params = self.shapes(scenario)
-        params = float(parameter_count(policy) + parameter_count(critic_params))
-        rows = scenario.train.steps * agent.envs_per_seed * scenario.uav.count
-        head = uav_head(scenario)[0].width
-        hidden = float(sum(agent.hidden_sizes))
-        return {
-            "rollout": 2 * seeds * rows * (actor + critic + 5 + head) * FLOAT32,
-            "networks and optimizer": 6 * seeds * params * FLOAT32,
-            "batch activations": seeds * (rows / agent.minibatches)
-            * 4 * (actor + critic + 2 * hidden + head) * FLOAT32,
-        }
+        return actor, critic if _config(scenario).algorithm == "mappo" else None
+
+    def rows_per_env(self, scenario: Scenario) -> int:
+        return scenario.uav.count
 
     def build(self, scenario: Scenario, seeds: list[int], rngs: list[Any],
               observation_size: int, num_actions: int, device: Any = "cpu",
@@ -111,12 +91,11 @@ class MappoSpec(PpoSpec):
         from adaptsky.algos.mappo.learner import MappoLearner  # torch
 
         head, per_uav = uav_head(scenario)
-        actor, critic = input_sizes(scenario)
-        centralised = _config(scenario).algorithm == "mappo"
+        actor, critic = self.inputs(scenario)
         train = scenario.train
         return MappoLearner(_config(scenario), head, scenario.uav.count, per_uav, actor,
-                            critic if centralised else None, seeds, rngs, train.steps,
-                            train.episodes, device)  # type: ignore[return-value]
+                            critic, seeds, rngs, train.steps, train.episodes,
+                            device)  # type: ignore[return-value]
 
     def greedy_policy(self, scenario: Scenario, policy: Tree) -> Policy:
         from adaptsky.algos.mappo.rows import actor_rows, joint_actions

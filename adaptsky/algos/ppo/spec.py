@@ -99,11 +99,24 @@ class PpoSpec:
     def envs_per_member(self, scenario: Scenario) -> int:
         return _config(scenario).envs_per_seed
 
+    def head(self, scenario: Scenario) -> HeadShape:
+        """The actor's head."""
+        return head_of(scenario)
+
+    def inputs(self, scenario: Scenario) -> tuple[int, int | None]:
+        """The actor's inputs and the critic's where they differ (None: the actor's)."""
+        return observation_size_of(scenario), None
+
+    def rows_per_env(self, scenario: Scenario) -> int:
+        """Rollout rows per environment (MAPPO: one per UAV)."""
+        return 1
+
     def shapes(self, scenario: Scenario) -> tuple[dict[str, tuple[int, ...]],
                                                   dict[str, tuple[int, ...]]]:
         """The policy's and the critic's parameters, torch-named and shaped."""
-        obs, hidden = observation_size_of(scenario), _config(scenario).hidden_sizes
-        return policy_shapes(obs, hidden, head_of(scenario)), critic_shapes(obs, hidden)
+        (actor, critic), hidden = self.inputs(scenario), _config(scenario).hidden_sizes
+        return (policy_shapes(actor, hidden, self.head(scenario)),
+                critic_shapes(critic or actor, hidden))
 
     # ---- the checkpoint -------------------------------------------------------------------
 
@@ -133,21 +146,21 @@ class PpoSpec:
     # ---- memory ---------------------------------------------------------------------------
 
     def memory_parts(self, scenario: Scenario, seeds: int, workers: int) -> dict[str, float]:
-        """The rollout (T S E observations and five numbers a step, twice: as collected and
+        """The rollout (T S E R rows of inputs and five numbers, twice: as collected and
         per member), networks and optimizer (parameters, gradients, two moments, a
         checkpoint's copy), and a minibatch's activations, forward and backward."""
         agent = _config(scenario)
-        obs, steps = observation_size_of(scenario), scenario.train.steps
-        policy, critic = self.shapes(scenario)
-        params = float(parameter_count(policy) + parameter_count(critic))
-        samples = steps * agent.envs_per_seed
-        head = head_of(scenario).width
+        actor, critic = self.inputs(scenario)
+        policy, critic_params = self.shapes(scenario)
+        params = float(parameter_count(policy) + parameter_count(critic_params))
+        samples = scenario.train.steps * agent.envs_per_seed * self.rows_per_env(scenario)
+        head = self.head(scenario).width
         hidden = float(sum(agent.hidden_sizes))
         return {
-            "rollout": 2 * seeds * samples * (obs + 5 + head) * FLOAT32,
+            "rollout": 2 * seeds * samples * (actor + (critic or 0) + 5 + head) * FLOAT32,
             "networks and optimizer": 6 * seeds * params * FLOAT32,
             "batch activations": seeds * (samples / agent.minibatches)
-            * 4 * (2 * obs + 2 * hidden + head) * FLOAT32,
+            * 4 * (actor + (critic or actor) + 2 * hidden + head) * FLOAT32,
         }
 
     # ---- builders (torch) -----------------------------------------------------------------
