@@ -103,7 +103,7 @@ class MappoSpec(PpoSpec):
         from adaptsky.algos.ppo.stacked import StackedActorCritic
 
         agent, (head, per_uav) = _config(scenario), uav_head(scenario)
-        actor, critic = input_sizes(scenario)
+        actor, critic = self.inputs(scenario)
         num_uavs = scenario.uav.count
         net = StackedActorCritic(actor, agent.hidden_sizes, head, [0], agent.activation,
                                  critic_size=critic)

@@ -273,7 +273,7 @@ class PpoLearner:
         clip = config.clip_coef
         policy_loss = mean(torch.max(-advantage * ratio,
                                      -advantage * ratio.clamp(1 - clip, 1 + clip)))
-        value = net.critic(take(obs) if critic_obs is obs else take(critic_obs))
+        value = net.critic(take(critic_obs))
         target = take(ret)
         if config.clip_vloss:
             before = take(old_values)
