@@ -21,7 +21,9 @@ Needs the dev extra (``stable-baselines3``, ``scipy``).
 
 PPO (``--algo ppo``, default 240,000 steps per seed): the scenario's own action kind (the
 paper's dense set on ``nyc_mmwave.toml``), E = 8 environments per seed; ``PPO`` below maps
-one to one onto SB3's arguments.
+one to one onto SB3's arguments, and ``norm_reward`` onto SB3's ``VecNormalize(norm_obs=False,
+norm_reward=True, clip_reward=10, gamma=gamma)`` (both divide each reward by a running
+standard deviation of the discounted return, as CleanRL's continuous PPO does).
 
 SAC (``--algo sac``, default 100,000 steps per seed, as many as the replay memory holds):
 continuous controls (``uav.actions = "continuous"``: the env's ``Box([-1, 1]^D)``), one
@@ -74,7 +76,7 @@ ADAPTSKY = str(Path(sys.executable).with_name("adaptsky"))
 PPO = {"algorithm": "ppo", "hidden_sizes": [64, 64], "activation": "tanh", "envs_per_seed": 8,
        "lr": 3e-4, "anneal_lr": True, "gamma": 0.99, "gae_lambda": 0.95, "epochs": 4,
        "minibatches": 4, "clip_coef": 0.2, "clip_vloss": True, "ent_coef": 0.01,
-       "vf_coef": 0.5, "max_grad_norm": 0.5, "norm_adv": True}
+       "vf_coef": 0.5, "max_grad_norm": 0.5, "norm_adv": True, "norm_reward": True}
 # the SAC settings both sides train with (CleanRL's, docs/agent.md#sac), on continuous controls
 SAC = {"algorithm": "sac", "hidden_sizes": [256, 256], "q_lr": 1e-3, "policy_lr": 3e-4,
        "gamma": 0.99, "tau": 0.005, "batch_size": 256, "memory_size": 100_000,
@@ -161,6 +163,7 @@ from adaptsky.envs.registration import ENV_ID, register_envs
 from adaptsky.scenario import load_scenario
 from stable_baselines3 import PPO, SAC
 from stable_baselines3.common.env_util import make_vec_env
+from stable_baselines3.common.vec_env import VecNormalize
 from stable_baselines3.common.utils import update_learning_rate
 register_envs()
 path, seeds, out = Path(sys.argv[1]), int(sys.argv[2]), Path(sys.argv[3])
@@ -207,6 +210,9 @@ def model_of(seed, env):
 models, start = [], time.monotonic()
 for seed in range(seeds):
     env = make_vec_env(ENV_ID, n_envs=envs, seed=seed, env_kwargs={"scenario": scenario})
+    if getattr(agent, "norm_reward", False):  # ours: reward / running std of the return
+        env = VecNormalize(env, norm_obs=False, norm_reward=True, clip_reward=10.0,
+                           gamma=agent.gamma)
     model = model_of(seed, env)
     model.learn(total_timesteps=total)
     models.append(model)

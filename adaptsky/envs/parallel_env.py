@@ -74,7 +74,7 @@ class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
             raise ValueError(f"reward_split must be 'team', 'per-uav' or 'difference' (None: "
                              f"the scenario's agent.reward_split), got {reward_split!r}")
         scenario = resolve_scenario(scenario)
-        # the scenario's agent's split where it has one (the BDQ), else one reward for all
+        # the scenario's agent's split where it has one (BDQ, MAPPO, IPPO), else one reward for all
         self.reward_split: str = (getattr(scenario.agent, "reward_split", "team")
                                   if reward_split is None else reward_split)
         self.env = NomaUavEnv(scenario, users_m=users_m, render_mode=render_mode,

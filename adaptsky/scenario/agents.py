@@ -69,17 +69,27 @@ class DqnAgent(Section):
     @classmethod
     def _apply_preset(cls, data: Any) -> Any:
         """A preset's values under the keys given explicitly."""
-        if not isinstance(data, dict):
-            return data
-        from adaptsky.scenario.presets import preset_values
-
-        name = data.get("preset", "paper")
-        return {**preset_values(name), **data} if isinstance(name, str) else data
+        return with_preset(cls, data, "dqn")
 
     @model_validator(mode="after")
     def _memory_holds_a_batch(self) -> DqnAgent:
         _check_memory_holds_a_batch(self.memory_size, self.batch_size)
         return self
+
+
+def with_preset(model: type[Section], data: Any, family: str) -> Any:
+    """``data`` (an ``[agent]`` table) with the values of its ``preset`` (or the family's
+    default preset) under the keys it gives, for the keys ``model`` has."""
+    if not isinstance(data, dict):
+        return data
+    from adaptsky.scenario.presets import DEFAULT_PRESET, preset_values
+
+    name = data.get("preset", DEFAULT_PRESET[family])
+    if not isinstance(name, str):
+        return data
+    values = {key: value for key, value in preset_values(name, family).items()
+              if key in model.model_fields}
+    return {**values, **data}
 
 
 def _check_memory_holds_a_batch(memory_size: int, batch_size: int) -> None:
@@ -130,18 +140,9 @@ class BdqAgent(Section):
     @model_validator(mode="before")
     @classmethod
     def _apply_preset(cls, data: Any) -> Any:
-        """A preset's values for the BDQ's keys (its target is always the double one) under
-        the keys given explicitly."""
-        if not isinstance(data, dict):
-            return data
-        from adaptsky.scenario.presets import preset_values
-
-        name = data.get("preset", "paper")
-        if not isinstance(name, str):
-            return data
-        values = {key: value for key, value in preset_values(name).items()
-                  if key in cls.model_fields}
-        return {**values, **data}
+        """A DQN preset's values for the BDQ's keys (its target is always the double one)
+        under the keys given explicitly."""
+        return with_preset(cls, data, "dqn")
 
     @model_validator(mode="after")
     def _memory_holds_a_batch(self) -> BdqAgent:
@@ -156,7 +157,10 @@ class PpoAgent(Section):
     a linearly annealed learning rate; it collects a rollout of T steps (one episode) from
     ``envs_per_seed`` copies of the layout per seed, then updates."""
 
+    preset_family: ClassVar[str] = "ppo"
     algorithm: Literal["ppo"] = Field(description="the learning algorithm: 'ppo'")
+    preset: str = Field("cleanrl", description="named recipe for the keys not given "
+                        "(docs/agent.md): 'cleanrl' (the defaults) or 'tuned'")
     hidden_sizes: list[LayerSize] = Field([64, 64], min_length=1, max_length=100,
                                           description="hidden layers of actor and critic")
     activation: Literal["tanh", "relu"] = Field("tanh", description="hidden activation")
@@ -190,6 +194,13 @@ class PpoAgent(Section):
     user_order: Literal["listed", "clusters"] = _as_dqn("user_order")
     reward_scale: float = _as_dqn("reward_scale")
 
+    @model_validator(mode="before")
+    @classmethod
+    def _apply_preset(cls, data: Any) -> Any:
+        """A preset's values (of PPO's, or MAPPO's for MAPPO and IPPO) under the keys given
+        explicitly."""
+        return with_preset(cls, data, cls.preset_family)
+
 
 class SacAgent(Section):
     """Soft actor-critic (Haarnoja et al. 2018) with CleanRL's details (docs/agent.md): twin Q
@@ -198,6 +209,8 @@ class SacAgent(Section):
     uniformly at random for ``learning_starts`` steps, then stores every step and updates."""
 
     algorithm: Literal["sac"] = Field(description="the learning algorithm: 'sac'")
+    preset: str = Field("cleanrl", description="named recipe for the keys not given "
+                        "(docs/agent.md): 'cleanrl' (the defaults) or 'tuned'")
     hidden_sizes: list[LayerSize] = Field([256, 256], min_length=1, max_length=100,
                                           description="hidden ReLU layers of the actor and "
                                           "of each Q network")
@@ -226,6 +239,12 @@ class SacAgent(Section):
     user_order: Literal["listed", "clusters"] = _as_dqn("user_order")
     reward_scale: float = _as_dqn("reward_scale")
 
+    @model_validator(mode="before")
+    @classmethod
+    def _apply_preset(cls, data: Any) -> Any:
+        """A preset's values under the keys given explicitly."""
+        return with_preset(cls, data, "sac")
+
 
 class MappoAgent(PpoAgent):
     """MAPPO and IPPO (Yu et al. 2022) for several UAVs (docs/agent.md): PPO's details and
@@ -236,6 +255,7 @@ class MappoAgent(PpoAgent):
     one per component, 'gaussian' its continuous controls."""
 
     local_view: ClassVar[bool] = True  # the environment gives every UAV's local observation
+    preset_family: ClassVar[str] = "mappo"
     algorithm: Literal["mappo", "ippo"] = Field(description="the learning algorithm: 'mappo' "
                                                 "(centralised critic) or 'ippo' (local critic)")
     reward_split: Literal["team", "per-uav", "difference"] = Field(

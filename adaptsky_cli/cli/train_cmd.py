@@ -37,7 +37,7 @@ def train(
     device: Device = "cpu",
     quiet: Annotated[bool, typer.Option("--quiet", help="print only the final table")] = False,
 ) -> None:
-    """Train the scenario's agent (agent.algorithm: the dueling DQN or the BDQ).
+    """Train the scenario's agent (agent.algorithm: dqn, bdq, ppo, sac, mappo or ippo).
 
     On a CPU one process per core, its seeds as one stack; on a GPU every seed in one stack."""
     from adaptsky.report.summary import summarize, summary_table

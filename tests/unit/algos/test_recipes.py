@@ -109,6 +109,36 @@ def test_scenario_show_prints_what_a_preset_resolves_to(tmp_path, capsys):
     assert "lr_end = 5e-5" in out and 'user_order = "clusters"' in out
 
 
+@pytest.mark.parametrize("algorithm, family", [("ppo", "ppo"), ("sac", "sac"),
+                                                ("mappo", "mappo"), ("ippo", "mappo")])
+def test_learners_presets_cleanrl_is_every_default_and_tuned_fills_the_rest(algorithm, family):
+    from adaptsky.scenario.presets import PRESETS
+
+    agents = {preset: make_scenario(agent={"algorithm": algorithm, "preset": preset}).agent
+              for preset in ("cleanrl", "tuned")}
+    plain = make_scenario(agent={"algorithm": algorithm}).agent
+    assert plain.preset == "cleanrl" and agents["cleanrl"] == plain
+    tuned = agents["tuned"].model_dump()
+    recipe = PRESETS[family]["tuned"]
+    assert recipe, f"{family}'s tuned preset sets no key"
+    expected = {**plain.model_dump(), **recipe, "preset": "tuned"}
+    assert tuned == expected
+    # a key given in the file wins over the recipe, and the resolved table reads back
+    key = next(iter(recipe))
+    mine = make_scenario(agent={"algorithm": algorithm, "preset": "tuned",
+                                key: getattr(plain, key)}).agent
+    assert getattr(mine, key) == getattr(plain, key)
+    assert make_scenario(agent=mine.model_dump(mode="json")).agent == mine
+
+
+def test_a_learners_unknown_preset_names_its_own_presets(tmp_path, capsys):
+    path = tmp_path / "bad.toml"
+    path.write_text('name = "x"\n[agent]\nalgorithm = "ppo"\npreset = "paper"\n')
+    assert main(["scenario", "validate", str(path)]) == 1
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert lines == [f"{path}: agent: unknown preset 'paper'; choose from cleanrl, tuned"]
+
+
 # ---- reward scale --------------------------------------------------------------------------
 
 def test_rewards_are_scaled_before_they_are_stored_but_not_in_the_curves():

@@ -11,8 +11,9 @@ from tests.conftest import ROOT
 
 # runs per shipped experiment: E1a and E1b 10, E2 6 x 8 thresholds, E3 6 + 6 + 6
 # (docs/model.md §5); ours: E4 6 per number of UAVs, 1 to 4; E5 6 x 5 weights; E6 6 x 5
-# SIC residuals; bdq 6 + 6 + 6
-RUNS = {"e1a": 10, "e1b": 10, "e2": 48, "e3": 18, "e4": 24, "e5": 30, "e6": 78, "e7": 24, "bdq": 18}
+# SIC residuals; bdq 6 + 6 + 6; ppo 6 + 6, sac 6, mappo 6 + 6
+RUNS = {"e1a": 10, "e1b": 10, "e2": 48, "e3": 18, "e4": 24, "e5": 30, "e6": 78, "e7": 24, "bdq": 18,
+        "ppo": 12, "sac": 6, "mappo": 12}
 
 
 def test_every_shipped_experiment_validates_and_plans(tmp_path):
