@@ -7,7 +7,8 @@ of the lattice oracle), with the interquartile mean and its 95% bootstrap interv
 seeds.
 
     .venv/bin/python benchmarks/vs_sb3.py [--algo ppo|sac] [--seeds 5] [--env-steps N]
-        [--learning-starts N] [--scenario scenarios/nyc_mmwave.toml] [--out DIR]
+        [--learning-starts N] [--preset cleanrl|tuned] [--scenario scenarios/nyc_mmwave.toml]
+        [--out DIR]
 
 Ours trains every seed as one stack (``adaptsky train --workers 1``, the code of the tree this
 script is in); SB3 trains them one after another in one process, each on a ``DummyVecEnv`` of
@@ -93,15 +94,16 @@ def envs_per_seed(algo: str) -> int:
 
 
 def scenario_file(base: Path, out: Path, algo: str, episodes: int, seeds: int,
-                  learning_starts: int | None = None) -> Path:
-    """The benchmark's scenario: ``base`` with the algorithm's settings (SAC: on continuous
-    controls, ``learning_starts`` where given), ``episodes`` episodes, no greedy evaluations
-    during training."""
+                  learning_starts: int | None = None, preset: str = "cleanrl") -> Path:
+    """The benchmark's scenario: ``base`` with the algorithm's settings and those of our
+    ``preset`` over them (SAC: on continuous controls, ``learning_starts`` where given),
+    ``episodes`` episodes, no greedy evaluations during training."""
     from adaptsky.scenario import load_scenario
+    from adaptsky.scenario.presets import preset_values
     from adaptsky.scenario.toml_writer import dumps
 
     data = load_scenario(base).model_dump(mode="json")
-    data["agent"] = dict(AGENTS[algo])
+    data["agent"] = {**AGENTS[algo], **preset_values(preset, algo), "preset": preset}
     if algo == "sac":
         data["uav"]["actions"] = "continuous"
         if learning_starts is not None:
@@ -268,6 +270,9 @@ def main() -> int:
     parser.add_argument("--learning-starts", type=int, default=None,
                         help=f"SAC only: steps of uniform actions before the first update "
                         f"(default {SAC['learning_starts']}; lower for a short smoke run)")
+    parser.add_argument("--preset", default="cleanrl", choices=("cleanrl", "tuned"),
+                        help="our preset's values over the settings below, on both sides "
+                        "(docs/agent.md; SAC's tuned: 64-64 networks)")
     parser.add_argument("--scenario", type=Path, default=ROOT / "scenarios" / "nyc_mmwave.toml")
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args()
@@ -283,14 +288,15 @@ def main() -> int:
     env_steps = ENV_STEPS[args.algo] if args.env_steps is None else args.env_steps
     episodes = max(1, round(env_steps / (steps * envs)))
     path = scenario_file(args.scenario, out, args.algo, episodes, args.seeds,
-                         args.learning_starts)
+                         args.learning_starts, args.preset)
     agent = load_scenario(path).agent
     per_seed = episodes * steps * envs
     shape = (f"{episodes} rollouts of {steps} steps x {envs} envs" if args.algo == "ppo" else
              f"{episodes} episodes of {steps} steps, 1 env, continuous controls, "
              f"learning_starts {agent.learning_starts}")
     print(f"{args.algo.upper()}: {args.seeds} seeds x {per_seed:,} environment steps "
-          f"({shape}) on {args.scenario.name}; load {os.getloadavg()[0]:.1f}; files in {out}")
+          f"({shape}) on {args.scenario.name}, preset {args.preset} (hidden "
+          f"{agent.hidden_sizes}); load {os.getloadavg()[0]:.1f}; files in {out}")
     our_wall, our_scores = ours(path, out)
     their_wall, their_scores = sb3(path, args.seeds)
     total = per_seed * args.seeds

@@ -498,11 +498,12 @@ class Train(Section):
                                   description="episodes between checkpoints")
     trajectory_every: int = Field(0, ge=0, le=MAX_COUNT, description="also store every k-th "
                                   "episode's trajectory; 0 keeps only the last")
-    exploring_starts: Literal["none", "shares"] = Field(
+    exploring_starts: Literal["none", "shares", "positions", "both"] = Field(
         "none", description="'shares': every training episode starts each cluster's "
-        "first-user share at a uniform point of its lattice instead of uav.start_alpha "
-        "(exploring starts, docs/training.md); greedy evaluations always start at "
-        "start_alpha")
+        "first-user share at a uniform point of its lattice instead of uav.start_alpha; "
+        "'positions': every UAV at a uniform point of its position lattice instead of its "
+        "start (UAVs at least uav.min_separation_m apart); 'both': both (exploring starts, "
+        "docs/training.md); greedy evaluations always start at the start")
     eval_every: int = Field(10, ge=0, le=MAX_COUNT, description="episodes between greedy "
                             "evaluations (docs/training.md); 0: none")
     eval_steps: int = Field(1000, ge=1, le=100_000, description="steps of a greedy "
@@ -677,6 +678,10 @@ class Scenario(Section):
             raise ValueError(f"world.buildings = '{world.buildings}' needs channel.los = "
                              f"'geometric' (with los = '{los}' the buildings would block "
                              "nothing)")
+        if world.buildings != "none" and self.train.exploring_starts in ("positions", "both"):
+            raise ValueError(f"train.exploring_starts = '{self.train.exploring_starts}' draws "
+                             "start positions without regard to buildings: with "
+                             f"world.buildings = '{world.buildings}' use 'none' or 'shares'")
         half_m = self.area.side_m / 2
         for i, building in enumerate(world.building):
             x_lo, x_hi, y_lo, y_hi, height_m = building.box_m

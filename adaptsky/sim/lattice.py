@@ -9,8 +9,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from adaptsky.scenario.models import Scenario
+from adaptsky.sim.separation import horizontal_distances_m
 
 FloatArray = NDArray[np.float64]
+MAX_DRAWS = 10_000  # draws of one UAV's start before the separation is declared unreachable
 
 
 def axis_lattice(start: float, step: float, low: float, high: float) -> FloatArray:
@@ -34,3 +36,35 @@ def exploring_shares(scenario: Scenario, rngs: Sequence[np.random.Generator],
     uniformly from :func:`share_lattice` by ``rngs[b]``; (len(rngs), *shape)."""
     shares = share_lattice(scenario)
     return np.stack([shares[rng.integers(len(shares), size=shape)] for rng in rngs])
+
+
+def position_lattices(scenario: Scenario) -> list[tuple[FloatArray, FloatArray, FloatArray]]:
+    """Each UAV's reachable x, y and h values (m): its start plus whole ``uav.step_m``s,
+    |x|, |y| <= L/2 and h in [min_height_m, max_height_m] (the oracle's lattice)."""
+    uav, half_m = scenario.uav, scenario.area.side_m / 2
+    return [(axis_lattice(x, uav.step_m[0], -half_m, half_m),
+             axis_lattice(y, uav.step_m[1], -half_m, half_m),
+             axis_lattice(h, uav.step_m[2], uav.min_height_m, uav.max_height_m))
+            for x, y, h in scenario.uav_start_positions_m]
+
+
+def exploring_positions(scenario: Scenario, rngs: Sequence[np.random.Generator]) -> FloatArray:
+    """UAV positions to start a training episode from (``train.exploring_starts =
+    "positions"``): for environment b, each UAV in turn at a uniform point of its
+    :func:`position_lattices` drawn by ``rngs[b]`` (x, then y, then h), drawn again while it
+    is closer than ``uav.min_separation_m`` horizontally to a UAV placed before it;
+    (len(rngs), U, 3) m."""
+    lattices = position_lattices(scenario)
+    separation_m = scenario.uav.min_separation_m
+    starts = np.empty((len(rngs), len(lattices), 3))
+    for b, rng in enumerate(rngs):
+        for u, axes in enumerate(lattices):
+            for _ in range(MAX_DRAWS):
+                starts[b, u] = [axis[rng.integers(len(axis))] for axis in axes]
+                apart_m = horizontal_distances_m(starts[b:b + 1, :u + 1])[0, u, :u]
+                if (apart_m >= separation_m).all():
+                    break
+            else:
+                raise ValueError(f"exploring starts: no start for UAV {u} at least "
+                                 f"{separation_m:g} m from the others in {MAX_DRAWS} draws")
+    return starts

@@ -440,21 +440,23 @@ class NetworkBatch:
             values = values[:, None]
         return np.broadcast_to(values, (self.num_envs, self.num_uavs, width))
 
-    def _to_start(self, alpha_first: FloatArray | None = None) -> None:
-        """Step 0: every UAV at its start, every first user's share at ``start_alpha`` (or
-        ``alpha_first``), users at home."""
+    def _to_start(self, alpha_first: FloatArray | None = None,
+                  uav_m: FloatArray | None = None) -> None:
+        """Step 0: every UAV at its start (or ``uav_m``, (B, U, 3)), every first user's share
+        at ``start_alpha`` (or ``alpha_first``), users at home."""
         alpha = (np.full((self.num_envs, self.num_uavs, self.num_clusters),
                          self.scenario.uav.start_alpha) if alpha_first is None
                  else self._per_uav(alpha_first, self.num_clusters))
-        starts = np.broadcast_to(self.start_m, (self.num_envs, *self.start_m.shape))
+        starts = np.broadcast_to(self.start_m if uav_m is None else uav_m,
+                                 (self.num_envs, *self.start_m.shape))
         self.sim_state = SimState.of(starts, alpha, self.layouts_m)
 
-    def reset(self, seed: Seed = None, alpha_first: FloatArray | None = None
-              ) -> tuple[NDArray[np.float32], NetworkState]:
-        """Start an episode: every UAV at its start position (``uav.start_m`` for one),
-        every first user's share at ``start_alpha`` (docs/model.md §3), or ``alpha_first``
-        where given (exploring starts, docs/training.md); a ``seed`` re-seeds the
-        generators of LoS draws, fading and user moves."""
+    def reset(self, seed: Seed = None, alpha_first: FloatArray | None = None,
+              uav_m: FloatArray | None = None) -> tuple[NDArray[np.float32], NetworkState]:
+        """Start an episode: every UAV at its start position (``uav.start_m`` for one), or at
+        ``uav_m`` (B, U, 3) where given, every first user's share at ``start_alpha`` (docs/
+        model.md §3), or ``alpha_first`` where given (exploring starts, docs/training.md); a
+        ``seed`` re-seeds the generators of LoS draws, fading and user moves."""
         if seed is not None:
             self._seed(seed)
         if self._small_scale is not None:
@@ -463,7 +465,7 @@ class NetworkBatch:
             self._mobility.reset(self._generators)
         if self._reassociate_steps is not None:
             self._pair(self.layouts_m)               # the start's association again
-        self._to_start(alpha_first)
+        self._to_start(alpha_first, uav_m)
         self.state = self._evaluate(self.sim_state)
         return self._obs, self.state
 

@@ -33,7 +33,7 @@ from adaptsky.rollouts.metrics import service_metrics
 from adaptsky.scenario.agents import BdqAgent, MappoAgent
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.energy import episode_energy
-from adaptsky.sim.lattice import exploring_shares
+from adaptsky.sim.lattice import exploring_positions, exploring_shares
 from adaptsky.sim.layout import episode_layouts
 from adaptsky.sim.network import NetworkBatch
 from adaptsky.sim.noma import jain_fairness
@@ -153,7 +153,7 @@ class StackRun:
                 self.scenario, self._seeds, self.episodes_done), self.envs, axis=0))
         # a NaN or infinity is reported once, by _check_finite, not as numpy warnings
         with np.errstate(all="ignore"):
-            obs, _ = self.env.reset(alpha_first=self._start_shares())
+            obs, _ = self.env.reset(**self._exploring_starts())
             for tau in range(steps):
                 actions = algorithm.act(obs, start + tau)
                 next_obs, reward, _, state = self.env.step(actions)
@@ -184,16 +184,25 @@ class StackRun:
                              evaluations[index])
                 for index in range(len(self.members))]
 
-    def _start_shares(self) -> np.ndarray | None:
-        """The first users' shares a training episode starts from: None (``start_alpha``), or
-        with ``train.exploring_starts = "shares"`` each member's drawn by its environment's
-        generator, so that a seed draws the same alone, in a stack and resumed."""
-        if self.scenario.train.exploring_starts == "none":
-            return None
+    def _exploring_starts(self) -> dict[str, np.ndarray]:
+        """Where a training episode starts, as ``reset``'s keywords: nothing (every UAV at
+        its start, every share at ``start_alpha``), or with ``train.exploring_starts`` each
+        member's first users' shares (``"shares"``), UAV positions (``"positions"``) or both
+        (shares drawn first), drawn by its environments' generators, so that a seed draws the
+        same alone, in a stack and resumed."""
+        kind = self.scenario.train.exploring_starts
+        if kind == "none":
+            return {}
         env = self.env
         assert env.rngs is not None  # seeded with one sequence per member
-        # one member's shares: (K,) for one UAV, (U, K) for several
-        return exploring_shares(self.scenario, env.rngs, env.alpha_first.shape[1:])
+        starts: dict[str, np.ndarray] = {}
+        if kind in ("shares", "both"):
+            # one member's shares: (K,) for one UAV, (U, K) for several
+            starts["alpha_first"] = exploring_shares(self.scenario, env.rngs,
+                                                     env.alpha_first.shape[1:])
+        if kind in ("positions", "both"):
+            starts["uav_m"] = exploring_positions(self.scenario, env.rngs)
+        return starts
 
     def _evaluate(self) -> list[dict[str, float] | None]:
         """A greedy evaluation of every member when one is due (``train.eval_every``), and

@@ -44,6 +44,28 @@ def test_exploring_starts_of_one_uav_draw_per_seed_alone_or_in_a_stack():
     assert_same_checkpoints(stack.checkpoint(1), alone.checkpoint(0))
 
 
+@pytest.mark.parametrize("kind", ["positions", "both"])
+def test_exploring_positions_draw_per_seed_alone_or_in_a_stack(kind):
+    base = stack_scenario(train={"exploring_starts": kind})
+    stack = StackRun([Member(base, seed) for seed in (11, 12)])
+    alone = StackRun([Member(base, 12)])
+    starts = []
+    for together, single in zip(episodes(stack, 2), episodes(alone, 2), strict=True):
+        assert_same_results(together[1], single[0])
+        uav_m = together[1].trajectory["uav_m"]
+        starts.append(uav_m[0])
+        # after one step of 1 m per axis from a point of the lattice (whole metres from the
+        # start (0, 0, 50), |x|, |y| <= 50, h in [10, 200])
+        assert np.allclose(uav_m[0], np.round(uav_m[0]), atol=1e-9)
+        assert (np.abs(uav_m[0][:2]) <= 50).all() and 10 <= uav_m[0][2] <= 200
+        first = together[1].trajectory["alpha"][0]
+        assert np.isin(np.round(first, 9), [0.49, 0.5, 0.51]).all() == (kind == "positions")
+    # far from the start (0, 0, 50) that one step leaves within 1 m per axis, and moving
+    assert all(np.abs(start - [0, 0, 50]).max() > 1 for start in starts)
+    assert not np.array_equal(starts[0], starts[1])
+    assert_same_checkpoints(stack.checkpoint(1), alone.checkpoint(0))
+
+
 def test_members_may_differ_in_their_reward():
     weights = [{"min_se": 0.0, "w_rate": 1.0}, {"min_se": 2.0, "w_satisfied": 100.0,
                                                  "w_unsatisfied": 10.0}]
