@@ -5,8 +5,13 @@ are checked equal), and prints one markdown row per policy kind (last, best) and
 mean sum rate's share of the per-layout oracle, the layouts where it beats SoA, its median and
 mean gain over SoA, each as mean ± population standard deviation over the seeds (n).
 
-    .venv/bin/python scripts/e3_compare.py LABEL:last:FILE.csv [LABEL:best:FILE.csv ...]
-        [--e3 docs/results/e3/e3.csv] [--group adaptsky]
+    .venv/bin/python scripts/e3_compare.py [LABEL:last:FILE.csv ...]
+        [--experiment LABEL:GROUP:EXPERIMENT.csv ...] [--e3 docs/results/e3/e3.csv]
+        [--group adaptsky]
+
+``--experiment`` reads a group's every policy and seed from a ``reproduce`` CSV of E3's
+layouts (a layout-gains experiment with ``layouts = 100``, ``layout_seed = 0``, such as
+``experiments/ppo.toml``), in E3's own CSV format.
 """
 
 from __future__ import annotations
@@ -53,7 +58,9 @@ def measures(policy: np.ndarray, soa: np.ndarray, oracle: np.ndarray) -> list[fl
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("evals", nargs="+", help="LABEL:POLICY:FILE.csv")
+    parser.add_argument("evals", nargs="*", help="LABEL:POLICY:FILE.csv")
+    parser.add_argument("--experiment", action="append", default=[],
+                        help="LABEL:GROUP:EXPERIMENT.csv (repeatable)")
     parser.add_argument("--e3", default="docs/results/e3/e3.csv")
     parser.add_argument("--group", default="adaptsky")
     args = parser.parse_args()
@@ -69,6 +76,15 @@ def main() -> None:
             raise SystemExit(f"{path}: SoA's rates differ from E3's: not E3's layouts "
                              "(--layouts 100 --layout-seed 0 --steps 1000)")
         table[(label, policy)].append(measures(rates, soa, oracle))
+    for item in args.experiment:
+        label, group, path = item.split(":", 2)
+        rows, their_soa, _ = e3_rows(path, group)
+        if not rows:
+            raise SystemExit(f"{path}: no rows of group '{group}'")
+        if not np.array_equal(their_soa, soa):
+            raise SystemExit(f"{path}: SoA's rates differ from E3's: not E3's layouts")
+        for (policy, _seed), rates in sorted(rows.items()):
+            table[(label, policy)].append(measures(rates, soa, oracle))
     print("| learner | policy | n | % of the oracle | layouts beating SoA | median gain over "
           "SoA | mean gain over SoA |")
     print("|---|---|---|---|---|---|---|")

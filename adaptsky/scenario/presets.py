@@ -30,7 +30,8 @@ PRESETS: dict[str, dict[str, dict[str, Any]]] = {
     },
     "sac": {
         "cleanrl": {},
-        "tuned": {"hidden_sizes": [64, 64]},
+        # rewards of about 220 a step left the critic behind: 78-82% of the oracle
+        "tuned": {"hidden_sizes": [64, 64], "reward_scale": 0.01},
     },
     "mappo": {  # MAPPO and IPPO
         "cleanrl": {},
