@@ -38,6 +38,9 @@ defaults (CleanRL's, docs/agent.md#sac); on SB3's side:
   ``target_update_interval``; ``autotune`` -> ``ent_coef="auto"`` (alpha from 1, as ours) and
   ``target_entropy="auto"`` (-D, as ours). Both act uniformly in the box before
   ``learning_starts`` and bootstrap at the time limit (a truncation).
+- ``reward_scale`` (the tuned preset's 0.01; PPO's too where set) -> each SB3 environment
+  wrapped in Gymnasium's ``TransformReward`` multiplying every reward by it, as ours scales
+  the rewards it learns from; the objective is measured unscaled on both sides.
 - ``q_lr`` and ``policy_lr``: SAC takes one ``learning_rate`` (a schedule of the progress),
   which ``train`` sets on the actor's, the critics' and the temperature's optimisers alike
   before every update; no ``policy_kwargs`` or optimiser argument splits them. SB3's side is
@@ -211,7 +214,11 @@ def model_of(seed, env):
 
 models, start = [], time.monotonic()
 for seed in range(seeds):
-    env = make_vec_env(ENV_ID, n_envs=envs, seed=seed, env_kwargs={"scenario": scenario})
+    scaled = {} if agent.reward_scale == 1 else {  # ours: rewards x reward_scale, stored
+        "wrapper_class": gymnasium.wrappers.TransformReward,
+        "wrapper_kwargs": {"func": lambda reward: reward * agent.reward_scale}}
+    env = make_vec_env(ENV_ID, n_envs=envs, seed=seed, env_kwargs={"scenario": scenario},
+                       **scaled)
     if getattr(agent, "norm_reward", False):  # ours: reward / running std of the return
         env = VecNormalize(env, norm_obs=False, norm_reward=True, clip_reward=10.0,
                            gamma=agent.gamma)
