@@ -30,9 +30,10 @@ from adaptsky.store.atomic import (
 from adaptsky.store.lock import run_lock
 from adaptsky.store.run_file import RunReader
 from adaptsky.training.evaluation import EvaluationSet, evaluation_set, reference_name
+from adaptsky.training.logs import TrainingLogs, check_kinds, kinds_found
 from adaptsky.training.progress import TrainingProgress
 from adaptsky.training.resources import check_fits
-from adaptsky.training.runner import RunOutcome, SeedTask, run_tasks
+from adaptsky.training.runner import RunOutcome, SeedTask, Watch, run_tasks
 
 if TYPE_CHECKING:  # imported where training starts: commands start without torch
     import torch
@@ -124,7 +125,8 @@ def train(*, scenario: Scenario | str | os.PathLike[str] | None = None,
           seeds: list[int] | None = None, episodes: int | None = None,
           steps: int | None = None, workers: int | None = None,
           checkpoint_every: int | None = None, set_values: list[str] | None = None,
-          device: str = "cpu", quiet: bool = False, progress: Reporter | None = None
+          device: str = "cpu", quiet: bool = False, progress: Reporter | None = None,
+          logs: list[str] | tuple[str, ...] = (), watch: Watch | None = None
           ) -> tuple[Path, RunOutcome]:
     """Train every seed of the scenario into a new run file; returns its path.
 
@@ -134,10 +136,14 @@ def train(*, scenario: Scenario | str | os.PathLike[str] | None = None,
     both train the same numbers. ``set_values`` are ``section.key=value`` overrides, applied
     before the options below and recorded in the run file. ``device``: cpu, cuda or auto
     (cuda when available). ``progress`` hears of the training (default: timestamped lines on
-    standard error, only warnings and interrupts with ``quiet``).
+    standard error, only warnings and interrupts with ``quiet``). ``logs``: the kinds of
+    scalar log to write beside the run file (``"tensorboard"``, ``"csv"``;
+    :mod:`adaptsky.training.logs`). ``watch`` hears every episode and may end the training
+    early (:data:`adaptsky.training.runner.Watch`; the outcome is then ``interrupted``).
     """
     if (scenario is None) == (scenario_path is None):
         raise TypeError("train() takes one of scenario= and scenario_path=")
+    log_kinds = check_kinds(logs)
     progress = progress or LogLines(quiet=quiet)
     started_utc, start_s = utc_timestamp(), time.monotonic()
     torch_device = training_device(device)
@@ -153,7 +159,7 @@ def train(*, scenario: Scenario | str | os.PathLike[str] | None = None,
         t = scenario.train
         tasks = [SeedTask(scenario, seed, t.episodes, t.checkpoint_every, t.trajectory_every,
                           evaluation=evaluation) for seed in t.seeds]
-        outcome = _run(path, tasks, workers, torch_device, progress)
+        outcome = _run(path, tasks, workers, torch_device, progress, log_kinds, watch)
         _record_session(path, "train", started_utc, start_s, dict.fromkeys(t.seeds, 0),
                         progress)
         return path, outcome
@@ -174,11 +180,14 @@ def read_progress(run_path: Path) -> tuple[Scenario, dict[int, Tree | None],
 
 
 def resume(*, run_path: Path, episodes: int | None = None, workers: int | None = None,
-           device: str = "cpu", quiet: bool = False, progress: Reporter | None = None
+           device: str = "cpu", quiet: bool = False, progress: Reporter | None = None,
+           logs: list[str] | tuple[str, ...] | None = None, watch: Watch | None = None
            ) -> tuple[Path, RunOutcome]:
     """Continue every seed of a run file from its last checkpoint, a seed without one from
     zero (on any device: only the same device continues bit for bit); ``quiet`` and
-    ``progress`` as for :func:`train`."""
+    ``progress`` as for :func:`train`. ``logs``: the kinds of scalar log to continue (or
+    start); None continues those the run has beside it. ``watch`` as for :func:`train`."""
+    log_kinds = check_kinds(kinds_found(Path(run_path)) if logs is None else logs)
     progress = progress or LogLines(quiet=quiet)
     started_utc, start_s = utc_timestamp(), time.monotonic()
     torch_device = training_device(device)
@@ -207,7 +216,7 @@ def resume(*, run_path: Path, episodes: int | None = None, workers: int | None =
         tasks = [replace(task, evaluation=evaluation) for task in tasks]
         before = {seed: int(c["episode"]) if c is not None else 0
                   for seed, c in checkpoints.items()}
-        outcome = _run(run_path, tasks, workers, torch_device, progress)
+        outcome = _run(run_path, tasks, workers, torch_device, progress, log_kinds, watch)
         _record_session(run_path, "resume", started_utc, start_s, before, progress)
         return run_path, outcome
 
@@ -236,12 +245,15 @@ def training_device(name: str) -> torch.device:
 
 
 def _run(path: Path, tasks: list[SeedTask], workers: int | None, device: torch.device,
-         progress: Reporter) -> RunOutcome:
+         progress: Reporter, logs: tuple[str, ...] = (), watch: Watch | None = None
+         ) -> RunOutcome:
     try:
-        with TrainingProgress(progress, reference=reference_name(tasks[0].scenario)) as view:
+        with TrainingProgress(progress, reference=reference_name(tasks[0].scenario)) as view, \
+                TrainingLogs(path, logs, {task.seed: task.episodes_done for task in tasks}
+                             ) as written:
             for task in tasks:
                 view.add_seed(task.seed, task.episodes_done, task.episodes)
-            return run_tasks(path, tasks, workers or len(tasks), view, device)
+            return run_tasks(path, tasks, workers or len(tasks), view, device, written, watch)
     except StorageError as error:
         if error.path != path or not path.exists():
             raise

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,6 +34,7 @@ from adaptsky.training.host import (
     pin_threads,
 )
 from adaptsky.training.interrupts import StopOnInterrupt
+from adaptsky.training.logs import TrainingLogs, scalars_of
 from adaptsky.training.messages import (
     Checkpoints,
     Done,
@@ -109,8 +111,11 @@ def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
         for index, task in enumerate(group):
             if states[task.key] is not None:
                 run.restore(index, states[task.key])
+        env_steps = group[0].scenario.train.steps * run.envs  # per member and episode
         while True:
+            started_s = time.perf_counter()
             results = run.run_episode()
+            seconds = time.perf_counter() - started_s
             if orphaned():
                 return  # nobody is left to write the run file: it keeps its last checkpoint
             stopping = stop()
@@ -123,6 +128,10 @@ def train_stack(tasks: list[SeedTask], emit: Emit, stop: Callable[[], bool],
                 if result.evaluation is not None:
                     evaluations[task.key].append(result.evaluation)
                     shown["greedy"] = result.evaluation
+                # for the logs (train --log): every scalar, and this member's pace
+                shown["scalars"] = scalars_of(result.metrics, result.stats,
+                                              result.evaluation)
+                shown["scalars"]["speed/env_steps_per_s"] = env_steps / max(seconds, 1e-9)
                 emit(Progress(task.key, result.episode, shown))
                 if (result.episode % task.checkpoint_every == 0
                         or result.episode == task.episodes or stopping):
@@ -207,8 +216,15 @@ INTERRUPT_NOTICE = ("interrupted: checkpointing at the end of the current episod
                     "(Ctrl-C again to quit now)")
 
 
+Watch = Callable[[int, int, dict[str, Any]], bool]
+"""Hears every episode of every seed (seed, episode, what progress shows: the learning
+curve's scalars and ``"greedy"``, the evaluation row, after an evaluation); True asks every
+seed to checkpoint and end, as a Ctrl-C does (``adaptsky tune``'s pruner)."""
+
+
 def run_tasks(path: Path, tasks: list[SeedTask], workers: int, view: TrainingProgress,
-              device: torch.device | None = None) -> RunOutcome:
+              device: torch.device | None = None, logs: TrainingLogs | None = None,
+              watch: Watch | None = None) -> RunOutcome:
     """Train every task, writing each checkpoint to the run file at ``path``.
 
     On a CPU the tasks are shared among ``workers`` processes (at most the cores), each
@@ -220,11 +236,19 @@ def run_tasks(path: Path, tasks: list[SeedTask], workers: int, view: TrainingPro
 
     done: dict[int, int] = {task.seed: task.episodes_done for task in tasks}
     errors: list[str] = []
-    handle = RunFileWriter(path, done, errors, view.episode)
     device = device or torch.device("cpu")
     workers = max(1, min(workers, len(tasks), os.cpu_count() or 1))
     host = None if device.type != "cpu" or workers == 1 else ProcessHost(workers)
     stop = threading.Event() if host is None else host.stop_event
+
+    def on_episode(seed: int, episode: int, metrics: dict[str, Any]) -> None:
+        view.episode(seed, episode, metrics)
+        if logs is not None:
+            logs.episode(seed, episode, metrics["scalars"])
+        if watch is not None and watch(seed, episode, metrics):
+            stop.set()
+
+    handle = RunFileWriter(path, done, errors, on_episode)
     try:
         with StopOnInterrupt(stop.set, view.message, INTERRUPT_NOTICE, stop.is_set) as interrupts:
             if host is None:

@@ -20,7 +20,7 @@ from __future__ import annotations
 import functools
 import json
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -73,6 +73,9 @@ class EpisodeResult:
     metrics: dict[str, Any]
     trajectory: dict[str, np.ndarray]
     evaluation: dict[str, float] | None = None  # a greedy evaluation after this episode
+    # the learner's statistics of the episode (Algorithm.take_stats: losses, learning rate...),
+    # for logs and progress only: the run file keeps the metrics
+    stats: dict[str, float] = field(default_factory=dict)
 
 
 def stack_key(scenario: Scenario) -> str:
@@ -175,13 +178,16 @@ class StackRun:
         self._check_finite(trajectory, losses)
         if losses is None:  # no update yet: not an error
             losses = np.full(len(self.members), np.nan)
-        entropy = algorithm.take_stats().get("entropy", np.full(len(self.members), np.nan))
+        stats = algorithm.take_stats()
+        entropy = stats.get("entropy", np.full(len(self.members), np.nan))
         evaluations = self._evaluate()
         envs = self.envs
-        return [self._result([{name: values[:, index * envs + e]
-                               for name, values in trajectory.items()} for e in range(envs)],
-                             algorithm.epsilon, losses[index], float(entropy[index]),
-                             evaluations[index])
+        return [replace(self._result([{name: values[:, index * envs + e]
+                                       for name, values in trajectory.items()}
+                                      for e in range(envs)],
+                                     algorithm.epsilon, losses[index], float(entropy[index]),
+                                     evaluations[index]),
+                        stats={name: float(values[index]) for name, values in stats.items()})
                 for index in range(len(self.members))]
 
     def _exploring_starts(self) -> dict[str, np.ndarray]:

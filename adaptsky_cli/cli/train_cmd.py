@@ -35,6 +35,11 @@ def train(
         metavar="RUN.h5", show_default=False,
         help="continue this run file from its last checkpoints")] = None,
     device: Device = "cpu",
+    log: Annotated[list[str] | None, typer.Option(
+        "--log", metavar="tensorboard|csv", show_default=False,
+        help="also log every episode's scalars beside the run file, in RUN.logs/: "
+        "TensorBoard event files or a CSV (repeatable; --resume continues the run's logs)")
+    ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", help="print only the final table")] = False,
 ) -> None:
     """Train the scenario's agent (agent.algorithm: dqn, bdq, ppo, sac, mappo or ippo).
@@ -47,9 +52,9 @@ def train(
     if resume is not None:
         if scenario is not None or seeds or steps or checkpoint_every or out_file or set_values:
             raise AdaptskyError("--resume continues a run as it was configured: give only "
-                                "--episodes, --workers, --device and --quiet with it")
+                                "--episodes, --workers, --device, --log and --quiet with it")
         path, outcome = api.resume(run_path=resume, episodes=episodes, workers=workers,
-                                   device=device, quiet=quiet, progress=progress)
+                                   device=device, quiet=quiet, progress=progress, logs=log)
     elif scenario is None:
         raise click_errors.UsageError("missing argument SCENARIO.toml (or --resume RUN.h5 to "
                                       "continue a run)", ctx)
@@ -58,7 +63,8 @@ def train(
         path, outcome = api.train(scenario_path=scenario, out=out_file, seeds=parse_seeds(seeds),
                                   episodes=episodes, steps=steps, workers=workers,
                                   checkpoint_every=checkpoint_every, set_values=set_values,
-                                  device=device, quiet=quiet, progress=progress)
+                                  device=device, quiet=quiet, progress=progress,
+                                  logs=log or ())
     out.print(summary_table(summarize(path)))
     if outcome.interrupted:
         err.print(f"interrupted; checkpoints saved. Continue with: adaptsky train --resume {path}")

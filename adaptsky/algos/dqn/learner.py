@@ -95,8 +95,9 @@ class DqnLearner:
         return losses if updated else None
 
     def take_stats(self) -> dict[str, NDArray[np.float64]]:
-        """None beyond the loss (an epsilon-greedy policy has no entropy to report)."""
-        return {}
+        """The learning rate now (``lr``, the same for every member; an epsilon-greedy
+        policy has no entropy to report)."""
+        return {"lr": np.full(self.size, self.agent.learning_rate())}
 
     def device_name(self) -> str:
         return describe(self.agent.device)

@@ -289,6 +289,10 @@ class StackedDqn:
                            beta2=ADAM_BETAS[1], weight_decay=0.0, eps=ADAM_EPS,
                            amsgrad=False, maximize=False)
 
+    def learning_rate(self) -> float:
+        """The learning rate of the next update (Adam's ``lr``)."""
+        return float(self._lr)
+
     def set_learning_rate(self, global_step: int) -> None:
         """lr at ``global_step``: linear from ``lr`` to ``lr_end`` over ``lr_decay_steps``,
         then ``lr_end`` (nothing to do without ``lr_end``)."""

@@ -297,10 +297,12 @@ class PpoLearner:
         return None if self.stats is None else self.stats["loss"]
 
     def take_stats(self) -> dict[str, NDArray[np.float64]]:
-        """The last update's per-member means of :data:`STATS` (NaN before one)."""
+        """The last update's per-member means of :data:`STATS` (NaN before one) and its
+        learning rate (``lr``)."""
+        lr = {"lr": np.full(self.size, self.lr)}  # this episode's (annealed)
         if self.stats is None:
-            return {name: np.full(self.size, np.nan) for name in STATS}
-        return dict(self.stats)
+            return {name: np.full(self.size, np.nan) for name in STATS} | lr
+        return dict(self.stats) | lr
 
     # ---- checkpoints ----------------------------------------------------------------------
 

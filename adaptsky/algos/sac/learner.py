@@ -191,14 +191,17 @@ class SacLearner:
 
     def take_stats(self) -> dict[str, NDArray[np.float64]]:
         """Each member's mean critic loss, actor loss and entropy estimate (-log pi of the
-        actor's samples) since the last call (NaN without an update since), and alpha now."""
+        actor's samples) since the last call (NaN without an update since), alpha now, and the
+        (constant) learning rates ``policy_lr`` and ``q_lr``."""
         stats = {}
         for name in STATS:
             mean = self._take(name)
             stats[name] = np.full(self.size, np.nan) if mean is None else mean
         with torch.no_grad():
             stats["alpha"] = self.net.alpha()[:, 0].double().cpu().numpy()
-        return stats
+        config = self.config
+        return stats | {"policy_lr": np.full(self.size, config.policy_lr),
+                        "q_lr": np.full(self.size, config.q_lr)}
 
     # ---- checkpoints ----------------------------------------------------------------------
 
