@@ -28,9 +28,10 @@ class Tick(Protocol):
     def __call__(self, done: float, detail: str = "", /) -> None: ...
 
 
-Layout = Literal["work", "seeds", "runs"]
+Layout = Literal["work", "seeds", "runs", "trials"]
 """How a live display draws its stages: bars of work units (gone when done), one row per
-training seed, one bar of a sweep's runs."""
+training seed, one bar of a sweep's runs, one bar of a tuning's trials (with the running
+trial's episodes)."""
 
 
 def stamp(text: str) -> str:

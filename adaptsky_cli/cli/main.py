@@ -27,6 +27,7 @@ from adaptsky_cli.cli import (
     scenario_cmd,
     show_cmd,
     train_cmd,
+    tune_cmd,
 )
 from adaptsky_cli.cli.console import OUTPUT_CLOSED_EXIT, OutputClosed, err, stdout_closed
 from adaptsky_cli.cli.usage import OneLineGroup, UsageLine, usage_line
@@ -67,6 +68,7 @@ app.command()(eval_cmd.baseline)
 app.command()(reproduce_cmd.reproduce)
 app.command()(plot_cmd.plot)
 app.command()(show_cmd.show)
+app.command()(tune_cmd.tune)
 
 
 def _version(value: bool) -> None:

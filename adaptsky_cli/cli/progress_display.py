@@ -30,6 +30,9 @@ def _columns(layout: Layout) -> tuple[list[ProgressColumn], bool]:
                            "out {task.fields[outage]} {task.fields[epsilon]} "
                            "greedy {task.fields[greedy]}"),
                 TextColumn("{task.fields[left]}")], False
+    if layout == "trials":
+        return [TextColumn("{task.fields[status]}"), BarColumn(), MofNCompleteColumn(),
+                TextColumn("trials  {task.fields[eta]}")], False
     return [TextColumn("{task.fields[status]}"), BarColumn(), MofNCompleteColumn(),
             TextColumn("episodes  {task.fields[eta]}")], False
 

@@ -111,7 +111,9 @@ def _bad_calls(path: tuple[str, ...]) -> dict[str, list[str]]:
     # (eval's --set needs a run file: tests/unit/evaluation/test_moving_users_and_sampled_los.py)
     if "--set" in _options(command) and path != ("eval",):
         target = "e1a" if path == ("reproduce",) else SCENARIO
-        more = {("reproduce",): ["--report-only"], ("baseline",): ["--method", "soa"]}
+        more = {("reproduce",): ["--report-only"], ("baseline",): ["--method", "soa"],
+                ("tune",): ["--space", str(ROOT / "docs" / "spaces" / "ppo.toml"),
+                            "--trials", "1"]}
         calls["misspelt key"] = [*path, target, "--set", "rewrd.min_se=1", *more.get(path, [])]
     return calls
 

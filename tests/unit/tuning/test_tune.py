@@ -1,0 +1,243 @@
+"""``adaptsky tune``: a study of small trainings that ends with exactly its trials finished or
+pruned, whether it runs through, is killed with kill -9 halfway and run again, or is shared by
+two processes; the best trial as a scenario; a study refuses another search."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import optuna
+import pytest
+from optuna.trial import TrialState
+
+from adaptsky.scenario import load_scenario
+from adaptsky.store.run_file import RunReader
+from adaptsky.tuning.space import load_space
+from adaptsky.tuning.trial import objective_of
+from adaptsky_cli.cli.main import main
+from tests.helpers.cli import ADAPTSKY
+from tests.helpers.training import small_scenario
+
+SPACE = """
+[space]
+"agent.lr" = { low = 1e-4, high = 3e-3, log = true }
+"agent.batch_size" = { choices = [16, 32] }
+"agent.hidden_sizes" = { choices = [[16, 16], [32, 32]] }
+
+[study]
+startup_trials = 3
+warmup_evaluations = 1
+"""
+# trials of 4 episodes of 40 steps, greedy evaluations every 2 episodes, one seed
+FAST = ["--episodes", "4", "--steps", "40", "--set", "train.eval_every=2",
+        "--set", "train.eval_steps=100", "--set", "train.seeds=[0]",
+        "--set", "train.checkpoint_every=1"]
+
+
+@pytest.fixture()
+def files(tmp_path: Path) -> tuple[Path, Path]:
+    scenario = small_scenario(tmp_path)
+    space = tmp_path / "space.toml"
+    space.write_text(SPACE)
+    return scenario, space
+
+
+def _study(folder: Path, name: str = "small") -> optuna.study.Study:
+    return optuna.load_study(study_name=name, storage=f"sqlite:///{folder / 'study.db'}")
+
+
+def _settled(study: optuna.study.Study) -> list[optuna.trial.FrozenTrial]:
+    return study.get_trials(states=(TrialState.COMPLETE, TrialState.PRUNED))
+
+
+def _sessions(path: Path) -> list[str]:
+    with RunReader(path, needs="curves") as run:
+        return [session["kind"] for session in run.sessions]
+
+
+def _command(scenario: Path, space: Path, out: Path, trials: int) -> list[str]:
+    return [str(ADAPTSKY), "tune", str(scenario), "--space", str(space), "--trials",
+            str(trials), "--out", str(out), "--quiet", *FAST]
+
+
+def test_a_study_runs_its_trials_and_writes_the_best_as_a_scenario(files, tmp_path):
+    scenario, space = files
+    out = tmp_path / "study"
+    assert main(["tune", str(scenario), "--space", str(space), "--trials", "4",
+                 "--out", str(out), "--quiet", *FAST]) == 0
+    study = _study(out)
+    settled = _settled(study)
+    assert len(settled) == 4 and len(study.trials) == 4
+    best = study.best_trial
+    # the objective is the last greedy evaluation's score, read back from the trial's file
+    assert best.value == pytest.approx(objective_of(out / f"trial-{best.number:04d}.h5",
+                                                    "last"))
+    written = load_scenario(out / "best.toml")  # a scenario that validates
+    assert written.agent.lr == pytest.approx(best.params["agent.lr"])
+    assert written.agent.batch_size == int(best.params["agent.batch_size"])
+    assert list(written.agent.hidden_sizes) == eval(best.params["agent.hidden_sizes"])
+    assert written.train.episodes == load_scenario(scenario).train.episodes  # not --episodes
+    # the same command again: the study is complete, nothing runs
+    assert main(["tune", str(scenario), "--space", str(space), "--trials", "4",
+                 "--out", str(out), "--quiet", *FAST]) == 0
+    assert len(_study(out).trials) == 4
+
+
+def _checkpointed(path: Path) -> bool:
+    try:
+        with RunReader(path, needs="curves") as run:
+            return run.has_checkpoint(0)
+    except Exception:  # not written yet
+        return False
+
+
+def _wait_for(study_folder: Path, settled: int, process: subprocess.Popen,
+              timeout_s: float = 240.0) -> None:
+    """Until the study has ``settled`` trials finished or pruned and one running past its
+    first checkpoint."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        assert process.poll() is None, process.communicate()
+        assert time.monotonic() < deadline
+        if (study_folder / "study.db").exists():
+            try:
+                study = _study(study_folder)
+                running = study.get_trials(states=(TrialState.RUNNING,))
+                if len(_settled(study)) >= settled and running and _checkpointed(
+                        study_folder / f"trial-{running[0].number:04d}.h5"):
+                    return
+            except (KeyError, optuna.exceptions.StorageInternalError):
+                pass  # not made yet
+        time.sleep(0.1)
+
+
+def test_kill_9_halfway_then_the_same_command_ends_with_every_trial_once(files, tmp_path):
+    scenario, space = files
+    out = tmp_path / "study"
+    process = subprocess.Popen(_command(scenario, space, out, 8), stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+    _wait_for(out, 4, process)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    killed = _study(out)
+    running = [t.number for t in killed.get_trials(states=(TrialState.RUNNING,))]
+    assert len(running) == 1
+    done = subprocess.run(_command(scenario, space, out, 8), capture_output=True, text=True,
+                          timeout=600)
+    assert done.returncode == 0, done.stderr
+    study = _study(out)
+    settled = _settled(study)
+    assert len(settled) == 8 and len(study.trials) == 8       # none lost, none added
+    assert sorted(t.number for t in settled) == list(range(8))
+    # the killed trial was continued from its run file's last checkpoint, not trained again
+    # from the start (a session is recorded when it ends: the killed one has none)
+    with RunReader(out / f"trial-{running[0]:04d}.h5", needs="curves") as run:
+        (continued,) = run.sessions
+        assert run.seed_attrs(0)["episodes_done"] == 4
+    assert continued["kind"] == "resume" and continued["episodes_before"]["0"] >= 1
+    for t in settled:
+        if t.number != running[0]:
+            assert _sessions(out / f"trial-{t.number:04d}.h5") == ["train"]
+
+
+def test_two_processes_on_one_study_run_distinct_trials(files, tmp_path):
+    scenario, space = files
+    out = tmp_path / "study"
+    command = _command(scenario, space, out, 6)
+    # the study made first: two processes creating one SQLite schema at once is not the test
+    assert main([*command[1:4], command[4], "--trials", "1", *command[7:]]) == 0
+    both = [subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             text=True) for _ in range(2)]
+    for process in both:
+        _, stderr = process.communicate(timeout=600)
+        assert process.returncode == 0, stderr
+    study = _study(out)
+    settled = _settled(study)
+    assert len(settled) == 6
+    counted = [t for t in study.trials if not t.user_attrs.get("surplus")]
+    assert len(counted) == 6                      # a surplus trial never trains
+    hosts = {t.user_attrs["host"] for t in settled[1:]}
+    assert len(hosts) == 2                        # both processes ran trials
+    for t in settled:                             # each trained once, by one process
+        assert _sessions(out / f"trial-{t.number:04d}.h5") == ["train"]
+
+
+def test_a_study_refuses_another_search(files, tmp_path, capsys):
+    scenario, space = files
+    out = tmp_path / "study"
+    assert main(["tune", str(scenario), "--space", str(space), "--trials", "1",
+                 "--out", str(out), "--quiet", *FAST]) == 0
+    capsys.readouterr()
+    other = tmp_path / "other.toml"
+    other.write_text(SPACE.replace("3e-3", "1e-2"))
+    assert main(["tune", str(scenario), "--space", str(other), "--trials", "2",
+                 "--out", str(out), "--quiet", *FAST]) == 1
+    line = capsys.readouterr().err.strip()
+    assert "was made for another search" in line and "--study" in line
+
+
+@pytest.mark.parametrize(("text", "expected"), [
+    ('[space]\n"agent.lr" = { low = 3e-3, high = 1e-4 }', 'space."agent.lr": low (0.003) '
+     "must be below high (0.0001)"),
+    ('[space]\n"agent.lr" = { low = 0, high = 1e-3, log = true }', "log = true needs low > 0"),
+    ('[space]\n"agent.lr" = { low = 1e-4 }', "needs low and high"),
+    ('[space]\n"agent.lr" = { low = 1e-4, high = 1e-3, spread = 2 }', "unknown field 'spread'"),
+    ('[space]\n"agent.batch_size" = { choices = [] }', "non-empty list"),
+    ('[space]\n"agent.lrr" = { low = 1e-4, high = 1e-3 }', 'space."agent.lrr"'),
+    ('[space]\n"agent.batch_size" = { choices = [16, -4] }', "-4 is not a valid value"),
+    ('[space]\n"train.seeds" = { choices = [[0], [1]] }', "cannot be searched"),
+    ('[space]\n"lr" = { low = 1e-4, high = 1e-3 }', "expected a scenario key"),
+    ('[spaces]\n"agent.lr" = { low = 1e-4, high = 1e-3 }', "unknown table 'spaces'"),
+    ('[space]\n"agent.lr" = { low = 1e-4, high = 1e-3 }\n[study]\npruner = "hyperband"',
+     "study.pruner: 'hyperband' is not allowed; allowed: median, none"),
+    ("[space", "not valid TOML"),
+])
+def test_a_bad_space_gets_one_line(files, tmp_path, capsys, text, expected):
+    scenario, _ = files
+    space = tmp_path / "bad.toml"
+    space.write_text(text)
+    assert main(["tune", str(scenario), "--space", str(space), "--trials", "2",
+                 "--out", str(tmp_path / "study")]) == 1
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in captured.err, captured.err
+    assert lines[0].startswith(str(space)) and expected in lines[0], lines[0]
+    assert not (tmp_path / "study").exists()  # nothing made before the space is checked
+
+
+def test_tune_needs_greedy_evaluations(files, tmp_path, capsys):
+    scenario, space = files
+    assert main(["tune", str(scenario), "--space", str(space), "--trials", "2",
+                 "--out", str(tmp_path / "study"), "--set", "train.eval_every=0"]) == 1
+    line = capsys.readouterr().err.strip()
+    assert "train.eval_every = 0" in line and "--set train.eval_every=" in line
+
+
+def test_space_values_become_overrides(tmp_path):
+    path = tmp_path / "space.toml"
+    path.write_text(SPACE.replace("[study]", '"agent.target_update_episodes" = '
+                                  "{ low = 1, high = 9, step = 2 }\n[study]"))
+    space = load_space(path)
+    assert space.overrides({"agent.lr": 0.00125, "agent.batch_size": "32",
+                            "agent.hidden_sizes": "[32, 32]",
+                            "agent.target_update_episodes": 5}) == [
+        "agent.lr=0.00125", "agent.batch_size=32", "agent.hidden_sizes=[32, 32]",
+        "agent.target_update_episodes=5"]
+    distributions = space.distributions()
+    assert distributions["agent.lr"].log and distributions["agent.lr"].low == 1e-4
+    assert distributions["agent.hidden_sizes"].choices == ("[16, 16]", "[32, 32]")
+    steps = distributions["agent.target_update_episodes"]
+    assert (steps.low, steps.high, steps.step) == (1, 9, 2) and not steps.log
+
+
+def test_the_shipped_ppo_space_fits_the_papers_scenario_with_ppo(tmp_path):
+    from adaptsky.tuning.space import check_against
+
+    root = Path(__file__).resolve().parents[3]
+    space = load_space(root / "docs" / "spaces" / "ppo.toml")
+    check_against(space, root / "docs" / "spaces" / "ppo.toml",
+                  root / "scenarios" / "nyc_mmwave.toml", ['agent={algorithm="ppo"}'])
+    assert [p.key for p in space.parameters][:2] == ["agent.lr", "agent.minibatches"]
