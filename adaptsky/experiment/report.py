@@ -21,6 +21,7 @@ from adaptsky.experiment.curves import learning_curves, min_se_sweep
 from adaptsky.experiment.energy_front import energy_front
 from adaptsky.experiment.evaluation import Evaluations
 from adaptsky.experiment.gains import layout_gains
+from adaptsky.experiment.intervals import statistics_lines
 from adaptsky.experiment.models import PER_GROUP_KINDS
 from adaptsky.experiment.plan import Plan, shipped_experiments
 from adaptsky.experiment.uav_count import uav_count
@@ -96,7 +97,7 @@ def write_report(plan: Plan, evaluations: Evaluations, wall_s: float | None = No
     reference, reach = REACHABLE.get(experiment.figure.kind, REACHABLE["uav-count"]
                                      if per_group else REACHABLE["learning-curves"])
     table = claims_table(experiment.claims, analysis, reference)
-    lines += [*table, ""]
+    lines += [*table, "", *statistics_lines(experiment.claims, analysis)]
     notes = _notes(plan, evaluations, analysis)
     if notes:
         lines += ["Notes:", "", *(f"- {note}" for note in notes), ""]

@@ -121,7 +121,7 @@ def write_curves_csv(path: Path, series: list[Series], names: list[str] | None =
     write_text_atomic(path, text.getvalue())
 
 
-def _axis_of(metric: PlotMetric, groups: dict[str, Group]) -> Axis:
+def axis_of(metric: PlotMetric, groups: dict[str, Group]) -> Axis:
     """The one axis every file gives ``metric``, or one line naming two files that differ."""
     by_axis: dict[Axis, Path] = {}
     for group in groups.values():
@@ -162,7 +162,7 @@ def _panel(metric: PlotMetric, groups: dict[str, Group], window: int | None,
     series = [curve_series(name, [c.values for c in g.curves[metric.name]], window or 1, kind)
               if metric.smoothed else point_series(name, g.curves[metric.name], kind)
               for name, g in groups.items() if g.curves[metric.name]]
-    axis = _axis_of(metric, groups)
+    axis = axis_of(metric, groups)
     # the largest value drawn (the loss is NaN before the first update: no point there)
     scale, unit = axis.shown([float(np.abs(s.mean[np.isfinite(s.mean)]).max(initial=0.0))
                               for s in series])

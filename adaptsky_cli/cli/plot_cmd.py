@@ -40,6 +40,11 @@ def plot(
         "bootstrap interval of the mean")] = Band.std,
     title: Annotated[str | None, typer.Option(metavar="TEXT", help="figure title",
                                               show_default=False)] = None,
+    profile: Annotated[str | None, typer.Option(
+        metavar="last|best", show_default=False,
+        help="draw performance profiles instead of curves: per scenario, the share of seeds "
+        "whose last (or best) greedy evaluation score is above each threshold, with 95% "
+        "stratified bootstrap bands (default --out: <first run file>-profile.png)")] = None,
 ) -> None:
     """Draw the learning curves of run files.
 
@@ -56,6 +61,16 @@ def plot(
     for path in evals:
         err.print(f"{path}: an eval file, not a run file: skipped (adaptsky inspect {path} "
                   "shows it)")
+    if profile is not None:
+        from adaptsky.report.profile_plot import plot_profiles
+
+        if metric != "sum-rate" or band != Band.std:
+            raise AdaptskyError("--profile draws the greedy evaluations' scores: give it "
+                                "without --metric and --band")
+        path = plot_profiles(run_paths=runs, policy=profile, title=title,
+                             out=out_file or runs[0].with_name(f"{runs[0].stem}-profile.png"))
+        err.print(f"figure: {path}")
+        return
     path = plot_runs(run_paths=runs, out=out_file or default_figure_path(runs[0]),
                      band=band.value, title=title, metric=metric)
     err.print(f"figure: {path}")

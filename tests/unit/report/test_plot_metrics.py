@@ -144,3 +144,31 @@ def test_real_run_curves(tiny_run):
         _, y = line_of(axes)
         expected = np.mean([stored(tiny_run, s, name) for s in (0, 1)], axis=0) / scale
         np.testing.assert_allclose(y, expected, rtol=1e-12)
+
+
+def test_profile_draws_the_share_of_seeds_above_each_threshold(tmp_path):
+    # four seeds evaluated at episodes 10 and 20: last scores 50 + 20 + seed = 70, 71, 72, 73
+    run = make_run(tmp_path / "four.h5", dict.fromkeys(range(4), 20),
+                   {seed: [10, 20] for seed in range(4)})
+    out = tmp_path / "profile.png"
+    assert main(["plot", str(run), "--profile", "last", "--out", str(out)]) == 0
+    with out.with_suffix(".csv").open(newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    last = [stored(run, seed, "score")[1][-1] for seed in range(4)]
+    assert sorted(last) == [70.0, 71.0, 72.0, 73.0]
+    for row in rows:
+        tau = float(row["tau"])
+        assert float(row["alpha_mean"]) == sum(s > tau for s in last) / 4  # by hand
+        assert float(row["alpha_low"]) <= float(row["alpha_mean"]) <= float(row["alpha_high"])
+        assert row["alpha_runs"] == "4"
+    assert float(rows[0]["alpha_mean"]) == 1.0 and float(rows[-1]["alpha_mean"]) == 0.0
+    assert out.is_file()
+
+
+def test_profile_refuses_an_unknown_policy_and_curve_options(tmp_path, capsys):
+    run = make_run(tmp_path / "run.h5", {0: 20}, {0: [10, 20]})
+    assert main(["plot", str(run), "--profile", "first"]) == 1
+    assert "--profile: unknown policy 'first'; choose from last, best" in one_line(capsys)
+    assert main(["plot", str(run), "--profile", "last", "--metric", "fairness"]) == 1
+    assert "without --metric and --band" in one_line(capsys)
+    assert not list(tmp_path.glob("*.png"))
