@@ -99,7 +99,13 @@ def _evaluate_plan(plan: Plan, progress: WorkProgress) -> Evaluations:
     folder = plan.out / "evals"
     points: dict[Any, RunSpec] = {}
     layouts: dict[Any, np.ndarray] = {}
+    def layouts_of(group: str) -> int | None:
+        """How many uniform layouts ``group`` is evaluated on (None: its own layout)."""
+        own = plan.experiment.group(group).eval_layouts if per_group else None
+        return own if own is not None else spec.layouts
+
     for group in (spec.policy, *spec.compare_groups, *spec.also):
+        count = layouts_of(group)
         for run in plan.group_runs(group):
             state = run_state(run)
             if state.status != "done":
@@ -107,8 +113,8 @@ def _evaluate_plan(plan: Plan, progress: WorkProgress) -> Evaluations:
                                                  "episodes")
                 continue
             trained = parse_scenario(run.config, run.name)
-            scenario = eval_scenario(trained, spec.layouts, spec.layout_seed)
-            users_m = eval_layouts(scenario, spec.layouts)
+            scenario = eval_scenario(trained, count, spec.layout_seed)
+            users_m = eval_layouts(scenario, count)
             point = group if per_group else run.sweep_value
             first = layouts.setdefault(point, users_m)
             if not np.array_equal(first, users_m):
@@ -118,7 +124,7 @@ def _evaluate_plan(plan: Plan, progress: WorkProgress) -> Evaluations:
                                     "its layouts")
             record = {"kind": "policy", "run": run.name, "episodes_done": state.episodes_done,
                       "scenario": scenario.model_dump(mode="json"), "steps": spec.steps,
-                      "layouts": spec.layouts, "layout_seed": spec.layout_seed}
+                      "layouts": count, "layout_seed": spec.layout_seed}
             for which in spec.policies:
                 # the last policy's record is the one eval files have always had
                 mine = record if which == "last" else {**record, "policy": which}
@@ -140,7 +146,7 @@ def _evaluate_plan(plan: Plan, progress: WorkProgress) -> Evaluations:
                     with progress.stage(stage, spec.steps, "step") as tick:
                         method = Method.of("policy", scenario, rollout(
                             scenario, policy, spec.steps, users_m, on_step=tick))
-                    metrics = _store(path, scenario, method, mine, spec.steps, spec.layouts,
+                    metrics = _store(path, scenario, method, mine, spec.steps, count,
                                      spec.layout_seed, users_m)
                 (evaluations.runs if which == "last" else evaluations.best)[run.name] = metrics
             if group == spec.policy or per_group:
@@ -150,16 +156,24 @@ def _evaluate_plan(plan: Plan, progress: WorkProgress) -> Evaluations:
             planned = plan.group_runs(group)
             if planned and group not in points:
                 points[group] = planned[0]
+    # a baseline measures the network, not the learner: points whose scenarios differ only in
+    # [agent], [train], name or description share it (a conditions figure's learners on one task)
+    shared: dict[str, Metrics] = {}
     for value, run in points.items():
-        scenario = eval_scenario(parse_scenario(run.config, run.name), spec.layouts,
+        count = layouts_of(value) if per_group else spec.layouts
+        scenario = eval_scenario(parse_scenario(run.config, run.name), count,
                                  spec.layout_seed)
-        users_m = eval_layouts(scenario, spec.layouts)
-        for name in spec.baselines:
+        users_m = eval_layouts(scenario, count)
+        own = plan.experiment.group(value).baselines if per_group else None
+        for name in spec.baselines if own is None else own:
             record = {"kind": name, "scenario": scenario.model_dump(mode="json"),
-                      "steps": spec.steps, "layouts": spec.layouts,
+                      "steps": spec.steps, "layouts": count,
                       "layout_seed": spec.layout_seed}
             path = folder / f"{name}{_label(value)}.h5"
-            metrics = _cached(path, record)
+            network = json.dumps({**record, "scenario": {
+                key: part for key, part in record["scenario"].items()
+                if key not in ("agent", "train", "name", "description")}}, sort_keys=True)
+            metrics = shared.get(network) or _cached(path, record)
             if metrics is None:
                 total, unit = baseline_work(name, spec.steps, users_m, scenario)
                 stage = f"evaluating {name}{_label(value)}" + (
@@ -171,7 +185,8 @@ def _evaluate_plan(plan: Plan, progress: WorkProgress) -> Evaluations:
                 except AdaptskyError as error:
                     evaluations.missing[f"{name}{_label(value)}"] = str(error)
                     continue
-                metrics = _store(path, scenario, method, record, spec.steps, spec.layouts,
+                metrics = _store(path, scenario, method, record, spec.steps, count,
                                  spec.layout_seed, users_m)
+            shared[network] = metrics
             evaluations.baselines[(name, value)] = metrics
     return evaluations

@@ -75,6 +75,13 @@ class Group(Section):
     sweep: Sweep | None = None
     panel: str = Field("", max_length=80, description="the panel of a conditions figure "
                        "that shows this group (groups of one panel side by side)")
+    baselines: list[Baseline] | None = Field(None, description="a conditions or uav-count "
+                                             "figure: the baselines of this group's point, in "
+                                             "place of the evaluation's")
+    eval_layouts: int | None = Field(None, ge=1, le=100_000, description="a conditions or "
+                                     "uav-count figure: uniform layouts this group and its "
+                                     "baselines are evaluated on (from the evaluation's "
+                                     "layout_seed), in place of the evaluation's layouts")
 
     @property
     def title(self) -> str:
@@ -171,6 +178,12 @@ class Experiment(Section):
                 raise ValueError(f"groups.{swept[0]}.sweep: a {self.figure.kind} figure's "
                                  "groups are its x points; give each swept value a group of "
                                  "its own")
+        for key in ("eval_layouts", "baselines"):
+            own = [group.name for group in self.groups if getattr(group, key) is not None]
+            if own and self.figure.kind not in PER_GROUP_KINDS:
+                raise ValueError(f"groups.{own[0]}.{key}: a group's own {key} are for "
+                                 "conditions and uav-count figures, whose groups are their own "
+                                 f"x points, not for a {self.figure.kind} one")
         panelled = [group.name for group in self.groups if group.panel]
         if panelled and self.figure.kind != "conditions":
             raise ValueError(f"groups.{panelled[0]}.panel: panels are drawn in a conditions "
@@ -185,6 +198,19 @@ class Experiment(Section):
                 raise ValueError(f"claim '{claim.text}': unknown quantity '{claim.quantity}' "
                                  f"for a {self.figure.kind} figure; allowed: {allowed}")
         return self
+
+    @field_validator("groups")
+    @classmethod
+    def _unique_titles(cls, groups: list[Group]) -> list[Group]:
+        """A group's title names its rows in report.md: two groups of one title would share
+        them."""
+        seen: dict[str, str] = {}
+        for group in groups:
+            if group.title in seen:
+                raise ValueError(f"groups '{seen[group.title]}' and '{group.name}' have the "
+                                 f"same label '{group.title}'; give each its own")
+            seen[group.title] = group.name
+        return groups
 
     @field_validator("groups")
     @classmethod

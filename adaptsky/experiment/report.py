@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from adaptsky import __version__
-from adaptsky.experiment.analysis import Analysis, Outputs, done_runs
+from adaptsky.experiment.analysis import Analysis, Outputs, done_runs, row_label
 from adaptsky.experiment.calls import read_calls
 from adaptsky.experiment.claims import beyond_reach, claims_table
 from adaptsky.experiment.conditions import conditions
@@ -97,7 +97,7 @@ def write_report(plan: Plan, evaluations: Evaluations, wall_s: float | None = No
     reference, reach = REACHABLE.get(experiment.figure.kind, REACHABLE["uav-count"]
                                      if per_group else REACHABLE["learning-curves"])
     table = claims_table(experiment.claims, analysis, reference)
-    lines += [*table, "", *statistics_lines(experiment.claims, analysis)]
+    lines += [*table, "", *statistics_lines(experiment.claims, analysis, _compared(plan))]
     notes = _notes(plan, evaluations, analysis)
     if notes:
         lines += ["Notes:", "", *(f"- {note}" for note in notes), ""]
@@ -108,6 +108,19 @@ def write_report(plan: Plan, evaluations: Evaluations, wall_s: float | None = No
     report = out / "report.md"
     write_text_atomic(report, "\n".join(lines))
     return WrittenReport(report, [*analysis.files, report], table)
+
+
+def _compared(plan: Plan) -> Callable[[str, str], bool]:
+    """Which rows' probabilities of improvement report.md gives: another group's policy of the
+    same kind (last or best) and panel."""
+    policies = plan.experiment.evaluation.policies
+    kinds = {row_label(group.title, policy, policies): (group.name, group.panel, policy)
+             for group in plan.experiment.groups for policy in policies}
+
+    def compared(row: str, other: str) -> bool:
+        a, b = kinds.get(row), kinds.get(other)
+        return a is not None and b is not None and a[0] != b[0] and a[1:] == b[1:]
+    return compared
 
 
 def _header(plan: Plan, wall_s: float | None, trained_in_calls: int) -> list[str]:

@@ -11,9 +11,11 @@ from tests.conftest import ROOT
 
 # runs per shipped experiment: E1a and E1b 10, E2 6 x 8 thresholds, E3 6 + 6 + 6
 # (docs/model.md §5); ours: E4 6 per number of UAVs, 1 to 4; E5 6 x 5 weights; E6 6 x 5
-# SIC residuals; bdq 6 + 6 + 6; ppo 6 + 6, sac 6, mappo 6 + 6
+# SIC residuals; bdq 6 + 6 + 6; ppo 6 + 6, sac 6, mappo 6 + 6; the suite 22 cells x 5 (four
+# learners on each one-UAV task of four, three on each of two and four UAVs)
 RUNS = {"e1a": 10, "e1b": 10, "e2": 48, "e3": 18, "e4": 24, "e5": 30, "e6": 78, "e7": 24, "bdq": 18,
-        "ppo": 12, "sac": 6, "mappo": 12}
+        "ppo": 12, "sac": 6, "mappo": 12, "suite": 110}
+EPISODES = {"suite": 300}  # the suite's runs are a third of the paper's length
 
 
 def test_every_shipped_experiment_validates_and_plans(tmp_path):
@@ -25,7 +27,8 @@ def test_every_shipped_experiment_validates_and_plans(tmp_path):
         assert len({run.path for run in plan.runs}) == count
         for run in plan.runs:
             assert run.config["train"]["seeds"] == [run.seed]
-            assert (run.config["train"]["episodes"], run.config["train"]["steps"]) == (1000, 300)
+            assert (run.config["train"]["episodes"], run.config["train"]["steps"]) == (
+                EPISODES.get(name, 1000), 300)
 
 
 def test_plan_applies_sweeps_sets_and_shrinking(tmp_path):
@@ -75,6 +78,14 @@ GOOD = (ROOT / "experiments" / "e1a.toml").read_text()
      "groups.adaptsky.panel: panels are drawn in a conditions figure only"),
     (lambda t: t.replace('policy = "adaptsky"', 'policy = "adaptsky"\npolicies = ["first"]'),
      "evaluation.policies.0: Input should be 'last' or 'best'"),
+    (lambda t: t.replace("runs = 10", "runs = 10\neval_layouts = 20", 1),
+     "groups.adaptsky.eval_layouts: a group's own eval_layouts are for conditions and uav-count"),
+    (lambda t: t.replace("runs = 10", 'runs = 10\nbaselines = ["soa"]', 1),
+     "groups.adaptsky.baselines: a group's own baselines are for conditions and uav-count"),
+    (lambda t: t.replace('[[claims]]', '[[groups]]\nname = "b"\nlabel = "AdaptSky (dueling DQN)"\n'
+                         'scenario = '
+                         '"../scenarios/nyc_mmwave.toml"\nruns = 1\n\n[[claims]]', 1),
+     "groups 'adaptsky' and 'b' have the same label 'AdaptSky (dueling DQN)'"),
 ])
 def test_malformed_experiment_is_one_line(tmp_path, capsys, change, message):
     folder = tmp_path / "experiments"
