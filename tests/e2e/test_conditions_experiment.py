@@ -150,3 +150,58 @@ def test_moving_users_baselines_are_valued_over_the_policies_window(tmp_path):
     tracking = rows[("3 m/s", "tracking")]
     report = (out / "report.md").read_text()
     assert f"{100 * (policy - tracking) / tracking:+.1f}%" in report
+
+
+def test_groups_own_layouts_and_baselines_and_one_baseline_per_network(tmp_path):
+    """Two learners on one network share its SoA (one eval file); a group with its own
+    ``eval_layouts`` and ``baselines`` is evaluated on so many uniform layouts, with those."""
+    (tmp_path / "s.toml").write_text(dumps(SCENARIO))
+    (tmp_path / "e.toml").write_text("""id = "own"
+title = "own layouts"
+[[groups]]
+name = "a"
+label = "learner A"
+scenario = "s.toml"
+runs = 1
+panel = "one layout"
+[[groups]]
+name = "b"
+label = "learner B"
+scenario = "s.toml"
+runs = 1
+set = ["agent.lr=0.001"]
+panel = "one layout"
+[[groups]]
+name = "c"
+label = "learner A, unseen layouts"
+scenario = "s.toml"
+runs = 1
+panel = "three layouts"
+eval_layouts = 3
+baselines = ["soa"]
+[evaluation]
+policy = "a"
+also = ["b", "c"]
+steps = 20
+baselines = ["soa", "oracle"]
+policies = ["last"]
+[figure]
+kind = "conditions"
+[[claims]]
+text = "share of the bound"
+quantity = "pct_of_bound"
+""")
+    out = tmp_path / "out"
+    assert main(["reproduce", str(tmp_path / "e.toml"), "--out", str(out), "--workers", "1",
+                 "--quiet"]) == 0
+    evals = sorted(path.name for path in (out / "evals").glob("*.h5"))
+    # a's SoA and oracle serve b (same network, another agent); c has only its SoA
+    assert evals == ["a-seed0.h5", "b-seed0.h5", "c-seed0.h5", "oracle-a.h5", "soa-a.h5",
+                     "soa-c.h5"]
+    record, metrics = read_eval_metrics(out / "evals" / "c-seed0.h5")
+    assert record["layouts"] == 3
+    assert len(next(iter(metrics.values()))["mean_sum_rate_bps"]) == 3
+    assert read_eval_metrics(out / "evals" / "a-seed0.h5")[0]["layouts"] is None
+    report = (out / "report.md").read_text()
+    assert "| share of the bound | - | learner A |" in report
+    assert "|  |  | learner B |" in report
