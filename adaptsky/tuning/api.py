@@ -101,7 +101,8 @@ def tune(*, scenario_path: str | os.PathLike[str], space_path: str | os.PathLike
                 others.append(process)
             finished = work(tuning, the_study, view.event, stop_event.is_set)
             interrupted = not finished
-            stop_event.set() if interrupted else None
+            if interrupted:  # Ctrl-C stopped this process's trial: the others stop too
+                stop_event.set()
             while any(p.is_alive() for p in others):
                 view.event("wait", {})
                 time.sleep(POLL_S)

@@ -1,5 +1,5 @@
-"""Run files compared array by array, and a run killed after a checkpoint and resumed: the
-learners' bit-for-bit tests (tests/unit/algos)."""
+"""Run files compared array by array, a run killed after a checkpoint and resumed, and a small
+PPO scenario: the learners' bit-for-bit tests (tests/unit/algos) and the logs' tests."""
 
 from __future__ import annotations
 
@@ -12,10 +12,31 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from adaptsky.scenario import load_scenario
+from adaptsky.scenario.toml_writer import dumps
 from adaptsky.store.run_file import RunReader
 from adaptsky_cli.cli.main import main
+from tests.conftest import SCENARIOS
 
 ADAPTSKY = Path(sys.executable).with_name("adaptsky")
+
+PPO = {"algorithm": "ppo", "hidden_sizes": [16, 16], "envs_per_seed": 2, "minibatches": 2,
+       "epochs": 2}
+
+
+def ppo_scenario(tmp_path: Path, name: str = "ppo", episodes: int = 12, **changes: dict
+                 ) -> Path:
+    """nyc_mmwave with a small PPO: 12 episodes of 30 steps, checkpoints every 3."""
+    data = load_scenario(SCENARIOS / "nyc_mmwave.toml").model_dump(mode="json")
+    data["name"] = name
+    data["agent"] = dict(PPO)
+    data["train"] |= {"episodes": episodes, "steps": 30, "checkpoint_every": 3,
+                      "eval_every": 3, "eval_steps": 40}
+    for section, values in changes.items():
+        data[section] = {**data.get(section, {}), **values}
+    path = tmp_path / f"{name}.toml"
+    path.write_text(dumps(data))
+    return path
 
 
 def _arrays(path: Path) -> dict[str, np.ndarray]:

@@ -18,34 +18,19 @@ from adaptsky.algos.ppo.parameters import HeadShape
 from adaptsky.algos.ppo.stacked import StackedActorCritic
 from adaptsky.algos.registry import check_actions
 from adaptsky.errors import ScenarioError
-from adaptsky.scenario import load_scenario
-from adaptsky.scenario.toml_writer import dumps
 from adaptsky.store.run_file import RunReader
 from adaptsky.training import api
 from adaptsky_cli.cli.main import main
-from tests.conftest import SCENARIOS, make_scenario
-from tests.helpers.learners import _arrays, _assert_same_arrays, _killed_and_resumed
+from tests.conftest import make_scenario
+from tests.helpers.learners import (
+    PPO,
+    _arrays,
+    _assert_same_arrays,
+    _killed_and_resumed,
+    ppo_scenario,
+)
 
 ADAPTSKY = Path(sys.executable).with_name("adaptsky")
-PPO = {"algorithm": "ppo", "hidden_sizes": [16, 16], "envs_per_seed": 2, "minibatches": 2,
-       "epochs": 2}
-
-
-def ppo_scenario(tmp_path: Path, name: str = "ppo", episodes: int = 12, **changes: dict
-                 ) -> Path:
-    """nyc_mmwave with a small PPO: 12 episodes of 30 steps, checkpoints every 3."""
-    data = load_scenario(SCENARIOS / "nyc_mmwave.toml").model_dump(mode="json")
-    data["name"] = name
-    data["agent"] = dict(PPO)
-    data["train"] |= {"episodes": episodes, "steps": 30, "checkpoint_every": 3,
-                      "eval_every": 3, "eval_steps": 40}
-    for section, values in changes.items():
-        data[section] = {**data.get(section, {}), **values}
-    path = tmp_path / f"{name}.toml"
-    path.write_text(dumps(data))
-    return path
-
-
 # ---- GAE --------------------------------------------------------------------------------
 
 

@@ -18,7 +18,7 @@ from adaptsky.training import api
 from adaptsky.training.logs import CSV_NAME, logs_folder
 from adaptsky_cli.cli.main import main
 from tests.conftest import SCENARIOS
-from tests.unit.algos.test_ppo import ppo_scenario
+from tests.helpers.learners import ppo_scenario
 
 event_accumulator = pytest.importorskip(
     "tensorboard.backend.event_processing.event_accumulator")
