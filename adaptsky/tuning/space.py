@@ -120,6 +120,22 @@ class Space:
                 out[p.key] = FloatDistribution(p.low, p.high, log=p.log, step=p.step)  # type: ignore[arg-type]
         return out
 
+    def suggest(self, trial: Any) -> dict[str, Any]:
+        """The trial's value of every parameter: those it holds, and the ones a process killed
+        while Optuna was still writing them drawn now (Optuna's ``suggest_*`` return a value
+        the trial has and sample one it lacks)."""
+        values: dict[str, Any] = {}
+        for p in self.parameters:
+            if p.choices:
+                values[p.key] = trial.suggest_categorical(p.key, list(p.choices))
+            elif p.integer:
+                values[p.key] = trial.suggest_int(p.key, int(p.low), int(p.high),  # type: ignore[arg-type]
+                                                  step=int(p.step or 1), log=p.log)
+            else:
+                values[p.key] = trial.suggest_float(p.key, p.low, p.high, step=p.step,  # type: ignore[arg-type]
+                                                    log=p.log)
+        return values
+
     def overrides(self, params: dict[str, Any]) -> list[str]:
         """The ``--set`` texts of a trial's sampled ``params``, in the space's order."""
         return [p.override(params[p.key]) for p in self.parameters]

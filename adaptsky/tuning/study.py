@@ -190,7 +190,7 @@ def work(tuning: Tuning, study: optuna.study.Study, event: Event,
         if found is not None:
             frozen, claim = found
             trial = optuna.trial.Trial(study, frozen._trial_id)
-            params, continued = frozen.params, True
+            params, continued = tuning.space.suggest(trial), True
         elif counts.settled + counts.running < tuning.trials:
             trial = study.ask(distributions)
             claim = Claim(tuning.folder, trial.number)

@@ -121,9 +121,7 @@ def run_trial(trial: optuna.trial.Trial, run: TrialRun, path: Path, objective: s
     if path.exists():
         _, outcome = api.resume(run_path=path, progress=Silent(), watch=watch)
     else:
-        from adaptsky.training.api import load_with_overrides
-
-        scenario, _ = load_with_overrides(run.scenario_path, run.overrides)
+        scenario, _ = api.load_with_overrides(run.scenario_path, run.overrides)
         total = run.episodes or scenario.train.episodes
         _, outcome = api.train(scenario_path=run.scenario_path, out=path,
                                set_values=run.overrides, episodes=run.episodes,

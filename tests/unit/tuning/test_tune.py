@@ -241,3 +241,22 @@ def test_the_shipped_ppo_space_fits_the_papers_scenario_with_ppo(tmp_path):
     check_against(space, root / "docs" / "spaces" / "ppo.toml",
                   root / "scenarios" / "nyc_mmwave.toml", ['agent={algorithm="ppo"}'])
     assert [p.key for p in space.parameters][:2] == ["agent.lr", "agent.minibatches"]
+
+
+def test_a_trial_killed_while_its_values_were_written_gets_the_missing_ones(tmp_path):
+    """Optuna writes a new trial's values one by one: a process killed in between leaves a
+    running trial with some of them; the process that continues it keeps those and draws the
+    rest."""
+    path = tmp_path / "space.toml"
+    path.write_text(SPACE)
+    space = load_space(path)
+    study = optuna.create_study(direction="maximize")
+    first = dict(list(space.distributions().items())[:1])  # agent.lr only
+    partial = study.ask(first)
+    kept = partial.params["agent.lr"]
+    continued = optuna.trial.Trial(study, partial._trial_id)
+    values = space.suggest(continued)
+    assert values["agent.lr"] == kept
+    assert set(values) == {"agent.lr", "agent.batch_size", "agent.hidden_sizes"}
+    assert values["agent.hidden_sizes"] in ("[16, 16]", "[32, 32]")
+    assert study.trials[0].params == values  # stored: the run file and the study agree
