@@ -101,20 +101,21 @@ def point_series(label: str, curves: list[SeedCurve], kind: BandKind) -> Series:
     return Series(label=label, x=common, mean=mean, low=low, high=high, runs=len(curves))
 
 
-def write_curves_csv(path: Path, series: list[Series], names: list[str] | None = None) -> None:
-    """``episode`` then ``<name>_mean, _low, _high, _runs`` per series (``names``: default the
-    series' labels; rates in bit/s); empty cells where a series has no point (or a NaN one:
-    the loss before the first update)."""
+def write_curves_csv(path: Path, series: list[Series], names: list[str] | None = None,
+                     x_name: str = "episode") -> None:
+    """``x_name`` (``episode``, or ``tau`` for a profile) then ``<name>_mean, _low, _high,
+    _runs`` per series (``names``: default the series' labels; rates in bit/s); empty cells
+    where a series has no point (or a NaN one: the loss before the first update)."""
     names = names or [s.label for s in series]
-    episodes = np.unique(np.concatenate([s.x for s in series]))
-    rows_at = [{int(e): k for k, e in enumerate(s.x)} for s in series]
+    xs = np.unique(np.concatenate([s.x for s in series]))
+    rows_at = [{x: k for k, x in enumerate(s.x.tolist())} for s in series]
     text = io.StringIO()
     writer = csv.writer(text, lineterminator="\n")
-    writer.writerow(["episode", *(f"{name}_{c}" for name in names for c in CSV_COLUMNS)])
-    for episode in episodes.tolist():
-        row: list[object] = [episode]
+    writer.writerow([x_name, *(f"{name}_{c}" for name in names for c in CSV_COLUMNS)])
+    for x in xs.tolist():
+        row: list[object] = [x]
         for s, at in zip(series, rows_at, strict=True):
-            k = at.get(episode)
+            k = at.get(x)
             row += (["", "", "", ""] if k is None or np.isnan(s.mean[k]) else
                     [float(s.mean[k]), float(s.low[k]), float(s.high[k]), s.runs])
         writer.writerow(row)

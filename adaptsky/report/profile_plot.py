@@ -6,8 +6,6 @@ and its CSV (``tau`` then ``<name>_mean, _low, _high, _runs``)."""
 
 from __future__ import annotations
 
-import csv
-import io
 from pathlib import Path
 
 import numpy as np
@@ -17,9 +15,8 @@ from adaptsky.errors import AdaptskyError
 from adaptsky.report.figure_files import format_of, save_figure
 from adaptsky.report.figures import Series
 from adaptsky.report.plot_metrics import METRICS, Axis
-from adaptsky.report.plot_runs import axis_of, read_groups
+from adaptsky.report.plot_runs import axis_of, read_groups, write_curves_csv
 from adaptsky.report.statistics import performance_profile
-from adaptsky.store.atomic import write_text_atomic
 
 PROFILE_POLICIES = ("last", "best")
 THRESHOLDS = 201
@@ -80,17 +77,5 @@ def plot_profiles(*, run_paths: list[Path], out: Path, policy: str = "last",
                  fontsize="medium")
     out.parent.mkdir(parents=True, exist_ok=True)
     save_figure(figure, out)
-    _write_csv(out.with_suffix(".csv"), series)
+    write_curves_csv(out.with_suffix(".csv"), series, x_name="tau")
     return out
-
-
-def _write_csv(path: Path, series: list[Series]) -> None:
-    text = io.StringIO()
-    writer = csv.writer(text, lineterminator="\n")
-    writer.writerow(["tau", *(f"{s.label}_{c}" for s in series
-                              for c in ("mean", "low", "high", "runs"))])
-    for k, tau in enumerate(series[0].x.tolist()):
-        writer.writerow([tau, *(value for s in series
-                                for value in (float(s.mean[k]), float(s.low[k]),
-                                              float(s.high[k]), s.runs))])
-    write_text_atomic(path, text.getvalue())
