@@ -14,8 +14,9 @@ from adaptsky_cli.cli.plausibility import warn_experiment
 def reproduce(
     experiment: Annotated[str, typer.Argument(
         metavar="EXPERIMENT", show_default=False,
-        help="a shipped experiment id (the paper's e1a, e1b, e2, e3; ours e4, e5, bdq), 'all' "
-        "(the paper's), or an experiment file (TOML)")],
+        help="a shipped experiment id (the paper's e1a, e1b, e2, e3; ours e4, e5, e6, e7, bdq, "
+        "ppo, sac, mappo; suite, the benchmark), 'all' (the paper's), or an experiment "
+        "file (TOML)")],
     out: Annotated[Path | None, typer.Option(
         metavar="DIR", show_default=False,
         help="output folder: runs/, evals/, figures, CSVs, report.md (default: "

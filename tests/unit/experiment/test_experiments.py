@@ -3,10 +3,14 @@ get one line and exit 1."""
 
 from __future__ import annotations
 
+import inspect
+import re
+
 import pytest
 
 from adaptsky.experiment.plan import load_experiment, plan_experiment, shipped_experiments
 from adaptsky_cli.cli.main import main
+from adaptsky_cli.cli.reproduce_cmd import reproduce
 from tests.conftest import ROOT
 
 # runs per shipped experiment: E1a and E1b 10, E2 6 x 8 thresholds, E3 6 + 6 + 6
@@ -104,3 +108,9 @@ def test_unknown_experiment_names_the_shipped_ones(capsys):
     assert main(["reproduce", "e9"]) == 1
     line = capsys.readouterr().err.strip()
     assert line.startswith("e9: no such experiment") and "bdq, e1a, e1b, e2, e3, e4" in line
+
+
+def test_reproduce_help_names_every_shipped_experiment():
+    metadata = inspect.signature(reproduce).parameters["experiment"].annotation.__metadata__
+    named = set(re.findall(r"\b[a-z][a-z0-9]*\b", metadata[0].help))
+    assert set(shipped_experiments()) <= named
