@@ -4,6 +4,7 @@ run every test that needs *a* run file reads (tests/README.md)."""
 from __future__ import annotations
 
 import hashlib
+import os
 import shutil
 from collections.abc import Iterator
 from pathlib import Path
@@ -14,6 +15,9 @@ import pytest
 from adaptsky.scenario import Scenario, parse_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
+# no test reads or writes the user's reference cache (docs/training.md); its own tests point it
+# at a folder of theirs
+os.environ["ADAPTSKY_CACHE_DIR"] = "off"
 SCENARIOS = ROOT / "scenarios"
 
 # sec. V-B: the training layout, clusters (1, 2) and (3, 4)

@@ -47,6 +47,12 @@ from adaptsky.sim.network import NetworkBatch
 from adaptsky.sim.noma import jain_fairness
 from adaptsky.sim.state import users_move
 from adaptsky.store.layout import FORMAT_VERSION, evaluation_fields
+from adaptsky.store.reference_cache import (
+    cache_folder,
+    read_reference,
+    reference_key,
+    write_reference,
+)
 from adaptsky.units import plural
 
 FloatArray = NDArray[np.float64]
@@ -105,13 +111,23 @@ def evaluation_set(scenario: Scenario, oracle_bps: list[FloatArray] | None = Non
     if not groups:
         return None
     stored = dict(zip(groups, oracle_bps or [], strict=False))
-    searched = [name for name, (variant, _) in groups.items()
-                if name not in stored and has_oracle(variant)]
+    layouts = {name: user_layouts(variant, count) for name, (variant, count) in groups.items()}
+    wanted = [name for name, (variant, _) in groups.items()
+              if name not in stored and has_oracle(variant)]
+    cached = {name: found for name in wanted
+              if (found := cached_reference_bps(groups[name][0], layouts[name])) is not None}
+    if cached:
+        (progress or Silent()).note(
+            f"{_reference_phrase(scenario)} on "
+            f"{_where({name: groups[name][1] for name in cached})} from the cache "
+            f"({cache_folder()}; docs/training.md)")
+    stored |= cached
+    searched = [name for name in wanted if name not in cached]
     found: dict[str, LayoutGroup] = {}
     with _reference_stage(scenario, {name: groups[name][1] for name in searched},
                           progress) as ticks:
         for name, (variant, count) in groups.items():
-            layouts_m = user_layouts(variant, count)
+            layouts_m = layouts[name]
             if name in stored:
                 ceiling = stored[name]
             elif name in ticks:
@@ -139,20 +155,29 @@ def _reference_stage(scenario: Scenario, counts: dict[str, int], progress: Repor
         yield {}
         return
     reporter = progress or Silent()
-    where = " and ".join("the training layout" if name == "training"
-                         else plural(count, "held-out layout") for name, count in counts.items())
     uavs = f" ({scenario.uav.count} UAVs)" if scenario.uav.count > 1 else ""
-    name = reference_name(scenario)
-    reporter.note(f"computing {'the ' if name == 'oracle' else ''}{name} on {where} for the "
+    reporter.note(f"computing {_reference_phrase(scenario)} on {_where(counts)} for the "
                   f"greedy evaluations{uavs} ...")
     with WorkProgress(reporter) as work, \
-            work.stage(name, sum(counts.values()), "layout") as tick:
+            work.stage(reference_name(scenario), sum(counts.values()), "layout") as tick:
         ticks: dict[str, OnSearch] = {}
         before = 0
         for group, count in counts.items():
             ticks[group] = functools.partial(_shifted, tick, before)
             before += count
         yield ticks
+
+
+def _reference_phrase(scenario: Scenario) -> str:
+    """'the oracle' or 'best response'."""
+    name = reference_name(scenario)
+    return f"the {name}" if name == "oracle" else name
+
+
+def _where(counts: dict[str, int]) -> str:
+    """'the training layout and 8 held-out layouts' of the groups ``counts``."""
+    return " and ".join("the training layout" if name == "training"
+                        else plural(count, "held-out layout") for name, count in counts.items())
 
 
 def _shifted(tick: Tick, before: int, done: float, detail: str = "") -> None:
@@ -163,19 +188,42 @@ def _shifted(tick: Tick, before: int, done: float, detail: str = "") -> None:
 _REFERENCES: dict[tuple[str, bytes], FloatArray] = {}
 
 
+def _reference_keys(scenario: Scenario, layouts_m: FloatArray) -> tuple[tuple[str, bytes], str]:
+    """The key of ``_REFERENCES`` and the reference cache's: the scenario's physics (not its
+    name, agent or training) and the layouts."""
+    physics = json.dumps(scenario.model_dump(
+        mode="json", exclude={"name", "description", "agent", "train"}), sort_keys=True)
+    return (physics, layouts_m.tobytes()), reference_key(physics, scenario.channel.model,
+                                                         layouts_m)
+
+
+def cached_reference_bps(scenario: Scenario, layouts_m: FloatArray) -> FloatArray | None:
+    """The reference of every layout if this process or the reference cache
+    (:mod:`adaptsky.store.reference_cache`) has it, else None."""
+    memo_key, cache_key = _reference_keys(scenario, layouts_m)
+    if memo_key not in _REFERENCES:
+        found = read_reference(cache_key, len(layouts_m))
+        if found is None:
+            return None
+        _REFERENCES[memo_key] = found
+    return _REFERENCES[memo_key].copy()
+
+
 def reference_bps(scenario: Scenario, layouts_m: FloatArray,
                   on_progress: OnSearch | None = None) -> FloatArray:
     """The reference sum rate (L,) of every layout: the oracle; for several UAVs best
-    response (docs/model.md §9). Kept per process for the scenario's physics (not its name,
-    agent or training) and layouts, so the runs of a stack, which share them, search once
-    (best response takes minutes a layout). ``on_progress`` hears the layouts done (a
-    fraction within one) and where the search is."""
-    physics = scenario.model_dump(mode="json", exclude={"name", "description", "agent", "train"})
-    key = (json.dumps(physics, sort_keys=True), layouts_m.tobytes())
-    if key not in _REFERENCES:
-        _REFERENCES[key] = best_response(scenario, layouts_m, on_layout=on_progress,
-                                         on_search=on_progress).objective_bps
-    return _REFERENCES[key].copy()
+    response (docs/model.md §9). Kept per process and in the reference cache for the
+    scenario's physics and layouts, so the runs of a stack, and of other processes on the
+    machine, which share them, search once (best response takes minutes a layout).
+    ``on_progress`` hears the layouts done (a fraction within one) and where the search is."""
+    found = cached_reference_bps(scenario, layouts_m)
+    if found is not None:
+        return found
+    memo_key, cache_key = _reference_keys(scenario, layouts_m)
+    _REFERENCES[memo_key] = best_response(scenario, layouts_m, on_layout=on_progress,
+                                          on_search=on_progress).objective_bps
+    write_reference(cache_key, _REFERENCES[memo_key])
+    return _REFERENCES[memo_key].copy()
 
 
 def _nan_reduce(reduce: object, values: FloatArray) -> float:

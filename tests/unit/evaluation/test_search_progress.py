@@ -12,7 +12,6 @@ import itertools
 import math
 import re
 import time
-from pathlib import Path
 
 import numpy as np
 from rich.console import Console
@@ -21,34 +20,16 @@ from adaptsky import progress as work_progress
 from adaptsky.progress import LogLines, WorkProgress
 from adaptsky.rollouts import several_uavs
 from adaptsky.scenario import load_scenario
-from adaptsky.scenario.toml_writer import dumps
 from adaptsky.sim.layout import user_layouts
 from adaptsky.training.evaluation import reference_name
 from adaptsky.training.progress import TrainingProgress
 from adaptsky_cli.cli.main import main
 from adaptsky_cli.cli.progress_display import RichReporter
 from tests.conftest import SCENARIOS
+from tests.helpers.training import three
 
 STAMP = r"\d{4}-\d\d-\d\d \d\d:\d\d:\d\d "
 PACE = r"; [\d.]+ m?s/layout, (about [\w ]+|under 1 s) left$"
-
-
-def three(tmp_path: Path) -> Path:
-    """three_uavs_mmwave.toml shrunk ten times (20 m area, 2 m lattice, heights 10-16 m):
-    a best response of three UAVs in a fraction of a second; greedy evaluations every
-    episode on the training layout and two held-out layouts."""
-    data = load_scenario(SCENARIOS / "three_uavs_mmwave.toml").model_dump(mode="json")
-    data["name"] = "three"
-    data["area"]["side_m"] = 20.0
-    data["users"]["positions_m"] = [[x / 10, y / 10] for x, y in data["users"]["positions_m"]]
-    data["uav"] |= {"start_m": [0.0, 0.0, 12.0], "min_height_m": 10.0, "max_height_m": 16.0,
-                    "step_m": [2.0, 2.0, 2.0], "min_separation_m": 2.0, "power_step": 0.1}
-    data["agent"] |= {"hidden_sizes": [16], "batch_size": 8, "memory_size": 200}
-    data["train"] |= {"episodes": 1, "steps": 3, "eval_every": 1, "eval_steps": 3,
-                      "eval_layouts": 2}
-    path = tmp_path / "three.toml"
-    path.write_text(dumps(data))
-    return path
 
 
 def _err(capsys) -> list[str]:
