@@ -15,7 +15,7 @@ import pytest
 from adaptsky.scenario import Scenario, parse_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
-# no test reads or writes the user's reference cache (docs/training.md); its own tests point it
+# no test reads or writes the user's search cache (docs/training.md); its own tests point it
 # at a folder of theirs
 os.environ["ADAPTSKY_CACHE_DIR"] = "off"
 SCENARIOS = ROOT / "scenarios"

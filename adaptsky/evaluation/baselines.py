@@ -53,6 +53,7 @@ from adaptsky.scenario.variants import with_values
 from adaptsky.sim.controls import controls_of
 from adaptsky.sim.network import NetworkBatch
 from adaptsky.sim.state import users_move
+from adaptsky.store.search_cache import search_once
 
 BASELINES = ("soa", "tracking", "oracle", "best-response", "oma", "random")
 SEARCHES = ("oracle", "best-response", "oma")
@@ -266,9 +267,12 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
 def search(scenario: Scenario, method: str, users_m: np.ndarray,
            on_progress: Tick | None = None) -> SearchResult:
     """Best response (for one UAV the oracle: 1 round, converged) or OMA
-    (:mod:`adaptsky.rollouts.several_uavs`) on ``users_m``."""
+    (:mod:`adaptsky.rollouts.several_uavs`) on ``users_m``, from the search cache where it
+    has them (:mod:`adaptsky.store.search_cache`)."""
     run = several_uavs.best_oma if method == "oma" else several_uavs.best_response
-    return run(scenario, users_m, on_layout=on_progress, on_search=on_progress)
+    return search_once(scenario, users_m, lambda: run(
+        scenario, users_m, on_layout=on_progress, on_search=on_progress),
+        "oma" if method == "oma" else "best-response")
 
 
 def search_details(found: SearchResult) -> dict[str, Any]:

@@ -27,7 +27,6 @@ oracle, the same sum rates in bit/s.
 from __future__ import annotations
 
 import functools
-import json
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -47,12 +46,7 @@ from adaptsky.sim.network import NetworkBatch
 from adaptsky.sim.noma import jain_fairness
 from adaptsky.sim.state import users_move
 from adaptsky.store.layout import FORMAT_VERSION, evaluation_fields
-from adaptsky.store.reference_cache import (
-    cache_folder,
-    read_reference,
-    reference_key,
-    write_reference,
-)
+from adaptsky.store.search_cache import cache_folder, cached_search, physics_json, search_once
 from adaptsky.units import plural
 
 FloatArray = NDArray[np.float64]
@@ -188,41 +182,29 @@ def _shifted(tick: Tick, before: int, done: float, detail: str = "") -> None:
 _REFERENCES: dict[tuple[str, bytes], FloatArray] = {}
 
 
-def _reference_keys(scenario: Scenario, layouts_m: FloatArray) -> tuple[tuple[str, bytes], str]:
-    """The key of ``_REFERENCES`` and the reference cache's: the scenario's physics (not its
-    name, agent or training) and the layouts."""
-    physics = json.dumps(scenario.model_dump(
-        mode="json", exclude={"name", "description", "agent", "train"}), sort_keys=True)
-    return (physics, layouts_m.tobytes()), reference_key(physics, scenario.channel.model,
-                                                         layouts_m)
-
-
 def cached_reference_bps(scenario: Scenario, layouts_m: FloatArray) -> FloatArray | None:
-    """The reference of every layout if this process or the reference cache
-    (:mod:`adaptsky.store.reference_cache`) has it, else None."""
-    memo_key, cache_key = _reference_keys(scenario, layouts_m)
+    """The reference of every layout if this process or the search cache
+    (:mod:`adaptsky.store.search_cache`) has it, else None."""
+    memo_key = (physics_json(scenario), layouts_m.tobytes())
     if memo_key not in _REFERENCES:
-        found = read_reference(cache_key, len(layouts_m))
+        found = cached_search(scenario, layouts_m)
         if found is None:
             return None
-        _REFERENCES[memo_key] = found
+        _REFERENCES[memo_key] = found.objective_bps
     return _REFERENCES[memo_key].copy()
 
 
 def reference_bps(scenario: Scenario, layouts_m: FloatArray,
                   on_progress: OnSearch | None = None) -> FloatArray:
     """The reference sum rate (L,) of every layout: the oracle; for several UAVs best
-    response (docs/model.md §9). Kept per process and in the reference cache for the
-    scenario's physics and layouts, so the runs of a stack, and of other processes on the
-    machine, which share them, search once (best response takes minutes a layout).
-    ``on_progress`` hears the layouts done (a fraction within one) and where the search is."""
-    found = cached_reference_bps(scenario, layouts_m)
-    if found is not None:
-        return found
-    memo_key, cache_key = _reference_keys(scenario, layouts_m)
-    _REFERENCES[memo_key] = best_response(scenario, layouts_m, on_layout=on_progress,
-                                          on_search=on_progress).objective_bps
-    write_reference(cache_key, _REFERENCES[memo_key])
+    response (docs/model.md §9). Kept per process and in the search cache for the scenario's
+    physics and layouts, so the runs of a stack, and other processes on the machine, which
+    share them, search once (best response takes minutes a layout). ``on_progress`` hears
+    the layouts done (a fraction within one) and where the search is."""
+    memo_key = (physics_json(scenario), layouts_m.tobytes())
+    if memo_key not in _REFERENCES:
+        _REFERENCES[memo_key] = search_once(scenario, layouts_m, lambda: best_response(
+            scenario, layouts_m, on_layout=on_progress, on_search=on_progress)).objective_bps
     return _REFERENCES[memo_key].copy()
 
 
