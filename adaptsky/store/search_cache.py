@@ -7,13 +7,13 @@ search it again).
 One ``.npz`` file per search in ``searches/`` of the cache folder: ``ADAPTSKY_CACHE_DIR``,
 else ``$XDG_CACHE_HOME/adaptsky``, else ``~/.cache/adaptsky``; ``ADAPTSKY_CACHE_DIR=off``
 turns the cache off. A file is named by the SHA-256 of everything the search depends on: the
-method, the scenario's physics, the layouts' bytes, the source of the packages that search (``sim``,
-``channels``, ``rollouts``, ``scenario``) and the channel plugin's package, version and
-target; so a changed model, layout or plugin finds no file and searches again. Files are
+method, the scenario's physics, the layouts' bytes, the source of the packages that search
+(``sim``, ``channels``, ``rollouts``, ``scenario``) and the channel plugin's package, version
+and target; so a changed model, layout or plugin finds no file and searches again. Files are
 read with ``allow_pickle=False`` (opening one never executes code) and used only with the
-expected shapes and dtypes; the search's process time per layout is the one measured when it
-ran; they are written whole or not at all (atomic rename), and a cache
-that cannot be written is skipped: the reference is then searched as before.
+expected shapes and dtypes; the process time per layout is the one measured when the search
+ran. They are written whole or not at all (atomic rename), and a cache that cannot be written
+is skipped: the search then runs as before.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ from adaptsky.store.atomic import write_bytes_atomic
 
 FloatArray = NDArray[np.float64]
 CACHE_ENV = "ADAPTSKY_CACHE_DIR"
-# the packages whose source a reference depends on
+# the packages whose source a search depends on
 _SEARCH_PACKAGES = ("sim", "channels", "rollouts", "scenario")
 
 
