@@ -27,6 +27,7 @@ import numpy as np
 from adaptsky.errors import AdaptskyError
 from adaptsky.progress import Tick
 from adaptsky.rollouts import several_uavs
+from adaptsky.rollouts.fading_genie import FADING_GENIE_NOTE, per_step_fading_oracle
 from adaptsky.rollouts.fading_oracle import (
     STATIC_CEILING_NOTE,
     fading_oracle,
@@ -98,14 +99,17 @@ def require_applies(scenario: Scenario, method: str, option: str = "") -> None:
 
 
 def per_step_reference(scenario: Scenario, method: str) -> bool:
-    """Whether ``method`` is searched at every step (users that move, deterministic gains):
-    the oracle or best response of one UAV, the per-step oracle
-    (:mod:`adaptsky.rollouts.genie`); best response of several UAVs, best response at every
-    step (:mod:`adaptsky.rollouts.step_response`)."""
-    return (method in REFERENCES and users_move(scenario)
+    """Whether ``method`` is searched at every step (users that move, deterministic gains
+    or, for one UAV, the built-in fading where its oracle applies): the oracle or best
+    response of one UAV, the per-step oracle (:mod:`adaptsky.rollouts.genie`, under fading
+    :mod:`adaptsky.rollouts.fading_genie`); best response of several UAVs, best response at
+    every step (:mod:`adaptsky.rollouts.step_response`)."""
+    if not (method in REFERENCES and users_move(scenario)
             and (scenario.uav.count == 1 or method == "best-response")
-            and scenario.channel.fading.model == "none"
-            and scenario.channel.los != "sampled")
+            and scenario.channel.los != "sampled"):
+        return False
+    return (scenario.channel.fading.model == "none"
+            or (scenario.uav.count == 1 and fading_oracle_refusal(scenario) is None))
 
 
 def static_ceiling(scenario: Scenario, method: str) -> bool:
@@ -209,10 +213,12 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
                            seed)
     elif per_step_reference(scenario, method):
         start = time.process_time()
-        found = per_step_oracle(scenario, users_m, steps, seed, on_progress)
+        faded = scenario.channel.fading.model != "none"
+        found = (per_step_fading_oracle if faded else per_step_oracle)(
+            scenario, users_m, steps, seed, on_progress)
         details["seconds_per_step"] = (time.process_time() - start) / steps
         details["objective_bps"] = found.objective_bps.mean(axis=0)
-        details["note"] = GENIE_NOTE
+        details["note"] = FADING_GENIE_NOTE if faded else GENIE_NOTE
         if method == "best-response":
             details["rounds"] = np.ones(len(users_m), dtype=np.int64)
             details["converged"] = np.ones(len(users_m), dtype=np.bool_)

@@ -165,6 +165,8 @@ class FadingStage:
         self._scale = innovation_scale(self.correlation)
         self._steps = np.empty((steps, 2, num_envs, num_uavs, num_users), dtype=np.float32)
         self._scattered: FloatArray | None = None
+        self.last: FloatArray | None = None
+        """The latest step's s (2, B, U, N), as :meth:`scattered` returned it (a view)."""
         self.reset()
 
     def reset(self) -> None:
@@ -197,11 +199,13 @@ class FadingStage:
         a view of the block, where rho = 0; double where s is kept)."""
         innovation = self._innovation(rng)
         if self.correlation == 0.0:
-            return innovation                  # nothing kept: a view of the block will do
+            self.last = innovation             # nothing kept: a view of the block will do
+            return innovation
         if self._scattered is None:                         # fresh: s = w
             self._scattered = np.divide(innovation, self._scale, dtype=np.float64)
         else:
             ar1(self._scattered, innovation, self.correlation, out=self._scattered)
+        self.last = self._scattered
         return self._scattered
 
     def power_gains(self, elevation_deg: FloatArray, los: BoolArray | None, rng: Generators

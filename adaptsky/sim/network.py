@@ -603,6 +603,15 @@ class NetworkBatch:
         return np.stack([np.array(self._small_scale.scattered(rng), dtype=np.float64
                                     ).reshape(shape) for _ in range(steps)])
 
+    def step_scattered(self) -> FloatArray:
+        """The scattered parts s (2, B, U, N), real and imaginary, of the built-in fading at
+        the latest step (a copy): what a held configuration's step drew (the per-step
+        oracle under fading, :mod:`adaptsky.rollouts.fading_genie`)."""
+        if self._small_scale is None or self._small_scale.last is None:
+            raise ValueError("no step has drawn the built-in fading (channel.fading.model)")
+        return np.array(self._small_scale.last, dtype=np.float64).reshape(
+            2, self.num_envs, self.num_uavs, self.num_users)
+
     def _held(self, uav_m: FloatArray, alpha_first: FloatArray, users_m: FloatArray, t: int
               ) -> NetworkState:
         """The network in the state of the given configuration, users and step count."""
