@@ -10,6 +10,7 @@ ticks on episode and UAV axes, and the legend below the axes, where it covers no
 
 from __future__ import annotations
 
+import textwrap
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -261,7 +262,7 @@ def conditions(panels: list[tuple[str, list[str], list[Bars]]], *, title: str,
     grid = figure.subplots(1, len(panels), squeeze=False, width_ratios=widths)[0]
     labels = dict.fromkeys(bar.label for _, _, bars in panels for bar in bars)
     colors = {label: f"C{i}" for i, label in enumerate(labels)}
-    for axes, (name, names, bars) in zip(grid, panels, strict=True):
+    for axes, (name, names, bars), share in zip(grid, panels, widths, strict=True):
         axes.grid(True, axis="y", alpha=0.3)
         width = 0.8 / max(1, len(bars))
         x = np.arange(len(names))
@@ -274,7 +275,10 @@ def conditions(panels: list[tuple[str, list[str], list[Bars]]], *, title: str,
                      label=legend, yerr=np.vstack([mean - low, high - mean]) if spread
                      else None, capsize=2)
         axes.set_xticks(x, names, rotation=20, ha="right", fontsize=FONT_SMALL)
-        axes.set_title(name, fontsize=FONT_SMALL + 1)
+        # wrapped to the panel's width (about ten characters an inch at this size)
+        panel_in = (figure.get_figwidth() - 1.0) * share / sum(widths)
+        axes.set_title(textwrap.fill(name, max(12, int(10 * panel_in)),
+                                     break_long_words=False), fontsize=FONT_SMALL + 1)
     grid[0].set_ylabel(ylabel)
     figure.suptitle(title)
     legend_below(figure, list(grid), columns=4)

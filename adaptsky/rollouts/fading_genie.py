@@ -30,13 +30,13 @@ from numpy.typing import NDArray
 
 from adaptsky.rollouts.fading_oracle import _Layout, require_fading_oracle
 from adaptsky.rollouts.genie import (
-    BOUNDED_MODELS,
     BOX,
     POINTS_PER_BATCH,
     GenieResult,
     LatticeBoxes,
     either_share,
     gains_at,
+    per_step_search,
 )
 from adaptsky.rollouts.oracle import _best_alpha_on_grid, lattice
 from adaptsky.scenario.models import Scenario
@@ -124,10 +124,7 @@ def step_fading_oracle(env: NetworkBatch, layout: int, users_m: FloatArray,
         _, rate = _best_alpha_on_grid(np.maximum(first, second), np.minimum(first, second),
                                       either_share(alphas), scenario, snr_scale)
         bound = rate.sum(axis=1) * (1 + BOUND_SLACK)
-    ranked = np.argsort(-bound, kind="stable")
-    if previous_m is not None:          # the previous optimum's box first: a good start
-        first_box = boxes.of_point(previous_m)
-        ranked = np.concatenate([[first_box], ranked[ranked != first_box]])
+    ranked = boxes.ranked(bound, previous_m)
     per_batch = max(1, POINTS_PER_BATCH // int(np.prod(BOX)))
     valued = 0
     # the first box alone (its value starts the pruning), then batches of boxes
@@ -161,31 +158,12 @@ def per_step_fading_oracle(scenario: Scenario, users_m: FloatArray, steps: int,
     ``users_m`` (L, N, 2), the users moving and the fading drawn as under a policy with the
     same ``seed`` (the same draws); ``on_step`` hears the steps done."""
     require_fading_oracle(scenario)
-    num_layouts = len(users_m)
-    env = NetworkBatch(scenario, num_envs=num_layouts, seed=seed, users_m=users_m)
-    env.reset()
-    radio = scenario.radio
-    snr_scale = radio.tx_power_w * radio.antenna_gain / radio.noise_w
-    boxes = (LatticeBoxes(lattice(scenario)[:3]) if scenario.channel.model in BOUNDED_MODELS
-             else None)
-    k = scenario.num_clusters
-    objective = np.zeros((steps, num_layouts))
-    uav_m = np.zeros((steps, num_layouts, 3))
-    alpha = np.zeros((steps, num_layouts, k))
-    positions = np.zeros((steps, *users_m.shape))
-    valued = np.zeros((steps, num_layouts), dtype=np.int64)
-    start = np.broadcast_to(np.array(scenario.uav.start_m), (num_layouts, 3))
-    shares = np.full((num_layouts, k), scenario.uav.start_alpha)
-    for step in range(steps):
-        env.hold_step(start, shares)        # the users move and the fading draws, as a step's
-        positions[step] = env.users_m
-        scattered = env.step_scattered()[:, :, 0]                     # (2, L, N)
-        for layout in range(num_layouts):
-            found = step_fading_oracle(env, layout, positions[step, layout],
-                                       scattered[:, layout], boxes, snr_scale,
-                                       uav_m[step - 1, layout] if step else None)
-            objective[step, layout], uav_m[step, layout], alpha[step, layout] = found[:3]
-            valued[step, layout] = found[3]
-        if on_step is not None:
-            on_step(step + 1)
-    return GenieResult(objective, uav_m, alpha, positions, valued)
+
+    def search(env: NetworkBatch, layout: int, step_users_m: FloatArray,
+               boxes: LatticeBoxes | None, snr_scale: float, previous_m: FloatArray | None
+               ) -> tuple[float, FloatArray, FloatArray, int]:
+        scattered = env.step_scattered()[:, layout, 0]             # the step's draws (2, N)
+        return step_fading_oracle(env, layout, step_users_m, scattered, boxes, snr_scale,
+                                  previous_m)
+
+    return per_step_search(scenario, users_m, steps, seed, search, on_step)

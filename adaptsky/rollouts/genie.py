@@ -87,6 +87,16 @@ class LatticeBoxes:
         counts = [len(s) for s in self.starts]
         return (ijk[0] * counts[1] + ijk[1]) * counts[2] + ijk[2]
 
+    def ranked(self, bound: FloatArray, previous_m: FloatArray | None = None
+               ) -> NDArray[np.intp]:
+        """The boxes from the largest ``bound`` (M,) down (equal bounds in lattice order),
+        the box of ``previous_m`` (the previous step's optimum: a good start) first."""
+        ranked = np.argsort(-bound, kind="stable")
+        if previous_m is not None:
+            first = self.of_point(previous_m)
+            ranked = np.concatenate([[first], ranked[ranked != first]])
+        return ranked
+
     def points(self, boxes: NDArray[np.intp]) -> FloatArray:
         """Every lattice point (P, 3) of ``boxes``, box after box."""
         found = []
@@ -163,10 +173,7 @@ def step_oracle(env: NetworkBatch, layout: int, users_m: FloatArray,
         order = [np.stack(np.meshgrid(xs, ys, hs, indexing="ij"), axis=-1).reshape(-1, 3)]
     else:
         bound = _bounds(env, layout, boxes, users_m, either_share(alphas), snr_scale)
-        ranked = np.argsort(-bound, kind="stable")
-        if previous_m is not None:      # the previous optimum's box first: a good start
-            first = boxes.of_point(previous_m)
-            ranked = np.concatenate([[first], ranked[ranked != first]])
+        ranked = boxes.ranked(bound, previous_m)
     per_batch = max(1, POINTS_PER_BATCH // int(np.prod(BOX)))
     position = 0
     while True:
@@ -193,11 +200,19 @@ def step_oracle(env: NetworkBatch, layout: int, users_m: FloatArray,
     return best, best_point, best_alpha, valued
 
 
-def per_step_oracle(scenario: Scenario, users_m: FloatArray, steps: int, seed: int = 0,
-                    on_step: Callable[[int], None] | None = None) -> GenieResult:
-    """The per-step oracle (module doc) over ``steps`` steps of the layouts ``users_m``
-    (L, N, 2), the users moving as under a policy with the same ``seed`` (the same draws);
-    ``on_step`` hears the steps done."""
+StepSearch = Callable[[NetworkBatch, int, FloatArray, "LatticeBoxes | None", float,
+                       "FloatArray | None"], tuple[float, FloatArray, FloatArray, int]]
+"""One step's search: (env, layout, users_m, boxes, snr_scale, previous_m) to (objective,
+UAV position, alpha_first, points valued), as :func:`step_oracle`."""
+
+
+def per_step_search(scenario: Scenario, users_m: FloatArray, steps: int, seed: int,
+                    search: StepSearch, on_step: Callable[[int], None] | None = None
+                    ) -> GenieResult:
+    """``search`` at every step of ``steps`` of the layouts ``users_m`` (L, N, 2), the users
+    moving as under a policy with the same ``seed`` (the same draws; the environment has
+    just held the start configuration for the step when ``search`` is called), from the
+    previous step's optimum; ``on_step`` hears the steps done."""
     num_layouts = len(users_m)
     env = NetworkBatch(scenario, num_envs=num_layouts, seed=seed, users_m=users_m)
     env.reset()
@@ -217,11 +232,18 @@ def per_step_oracle(scenario: Scenario, users_m: FloatArray, steps: int, seed: i
         env.hold_step(start, shares)            # the users move; the clusters are the step's
         positions[step] = env.users_m
         for layout in range(num_layouts):
-            found = step_oracle(env, layout, positions[step, layout], boxes, snr_scale,
-                                uav_m[step - 1, layout] if step else None)
+            found = search(env, layout, positions[step, layout], boxes, snr_scale,
+                           uav_m[step - 1, layout] if step else None)
             objective[step, layout], uav_m[step, layout], alpha[step, layout] = found[:3]
             valued[step, layout] = found[3]
         if on_step is not None:
             on_step(step + 1)
     return GenieResult(objective, uav_m, alpha, positions, valued)
 
+
+def per_step_oracle(scenario: Scenario, users_m: FloatArray, steps: int, seed: int = 0,
+                    on_step: Callable[[int], None] | None = None) -> GenieResult:
+    """The per-step oracle (module doc) over ``steps`` steps of the layouts ``users_m``
+    (L, N, 2), the users moving as under a policy with the same ``seed`` (the same draws);
+    ``on_step`` hears the steps done."""
+    return per_step_search(scenario, users_m, steps, seed, step_oracle, on_step)
