@@ -132,8 +132,8 @@ def step_fading_oracle(env: NetworkBatch, layout: int, users_m: FloatArray,
         batch = ranked[start:stop]
         batch = batch[bound[batch] > best]
         if not len(batch):
-            if bound[ranked[start:]].max() <= best:
-                break                                  # no later box can do better
+            if start > 0:        # after the first box the bounds fall: no later box can do better
+                break
             continue
         points = boxes.points(batch)
         value, alpha = search.values(search.step_gains(points), alphas)
