@@ -36,6 +36,9 @@ WAIT_S = 2.0
 # a running trial without a claim file this long after it started lost its process before
 # it took the claim (or belongs to a machine that does not share the folder)
 UNCLAIMED_S = 120.0
+# opening a new database that another process is creating at the same moment
+SCHEMA_TRIES = 5
+SCHEMA_WAIT_S = 0.5
 
 
 class StudyError(AdaptskyError):
@@ -68,15 +71,24 @@ class Tuning:
                            "steps": self.run.steps}, sort_keys=True)
 
 
-def _storage(url: str) -> Any:
+def open_storage(url: str) -> Any:
+    """Optuna's storage at ``url``. Two processes opening a new database at the same moment
+    both create its tables; the one that loses gets "table ... already exists" and tries again
+    (the tables are there by then)."""
     import optuna
 
     kwargs = {"connect_args": {"timeout": 120}} if url.startswith("sqlite") else {}
-    try:
-        return optuna.storages.RDBStorage(url, engine_kwargs=kwargs)
-    except Exception as error:  # SQLAlchemy's many kinds: a bad URL, a missing driver, ...
-        reason = str(error).splitlines()[0] if str(error) else type(error).__name__
-        raise StudyError(f"--storage {url}: cannot open the study's storage: {reason}") from None
+    for attempt in range(SCHEMA_TRIES):
+        try:
+            return optuna.storages.RDBStorage(url, engine_kwargs=kwargs)
+        except Exception as error:  # SQLAlchemy's many kinds: a bad URL, a missing driver, ...
+            if "already exists" in str(error) and attempt + 1 < SCHEMA_TRIES:
+                time.sleep(SCHEMA_WAIT_S)
+                continue
+            reason = str(error).splitlines()[0] if str(error) else type(error).__name__
+            raise StudyError(
+                f"--storage {url}: cannot open the study's storage: {reason}") from None
+    raise AssertionError("unreachable")
 
 
 def open_study(tuning: Tuning, worker: int = 0) -> optuna.study.Study:
@@ -86,7 +98,7 @@ def open_study(tuning: Tuning, worker: int = 0) -> optuna.study.Study:
     import optuna
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
-    storage = _storage(tuning.storage)
+    storage = open_storage(tuning.storage)
     settings = tuning.space.study
     pruner: optuna.pruners.BasePruner = optuna.pruners.NopPruner()
     if settings.pruner == "median":

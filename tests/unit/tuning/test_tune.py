@@ -16,6 +16,7 @@ from optuna.trial import TrialState
 from adaptsky.scenario import load_scenario
 from adaptsky.store.run_file import RunReader
 from adaptsky.tuning.space import load_space
+from adaptsky.tuning.study import StudyError, open_storage
 from adaptsky.tuning.trial import objective_of
 from adaptsky_cli.cli.main import main
 from tests.helpers.cli import ADAPTSKY
@@ -46,7 +47,10 @@ def files(tmp_path: Path) -> tuple[Path, Path]:
 
 
 def _study(folder: Path, name: str = "small") -> optuna.study.Study:
-    return optuna.load_study(study_name=name, storage=f"sqlite:///{folder / 'study.db'}")
+    # through tune's own opening: the test reads while the process under test may be making
+    # the database's tables
+    return optuna.load_study(study_name=name,
+                             storage=open_storage(f"sqlite:///{folder / 'study.db'}"))
 
 
 def _settled(study: optuna.study.Study) -> list[optuna.trial.FrozenTrial]:
@@ -260,3 +264,28 @@ def test_a_trial_killed_while_its_values_were_written_gets_the_missing_ones(tmp_
     assert set(values) == {"agent.lr", "agent.batch_size", "agent.hidden_sizes"}
     assert values["agent.hidden_sizes"] in ("[16, 16]", "[32, 32]")
     assert study.trials[0].params == values  # stored: the run file and the study agree
+
+
+def test_opening_a_database_another_process_is_making_tries_again(tmp_path, monkeypatch):
+    """Two processes opening a new SQLite study at once both create its tables; the loser's
+    "already exists" is tried again, any other failure is one line."""
+    made = optuna.storages.RDBStorage
+    calls = []
+
+    def racing(url, **kwargs):
+        calls.append(url)
+        if len(calls) == 1:
+            raise RuntimeError("(sqlite3.OperationalError) table studies already exists")
+        return made(url, **kwargs)
+
+    monkeypatch.setattr("adaptsky.tuning.study.SCHEMA_WAIT_S", 0.0)
+    monkeypatch.setattr(optuna.storages, "RDBStorage", racing)
+    url = f"sqlite:///{tmp_path / 'study.db'}"
+    assert isinstance(open_storage(url), made) and len(calls) == 2
+
+    def broken(url, **kwargs):
+        raise RuntimeError("no such driver\nmore")
+
+    monkeypatch.setattr(optuna.storages, "RDBStorage", broken)
+    with pytest.raises(StudyError, match=r"cannot open the study's storage: no such driver$"):
+        open_storage(url)
