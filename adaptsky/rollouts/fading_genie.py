@@ -92,8 +92,7 @@ def box_fading_bound(boxes: LatticeBoxes, scenario: Scenario, users_m: FloatArra
                          users_m, height_m)
     high = _elevation_deg(boxes.nearest(users_m) * [1, 1, 0] + boxes.high[:, None] * [0, 0, 1],
                           users_m, height_m)
-    k0_db = fading.k0_db if fading.k0_db is not None else 0.0
-    k90_db = fading.k90_db if fading.k90_db is not None else 0.0
+    k0_db, k90_db = fading.k_db
     ends = root_k_factor(low, k0_db, k90_db), root_k_factor(high, k0_db, k90_db)
     bound = largest_power_gain(np.minimum(*ends), np.maximum(*ends), real, square)
     if scenario.channel.los != "always":

@@ -102,8 +102,7 @@ class _Layout:
         self.mean_square = (np.square(self.real) + np.square(self.imag)).mean(axis=0)
         fading = scenario.channel.fading
         self.rician = fading.model == "rician"
-        self.k0_db = fading.k0_db if fading.k0_db is not None else 0.0
-        self.k90_db = fading.k90_db if fading.k90_db is not None else 0.0
+        self.k0_db, self.k90_db = fading.k_db
         radio = scenario.radio
         self.snr_scale = radio.tx_power_w * radio.antenna_gain / radio.noise_w
         self.bandwidth_hz = radio.bandwidth_hz

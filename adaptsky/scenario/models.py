@@ -344,6 +344,13 @@ class Fading(Section):
         None, description="rho in [0, 1), the correlation of the scattered part from one step "
         "to the next (0: independent every step; Jakes: J0(2 pi f_D step_s)); default 0")
 
+    @property
+    def k_db(self) -> tuple[float, float]:
+        """(K at elevation 0, K at elevation 90 degrees), dB (eq. 11.2); (0, 0) for a model
+        without K-factors, which never reads them."""
+        return (self.k0_db if self.k0_db is not None else 0.0,
+                self.k90_db if self.k90_db is not None else 0.0)
+
     @field_validator("correlation")
     @classmethod
     def _correlation_below_one(cls, value: float | None) -> float | None:

@@ -148,8 +148,7 @@ class FadingStage:
         if fading.model == "none":
             raise ValueError("fading.model 'none' has no fading stage")
         self.rician = fading.model == "rician"
-        self.k0_db = fading.k0_db if fading.k0_db is not None else 0.0
-        self.k90_db = fading.k90_db if fading.k90_db is not None else 0.0
+        self.k0_db, self.k90_db = fading.k_db
         self.correlation = fading.correlation or 0.0
         self.shape = (num_envs, num_uavs, num_users)
         links = num_uavs * num_users
