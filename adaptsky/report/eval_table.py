@@ -31,8 +31,7 @@ def methods_table(results: dict[str, Any]) -> Table:
         columns += ["wins", "gain%", "med%", "max%"]
         caption += ("; wins: layouts where the policy's mean sum rate is higher; gain%: the "
                     "policy's improvement over the method, mean, median and max over layouts, "
-                    "of the mean over steps (the policy's flight from its start counted; its "
-                    "steady state against the oracle or best response is said below)")
+                    "of the mean over steps (the policy's flight from its start counted)")
     table = Table(*columns, title=title, caption=caption.format(unit=unit), box=box.SIMPLE_HEAD,
                   pad_edge=False, collapse_padding=True)
     # numbers are never cut; a long label (a run file's path) folds onto more lines instead

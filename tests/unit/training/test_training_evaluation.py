@@ -314,7 +314,8 @@ def test_eval_human_output_names_the_best_policy(full, tmp_path, capsys):
     assert "best greedy evaluation during training, episode 4" in words
     assert "the last checkpoint is episode 6 (--policy last)" in words
     assert "seed 0: greedy evaluations during training (3)" in words
-    marked = [line.split() for line in out.splitlines() if line.rstrip().endswith(" best")]
+    marked = [line.split() for line in out.splitlines()            # the table's rows
+              if line.rstrip().endswith(" best") and line.split()[0].isdigit()]
     assert len(marked) == 1 and marked[0][0] == "4"
 
 
