@@ -30,13 +30,13 @@ from numpy.typing import NDArray
 
 from adaptsky.rollouts.fading_oracle import _Layout, require_fading_oracle
 from adaptsky.rollouts.genie import (
-    BOX,
-    POINTS_PER_BATCH,
     GenieResult,
     LatticeBoxes,
+    best_in_boxes,
     either_share,
     gains_at,
     per_step_search,
+    start_configuration,
 )
 from adaptsky.rollouts.oracle import _best_alpha_on_grid, lattice
 from adaptsky.scenario.models import Scenario
@@ -110,8 +110,6 @@ def step_fading_oracle(env: NetworkBatch, layout: int, users_m: FloatArray,
     None values every point."""
     scenario = env.scenario
     search = _Layout(env, scenario, layout, users_m, scattered[None])
-    best, best_point = 0.0, np.array(scenario.uav.start_m, dtype=np.float64)
-    best_alpha = np.full(scenario.num_clusters, scenario.uav.start_alpha)
     xs, ys, hs, alphas = lattice(scenario)
     if boxes is None:
         boxes = LatticeBoxes([xs, ys, hs])
@@ -123,31 +121,13 @@ def step_fading_oracle(env: NetworkBatch, layout: int, users_m: FloatArray,
         _, rate = _best_alpha_on_grid(np.maximum(first, second), np.minimum(first, second),
                                       either_share(alphas), scenario, snr_scale)
         bound = rate.sum(axis=1) * (1 + BOUND_SLACK)
-    ranked = boxes.ranked(bound, previous_m)
-    per_batch = max(1, POINTS_PER_BATCH // int(np.prod(BOX)))
-    valued = 0
-    # the first box alone (its value starts the pruning), then batches of boxes
-    for start, stop in _batches(len(ranked), per_batch):
-        batch = ranked[start:stop]
-        batch = batch[bound[batch] > best]
-        if not len(batch):
-            if start > 0:        # after the first box the bounds fall: no later box can do better
-                break
-            continue
-        points = boxes.points(batch)
+
+    def values(points: FloatArray) -> tuple[FloatArray, FloatArray]:
         value, alpha = search.values(search.step_gains(points), alphas)
-        value = search._outside(points, value)
-        valued += len(points)
-        top = int(np.argmax(value))
-        if value[top] > best:
-            best, best_point, best_alpha = float(value[top]), points[top], alpha[top]
-    return best, best_point, best_alpha, valued
+        return search._outside(points, value), alpha
 
-
-def _batches(count: int, size: int) -> list[tuple[int, int]]:
-    """(start, stop) of the first item alone, then of runs of ``size`` items."""
-    starts = [0, *range(1, count, size)]
-    return [(start, min(count, 1 if start == 0 else start + size)) for start in starts]
+    return best_in_boxes(boxes, bound, boxes.ranked(bound, previous_m), values,
+                         start_configuration(scenario), first_alone=True)
 
 
 def per_step_fading_oracle(scenario: Scenario, users_m: FloatArray, steps: int,

@@ -157,6 +157,47 @@ def _bounds(env: NetworkBatch, layout: int, boxes: LatticeBoxes, users_m: FloatA
     return rate.sum(axis=1)
 
 
+BoxValues = Callable[[FloatArray], tuple[FloatArray, FloatArray]]
+"""Lattice points (P, 3) to their objectives (P,) and best alpha_first (P, K)."""
+
+
+def best_in_boxes(boxes: LatticeBoxes, bound: FloatArray, ranked: NDArray[np.intp],
+                  values: BoxValues, start: tuple[float, FloatArray, FloatArray],
+                  first_alone: bool = False) -> tuple[float, FloatArray, FloatArray, int]:
+    """Branch and bound over ``boxes``: batches of the ``ranked`` boxes (``first_alone``: the
+    first box alone, its value starting the pruning) valued by ``values`` where their
+    ``bound`` exceeds the best so far, from ``start`` (objective, point, alpha_first), until a
+    batch after the first has no box left (:meth:`LatticeBoxes.ranked` puts at most the first
+    box out of order: the later bounds fall). The best (objective, point, alpha_first) and the
+    points valued."""
+    best, best_point, best_alpha = start
+    per_batch = max(1, POINTS_PER_BATCH // int(np.prod(BOX)))
+    starts = [0, *range(1, len(ranked), per_batch)] if first_alone else list(
+        range(0, len(ranked), per_batch))
+    valued = 0
+    for begin, end in zip(starts, [*starts[1:], len(ranked)], strict=True):
+        batch = ranked[begin:end]
+        batch = batch[bound[batch] > best]
+        if not len(batch):
+            if begin > 0:
+                break                                   # no later box can do better
+            continue
+        points = boxes.points(batch)
+        total, alpha = values(points)
+        valued += len(points)
+        top = int(np.argmax(total))
+        if total[top] > best:
+            best, best_point, best_alpha = float(total[top]), points[top], alpha[top]
+    return best, best_point, best_alpha, valued
+
+
+def start_configuration(scenario: Scenario) -> tuple[float, FloatArray, FloatArray]:
+    """Objective 0 at the UAV's start and start shares: what a step's search returns where
+    no point does better."""
+    return (0.0, np.array(scenario.uav.start_m, dtype=np.float64),
+            np.full(scenario.num_clusters, scenario.uav.start_alpha))
+
+
 def step_oracle(env: NetworkBatch, layout: int, users_m: FloatArray,
                 boxes: LatticeBoxes | None, snr_scale: float,
                 previous_m: FloatArray | None = None
@@ -165,39 +206,21 @@ def step_oracle(env: NetworkBatch, layout: int, users_m: FloatArray,
     the lattice points valued, for the users at ``users_m`` (N, 2) of environment ``layout``
     (its city and its clusters now); ``boxes`` None searches every point."""
     scenario = env.scenario
-    best, best_point = 0.0, np.array(scenario.uav.start_m, dtype=np.float64)
-    best_alpha = np.full(scenario.num_clusters, scenario.uav.start_alpha)
-    valued = 0
+    start = start_configuration(scenario)
     xs, ys, hs, alphas = lattice(scenario)
-    if boxes is None:
-        order = [np.stack(np.meshgrid(xs, ys, hs, indexing="ij"), axis=-1).reshape(-1, 3)]
-    else:
+
+    def values(points: FloatArray) -> tuple[FloatArray, FloatArray]:
+        return point_values(env, layout, points, users_m, alphas, snr_scale)
+
+    if boxes is not None:
         bound = _bounds(env, layout, boxes, users_m, either_share(alphas), snr_scale)
-        ranked = boxes.ranked(bound, previous_m)
-    per_batch = max(1, POINTS_PER_BATCH // int(np.prod(BOX)))
-    position = 0
-    while True:
-        if boxes is None:
-            if position:
-                break
-            points = order[0]
-            position = 1
-        else:
-            batch = ranked[position:position + per_batch]
-            batch = batch[bound[batch] > best]
-            position += per_batch
-            if not len(batch):
-                if position >= len(ranked) or bound[ranked[min(position, len(ranked) - 1)]] \
-                        <= best:
-                    break
-                continue
-            points = boxes.points(batch)
-        total, alpha = point_values(env, layout, points, users_m, alphas, snr_scale)
-        valued += len(points)
-        top = int(np.argmax(total))
-        if total[top] > best:
-            best, best_point, best_alpha = float(total[top]), points[top], alpha[top]
-    return best, best_point, best_alpha, valued
+        return best_in_boxes(boxes, bound, boxes.ranked(bound, previous_m), values, start)
+    points = np.stack(np.meshgrid(xs, ys, hs, indexing="ij"), axis=-1).reshape(-1, 3)
+    total, alpha = values(points)
+    top = int(np.argmax(total))
+    if total[top] > start[0]:
+        return float(total[top]), points[top], alpha[top], len(points)
+    return (*start, len(points))
 
 
 StepSearch = Callable[[NetworkBatch, int, FloatArray, "LatticeBoxes | None", float,
