@@ -10,14 +10,20 @@ eval`` measures it), compared with the oracle of each layout where the scenario 
 (docs/model.md §9), stored in the oracle's place and named in progress as what it is. The
 reference is computed before the first episode, with progress (round, UAV, time left).
 
-The evaluation has environments and generators of its own (LoS draws from seed 0, as
-``eval``): it changes nothing of training, which gives the same numbers with or without it.
+The evaluation has environments and generators of its own: it changes nothing of training,
+which gives the same numbers with or without it. Every evaluation draws the same numbers
+(common random numbers, :func:`evaluation_seeds`): the environment of the l-th layout of a
+group, for every member, is re-seeded with (0, l) before each rollout, so the LoS draws,
+fading and user moves are those of every other evaluation, of every other seed, of the same
+seed in another stack, and of a resumed run; (0, 0) is seed 0, the generator of ``adaptsky
+eval`` on one layout. Two evaluations then differ only by their policies, and no generator of
+an evaluation needs a checkpoint.
 
 Where the users move (docs/model.md §3) there is no oracle of a layout; each evaluation then
 also flies the tracking baseline (docs/evaluation.md) through the same draws (a twin of each
-environment, its generator copied before the greedy rollout: the same user moves, LoS draws and
-fading), and stores its steady sum rate beside the policy's. The per-step oracle, 100 searches
-a layout per evaluation, is left to ``adaptsky eval`` and ``baseline``.
+environment, seeded alike: the same user moves, LoS draws and fading), and stores its steady
+sum rate beside the policy's (the same at every evaluation). The per-step oracle, 100
+searches a layout per evaluation, is left to ``adaptsky eval`` and ``baseline``.
 
 The score that chooses the best policy: percent of the oracle on the training layout, or, for
 ``fresh`` placement, the mean percent of the oracle over the held-out layouts; without an
@@ -27,7 +33,7 @@ oracle, the same sum rates in bit/s.
 from __future__ import annotations
 
 import functools
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 
@@ -54,6 +60,8 @@ FloatArray = NDArray[np.float64]
 EVALUATION_KEYS = ("eval_every", "eval_steps", "eval_layouts", "eval_layout_seed")
 # the columns of /seeds/<S>/evaluations (docs/file-format.md); NaN where a column does not apply
 COLUMNS = tuple(field.name for field in evaluation_fields(FORMAT_VERSION))
+# the entropy of every evaluation's draws: seed 0, as ``adaptsky eval``
+EVALUATION_SEED = 0
 
 
 @dataclass(frozen=True)
@@ -208,6 +216,12 @@ def reference_bps(scenario: Scenario, layouts_m: FloatArray,
     return _REFERENCES[memo_key].copy()
 
 
+def evaluation_seeds(layouts: int) -> list[np.random.SeedSequence]:
+    """The seeds of one member's environments on a group of ``layouts`` layouts, the same at
+    every evaluation: (0, l) for layout l (module docstring)."""
+    return [np.random.SeedSequence([EVALUATION_SEED, index]) for index in range(layouts)]
+
+
 def _nan_reduce(reduce: object, values: FloatArray) -> float:
     """np.nanmean or np.nanmedian of ``values``; NaN, quietly, when every value is NaN."""
     if np.isnan(values).all():
@@ -224,25 +238,28 @@ class GreedyEvaluator:
 
     def __init__(self, evaluations: list[EvaluationSet], steps: int) -> None:
         self.evaluations, self.members, self.steps = evaluations, len(evaluations), steps
-        self.envs = [self._env(group) for group in evaluations[0].groups]
-        self.twins = [self._env(group) if users_move(group.scenario) else None
-                      for group in evaluations[0].groups]
+        groups = evaluations[0].groups
+        # every environment's seed, member-major: each member's layouts alike
+        self.seeds = [evaluation_seeds(len(group.layouts_m)) * self.members for group in groups]
+        self.envs = [self._env(group, seeds) for group, seeds in zip(groups, self.seeds,
+                                                                     strict=True)]
+        self.twins = [self._env(group, seeds) if users_move(group.scenario) else None
+                      for group, seeds in zip(groups, self.seeds, strict=True)]
 
-    def _env(self, group: LayoutGroup) -> NetworkBatch:
+    def _env(self, group: LayoutGroup, seeds: list[np.random.SeedSequence]) -> NetworkBatch:
         return NetworkBatch(group.scenario, num_envs=self.members * len(group.layouts_m),
-                            seed=0, users_m=np.concatenate([group.layouts_m] * self.members))
+                            seed=seeds, users_m=np.concatenate([group.layouts_m] * self.members))
 
     def run(self, greedy: object) -> list[dict[str, float]]:
         """One evaluation: per member its row of :data:`COLUMNS` (without ``episode``)."""
         results: list[dict[str, float]] = [{} for _ in range(self.members)]
-        for index, (env, twin) in enumerate(zip(self.envs, self.twins, strict=True)):
-            if twin is not None:  # the same draws as the greedy rollout's, from its start
-                twin.rng.bit_generator.state = env.rng.bit_generator.state
-            rates = self._rollout(env, greedy)  # (steady steps, S, L, N)
-            steady = rates.sum(axis=-1).mean(axis=0)  # (S, L)
-            fairness = jain_fairness(rates).mean(axis=0)
+        for index, (env, twin, seeds) in enumerate(zip(self.envs, self.twins, self.seeds,
+                                                       strict=True)):
+            rates = self._rollout(env, seeds, greedy)  # (steady steps, S, L, N)
+            steady = _per_member(rates, _steady_sum_bps)  # (S, L)
+            fairness = _per_member(rates, lambda each: jain_fairness(each).mean(axis=0))
             tracking = (np.full_like(steady, np.nan) if twin is None
-                        else self._tracking(twin).sum(axis=-1).mean(axis=0))
+                        else _per_member(self._tracking(twin, seeds), _steady_sum_bps))
             for member, (row, evaluation) in enumerate(zip(results, self.evaluations,
                                                            strict=True)):
                 group = evaluation.groups[index]
@@ -264,26 +281,30 @@ class GreedyEvaluator:
             row["score"] = score(row, evaluation)
         return results
 
-    def _rollout(self, env: NetworkBatch, greedy: object) -> FloatArray:
+    def _rollout(self, env: NetworkBatch, seeds: list[np.random.SeedSequence],
+                 greedy: object) -> FloatArray:
         """Rates (K, S, L, N) of the last K = min(100, steps) steps of a greedy rollout."""
         def step(obs: np.ndarray) -> tuple[object, ...]:
             actions = np.asarray(greedy(  # type: ignore[operator]
                 obs.reshape(self.members, env.num_envs // self.members, -1)))
             # (S, L) indices, or (S, L, D) continuous controls, to one row per environment
             return env.step(actions.reshape(env.num_envs, *actions.shape[2:]))
-        return self._steady(env, step)
+        return self._steady(env, seeds, step)
 
-    def _tracking(self, twin: NetworkBatch) -> FloatArray:
+    def _tracking(self, twin: NetworkBatch, seeds: list[np.random.SeedSequence]
+                  ) -> FloatArray:
         """Rates (K, S, L, N) of the tracking baseline's last K steps on ``twin``."""
-        return self._steady(twin, lambda _: (None, None, None,
-                                             twin.fly_step(*tracking_target(twin))))
+        return self._steady(twin, seeds, lambda _: (None, None, None,
+                                                    twin.fly_step(*tracking_target(twin))))
 
-    def _steady(self, env: NetworkBatch, step: object) -> FloatArray:
+    def _steady(self, env: NetworkBatch, seeds: list[np.random.SeedSequence], step: object
+                ) -> FloatArray:
         """Rates (K, S, L, N) of the last K = min(100, steps) of ``steps`` calls of ``step``
-        (observation -> (observation, reward, done, state)) from a reset of ``env``."""
+        (observation -> (observation, reward, done, state)) from a reset of ``env`` with
+        fresh generators from ``seeds``."""
         members = self.members
         layouts = env.num_envs // members
-        obs, _ = env.reset()
+        obs, _ = env.reset(seed=seeds)
         kept = min(STEADY_STEPS, self.steps)
         rates = np.empty((kept, members, layouts, env.num_users))
         with np.errstate(all="ignore"):
@@ -293,6 +314,18 @@ class GreedyEvaluator:
                     rates[index - self.steps + kept] = state.rate_bps.reshape(
                         members, layouts, -1)
         return rates
+
+
+def _steady_sum_bps(rates: FloatArray) -> FloatArray:
+    """The mean sum rate (L,) of one member's rates (K, L, N)."""
+    return rates.sum(axis=-1).mean(axis=0)
+
+
+def _per_member(rates: FloatArray, reduce: Callable[[FloatArray], FloatArray]) -> FloatArray:
+    """``reduce`` of each member's rates (K, L, N) of ``rates`` (K, S, L, N), stacked (S,
+    L): member by member, as alone, so that a member's numbers do not depend on its stack
+    (numpy sums the axis K of (K, S, L) in another order than that of (K, L))."""
+    return np.stack([reduce(rates[:, member]) for member in range(rates.shape[1])])
 
 
 def score(row: dict[str, float], evaluation: EvaluationSet) -> float:

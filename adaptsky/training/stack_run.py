@@ -34,7 +34,7 @@ from adaptsky.scenario.agents import BdqAgent, MappoAgent
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.energy import episode_energy
 from adaptsky.sim.lattice import exploring_positions, exploring_shares
-from adaptsky.sim.layout import episode_layouts
+from adaptsky.sim.layout import episode_layouts, user_layouts
 from adaptsky.sim.network import NetworkBatch
 from adaptsky.sim.noma import jain_fairness
 from adaptsky.sim.observation import observation_size_of
@@ -117,13 +117,16 @@ class StackRun:
         seeds = [member.seed for member in members]
         spec = algorithm_of(scenario)
         # E environments per member (PPO's rollout), member-major; environment e of seed s
-        # draws from (s, 0) where E = 1, else (s, 0, e)
+        # draws from (s, 0) where E = 1, else (s, 0, e), and stands on layout e of the
+        # scenario's (every member on the layouts it has alone, wherever it is in the stack)
         self.envs = envs = spec.envs_per_member(scenario)
         self.env = NetworkBatch(scenario, num_envs=len(members) * envs,
                                  seed=[np.random.SeedSequence([s, 0] if envs == 1 else [s, 0, e])
                                        for s in seeds for e in range(envs)],
                                  weights=[reward_weights(m.scenario) for m in members
-                                          for _ in range(envs)])
+                                          for _ in range(envs)],
+                                 users_m=np.tile(user_layouts(scenario, envs),
+                                                 (len(members), 1, 1)))
         self.rngs = [np.random.default_rng([s, 1]) for s in seeds]
         controls = self.env.controls
         self.algorithm = spec.build(

@@ -11,11 +11,19 @@ import torch
 from adaptsky.experiment.executors import LocalExecutor, stacks
 from adaptsky.experiment.plan import load_experiment, plan_experiment
 from adaptsky.experiment.runs import execute_run
+from adaptsky.sim.layout import user_layouts
 from adaptsky.store.run_file import RunReader, SeedCheckpoint
 from adaptsky.training.messages import Checkpoints, Done, Message
 from adaptsky.training.runner import SeedTask, train_stack
 from adaptsky.training.stack_run import Member, StackRun, stack_key
-from tests.helpers.training import assert_same_checkpoints, assert_same_results, stack_scenario
+from tests.conftest import make_scenario
+from tests.helpers.learners import PPO
+from tests.helpers.training import (
+    AGENT,
+    assert_same_checkpoints,
+    assert_same_results,
+    stack_scenario,
+)
 
 
 def episodes(run: StackRun, count: int) -> list[list]:
@@ -64,6 +72,27 @@ def test_exploring_positions_draw_per_seed_alone_or_in_a_stack(kind):
     assert all(np.abs(start - [0, 0, 50]).max() > 1 for start in starts)
     assert not np.array_equal(starts[0], starts[1])
     assert_same_checkpoints(stack.checkpoint(1), alone.checkpoint(0))
+
+
+@pytest.mark.parametrize("agent", [AGENT, PPO], ids=["dqn", "ppo"])
+@pytest.mark.parametrize("placement", ["uniform", "hotspots"])
+def test_a_member_trains_on_its_own_layouts_wherever_it_stands_in_the_stack(agent, placement):
+    """Drawn layouts (users.count): environment e of every member stands on the scenario's
+    layout e, as alone; a third member once stood on layouts 2E.. 3E - 1 (a seed's numbers
+    then hung on how reproduce or train grouped the runs into stacks)."""
+    base = make_scenario(agent=agent, train={"steps": 10, "episodes": 4},
+                         channel={"los": "sampled"},
+                         users={"count": 6, "placement": placement, "speed_m_per_step": 1.0})
+    stack = StackRun([Member(base, seed) for seed in (11, 12, 13)])
+    alone = StackRun([Member(base, 13)])
+    envs = alone.envs
+    assert envs == (2 if agent is PPO else 1)
+    assert np.array_equal(alone.env.layouts_m, user_layouts(base, envs))
+    assert not np.array_equal(user_layouts(base, 3 * envs)[2 * envs:], alone.env.layouts_m)
+    assert np.array_equal(stack.env.layouts_m[2 * envs:], alone.env.layouts_m)
+    for together, single in zip(episodes(stack, 2), episodes(alone, 2), strict=True):
+        assert_same_results(together[2], single[0])
+    assert_same_checkpoints(stack.checkpoint(2), alone.checkpoint(0))
 
 
 def test_members_may_differ_in_their_reward():

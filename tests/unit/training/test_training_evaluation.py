@@ -177,8 +177,9 @@ def _tracking_steady(scenario, layouts_m: np.ndarray, steps: int) -> np.ndarray:
 
 def test_moving_users_evaluations_fly_tracking_through_the_same_draws():
     """Where users move, each evaluation flies tracking on a twin with the greedy rollout's
-    draws: the first evaluation of one member equals tracking run alone from seed 0 (the same
-    user moves), and the policy's numbers are those of an evaluator without the twin."""
+    draws: every evaluation of one member equals tracking run alone from seed 0 (the same
+    user moves: every evaluation draws alike), and the policy's numbers are those of an
+    evaluator without the twin."""
     steps, action = 130, 5
     scenario = make_scenario(**sections(users=MOVING, train={"eval_steps": steps}))
     evaluation = evaluation_set(scenario)
@@ -186,7 +187,7 @@ def test_moving_users_evaluations_fly_tracking_through_the_same_draws():
     first, second = (evaluator.run(_constant(action))[0] for _ in range(2))
     alone = _tracking_steady(scenario, np.array([TRAINING_LAYOUT_M]), steps)
     assert first["tracking_bps"] == pytest.approx(alone[0], rel=1e-12)
-    assert second["tracking_bps"] != first["tracking_bps"]  # each evaluation: new draws
+    np.testing.assert_equal(second, first)  # each evaluation: the same draws (NaN = NaN)
     plain = GreedyEvaluator([evaluation], steps)
     plain.twins = [None]
     rows = [plain.run(_constant(action))[0] for _ in range(2)]
@@ -321,10 +322,11 @@ def test_eval_human_output_names_the_best_policy(full, tmp_path, capsys):
 
 def test_eval_refuses_an_unknown_policy(full, tmp_path, capsys):
     assert main(["eval", "--checkpoint", str(full), "--compare", "", "--steps", "5",
-                 "--policy", "middle", "--out", str(tmp_path / "e.h5")]) == 1
+                 "--policy", "middle", "--out", str(tmp_path / "e.h5")]) == 2
     captured = capsys.readouterr()
     assert captured.err.strip().splitlines() == [
-        "--policy: unknown policy 'middle'; choose best or last"]
+        "adaptsky eval: --policy: unknown policy 'middle'; choose from best, last; see "
+        "'adaptsky eval --help'"]
     assert not (tmp_path / "e.h5").exists()
 
 
