@@ -118,7 +118,8 @@ def arrays(path: Path) -> dict[str, np.ndarray]:
     found: dict[str, np.ndarray] = {}
     skip = {"created_utc", "sessions", "command_line", "adaptsky_version", "platform",
             "python_version", "torch_version", "numpy_version", "h5py_version",
-            "wall_time_s", "format_version", "seconds_per_layout"}
+            "wall_time_s", "format_version", "seconds_per_layout",
+            "crc32"}  # a dataset's checksum (store.checksums): its data is compared
 
     def visit(name: str, item: h5py.HLObject) -> None:
         if isinstance(item, h5py.Dataset) and name.rsplit("/", 1)[-1] not in skip:

@@ -12,7 +12,13 @@ import h5py
 from adaptsky.errors import AdaptskyError
 from adaptsky.report.user_rates import USER_RATES
 from adaptsky.rollouts.metrics import STEADY_STEPS, steady_user_rates
-from adaptsky.store.eval_file import KIND, check_searches, damaged_eval_file, outside_record
+from adaptsky.store.eval_file import (
+    KIND,
+    check_searches,
+    damaged_eval_file,
+    outside_record,
+    verify_eval_file,
+)
 from adaptsky.store.run_file import open_run_file
 
 HEADER = ("adaptsky_version", "format_version", "created_utc", "command_line")
@@ -42,6 +48,7 @@ def read_eval_file(path: Path) -> tuple[dict[str, Any], dict[str, Any]]:
             if file.attrs.get("kind") not in (KIND, KIND.encode()):
                 raise AdaptskyError(f"{path}: not an adaptsky eval file")
             header = {key: _plain(file.attrs[key]) for key in HEADER if key in file.attrs}
+            verify_eval_file(file, path)
             results = json.loads(file["results_json"][()].decode())
             check_searches(file)
             if isinstance(results, dict) and isinstance(results.get("methods"), dict):

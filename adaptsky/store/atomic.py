@@ -21,6 +21,7 @@ from pathlib import Path
 import h5py
 
 from adaptsky.errors import AdaptskyError
+from adaptsky.store.checksums import seal
 from adaptsky.store.links import target
 
 _ADVICE = {
@@ -182,7 +183,8 @@ def glob_escape(text: str) -> str:
 
 
 def string_dataset(group: h5py.Group, name: str, text: str) -> None:
-    group.create_dataset(name, data=text, dtype=h5py.string_dtype())
+    """A text dataset, with its CRC-32 (``store.checksums``)."""
+    seal(group.create_dataset(name, data=text, dtype=h5py.string_dtype()), text)
 
 
 def utc_timestamp() -> str:

@@ -15,6 +15,7 @@ import numpy as np
 from adaptsky import __version__
 from adaptsky.errors import AdaptskyError
 from adaptsky.store.atomic import rewrite, string_dataset, utc_timestamp
+from adaptsky.store.checksums import CHECKED_ARRAY, first_damage, seal
 from adaptsky.store.run_file import environment, open_run_file
 from adaptsky.store.tree import read_tree, write_tree
 
@@ -66,7 +67,9 @@ def check_new_eval_file(path: Path, option: str = "out") -> None:
 
 SEARCH = "search"
 """The group of best response's and OMA's search, per layout: objective_bps, rounds,
-converged, and the attribute seconds_per_layout."""
+converged, and the attribute seconds_per_layout (seconds_per_step for the per-step searches,
+where the users move)."""
+SEARCH_SECONDS = ("seconds_per_layout", "seconds_per_step")
 
 
 def group_name(label: str) -> str:
@@ -108,7 +111,8 @@ def write_eval(path: Path, results: dict[str, Any], methods: list[Method],
         string_dataset(file, "results_json", json.dumps(results))
         if results.get("scenario_toml") is not None:
             string_dataset(file, "scenario", results["scenario_toml"])
-        file.create_dataset("layouts_m", data=np.array(results["layouts_m"]))
+        layouts_m = np.array(results["layouts_m"])
+        seal(file.create_dataset("layouts_m", data=layouts_m, **CHECKED_ARRAY), layouts_m)
         for method in methods:
             group = file.create_group(f"methods/{group_name(method.name)}")
             group.attrs["label"] = method.name
@@ -124,7 +128,9 @@ def write_eval(path: Path, results: dict[str, Any], methods: list[Method],
                 search = group.create_group(SEARCH)
                 write_tree(search, {key: np.asarray(method.details[key]) for key in
                                     ("objective_bps", "rounds", "converged")})
-                search.attrs["seconds_per_layout"] = method.details["seconds_per_layout"]
+                for key in SEARCH_SECONDS:   # per layout, or per step (users that move)
+                    if key in method.details:
+                        search.attrs[key] = float(method.details[key])
         for name, comparison in results.get("comparison", {}).items():
             group = file.require_group("comparison").create_group(group_name(name))
             group.attrs.update(comparison, label=name)
@@ -132,9 +138,26 @@ def write_eval(path: Path, results: dict[str, Any], methods: list[Method],
 
 
 def damaged_eval_file(path: Path, error: BaseException) -> AdaptskyError:
-    """The one line for an eval file that cannot be read as one: the error's first line."""
+    """The one line for an eval file that cannot be read as one: the damaged dataset and its
+    checksum where one does not match (``store.checksums``), else the error's first line."""
+    if isinstance(error, OSError):
+        try:
+            with h5py.File(path, "r") as file:
+                found = first_damage(file)
+        except OSError:
+            found = None
+        if found is not None:
+            return AdaptskyError(f"{path}: damaged eval file: {found[0]}: {found[1]}")
     return AdaptskyError(f"{path}: damaged eval file "
                          f"({(str(error).splitlines() or ['unreadable'])[0]})")
+
+
+def verify_eval_file(file: h5py.File, path: Path) -> None:
+    """Read every dataset of an open eval file once, its checksum verified
+    (``store.checksums``): one line naming the first damaged one."""
+    found = first_damage(file)
+    if found is not None:
+        raise AdaptskyError(f"{path}: damaged eval file: {found[0]}: {found[1]}")
 
 
 def read_eval_metrics(path: Path) -> tuple[dict[str, Any] | None, dict[str, dict[str, np.ndarray]]]:
@@ -144,6 +167,7 @@ def read_eval_metrics(path: Path) -> tuple[dict[str, Any] | None, dict[str, dict
         with h5py.File(path, "r") as file:
             if file.attrs.get("kind") != KIND:
                 raise AdaptskyError(f"{path}: not an adaptsky eval file")
+            verify_eval_file(file, path)
             results = json.loads(file["results_json"][()].decode())
             check_searches(file)
             methods = {}
@@ -164,7 +188,7 @@ def read_eval_metrics(path: Path) -> tuple[dict[str, Any] | None, dict[str, dict
 def check_searches(file: h5py.File) -> None:
     """Raise ValueError where a method's ``search`` group is not what :func:`write_eval`
     writes: objective_bps (float, >= 0), rounds (integer, >= 1) and converged (bool), one per
-    layout, and seconds_per_layout >= 0."""
+    layout, and seconds_per_layout (or seconds_per_step) >= 0."""
     kinds = {"objective_bps": "f", "rounds": "iu", "converged": "b"}
     for name, group in file.get("methods", {}).items():
         search = group.get(SEARCH)
@@ -179,9 +203,11 @@ def check_searches(file: h5py.File) -> None:
                                  f"{'number' if kind != 'b' else 'bool'} per layout")
         if not (np.all(search["objective_bps"][()] >= 0) and np.all(search["rounds"][()] >= 1)):
             raise ValueError(f"methods/{name}/{SEARCH}: a negative objective or no round")
-        seconds = search.attrs.get("seconds_per_layout")
-        if not isinstance(seconds, float | np.floating) or not seconds >= 0:
-            raise ValueError(f"methods/{name}/{SEARCH}: no seconds_per_layout")
+        times = [search.attrs[key] for key in SEARCH_SECONDS if key in search.attrs]
+        if not times or not all(isinstance(seconds, float | np.floating) and seconds >= 0
+                                for seconds in times):
+            raise ValueError(f"methods/{name}/{SEARCH}: no seconds_per_layout or "
+                             "seconds_per_step")
 
 
 @dataclass(frozen=True)

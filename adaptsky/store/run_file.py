@@ -25,6 +25,7 @@ from adaptsky import __version__
 from adaptsky.arrays import Tree
 from adaptsky.scenario import Scenario
 from adaptsky.store.atomic import rewrite, string_dataset, utc_timestamp
+from adaptsky.store.checksums import first_damage, seal
 from adaptsky.store.layout import (
     EPISODES,
     FORMAT_VERSION,
@@ -155,6 +156,7 @@ def _append_rows(table: h5py.Group, start: int, rows: dict[str, np.ndarray]) -> 
         dataset = table[name]
         dataset.resize(start + len(values), axis=0)
         dataset[start:] = values
+        seal(dataset, dataset[()])  # (the in-memory image's rows: no disk read)
 
 
 def _in_format(file: h5py.File, tree: dict[str, Any]) -> dict[str, Any]:
@@ -258,9 +260,11 @@ def open_run_file(path: Path) -> h5py.File:
 
 class RunReader:
     """Read access to a run file, validated on opening against the documented layout
-    (``store.layout``: names, dtypes, declared shapes, attributes; no array is read); every
-    array read is checked to be finite. Use as a context manager. ``needs="curves"`` leaves
-    checkpoints and trajectories unchecked and unreadable, for readers of learning curves."""
+    (``store.layout``: names, dtypes, declared shapes, attributes; no array is read), then
+    every dataset it may read is read once and its checksum verified (``store.checksums``);
+    every array read is checked to be finite. Use as a context manager. ``needs="curves"``
+    leaves checkpoints and trajectories unchecked and unreadable, for readers of learning
+    curves."""
 
     def __init__(self, path: str | Path, needs: Needs = "all") -> None:
         self.path = Path(path)
@@ -269,6 +273,7 @@ class RunReader:
         try:
             self.scenario: Scenario = self._guard(
                 "its layout", lambda: validate_run(self.file, self.path, needs))
+            self._verify_checksums()
         except BaseException:
             self.file.close()
             raise
@@ -278,6 +283,17 @@ class RunReader:
 
     def __exit__(self, *exc: object) -> None:
         self.file.close()
+
+    def _verify_checksums(self) -> None:
+        """Read every dataset this reader may read once, its checksum verified (with
+        ``needs="curves"``, none of the checkpoints and trajectories)."""
+        def skip(name: str) -> bool:
+            parts = name.split("/")
+            return self.needs != "all" and len(parts) == 4 and parts[1] == "seeds" and (
+                parts[3] in ("checkpoint", "trajectory", "trajectories"))
+        found = self._guard("its datasets", lambda: first_damage(self.file, skip))
+        if found is not None:
+            raise RunFileError(f"{self.path}: damaged run file: {found[0]}: {found[1]}")
 
     def _guard(self, what: str, read: Any) -> Any:
         try:

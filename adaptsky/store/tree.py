@@ -1,5 +1,6 @@
 """Nested dicts of numpy arrays and scalars <-> HDF5 groups: arrays become datasets, strings
-and numbers become attributes. Nothing is pickled."""
+and numbers become attributes. Nothing is pickled. Every dataset carries a checksum
+(``store.checksums``)."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import h5py
 import numpy as np
 
 from adaptsky.arrays import Tree
+from adaptsky.store.checksums import CHECKED_ARRAY, seal
 
 
 def _write_array(group: h5py.Group, key: str, value: np.ndarray, compress: bool) -> None:
@@ -24,15 +26,16 @@ def _write_array(group: h5py.Group, key: str, value: np.ndarray, compress: bool)
             existing.resize(value.shape[0], axis=0)
         if value.size:
             existing[...] = value
+        seal(existing, value)
         return
     if existing is not None:
         del group[key]
-    if value.ndim == 0:
-        group.create_dataset(key, data=value)
+    if value.ndim == 0:  # HDF5 cannot chunk (nor filter) it: its CRC-32 alone
+        seal(group.create_dataset(key, data=value), value)
         return
     options = {"compression": "gzip", "shuffle": True} if compress else {}
-    group.create_dataset(key, data=value, maxshape=(None, *value.shape[1:]),
-                         chunks=True, **options)
+    seal(group.create_dataset(key, data=value, maxshape=(None, *value.shape[1:]),
+                              **CHECKED_ARRAY, **options), value)
 
 
 def write_tree(group: h5py.Group, tree: Tree, compress: bool = False,

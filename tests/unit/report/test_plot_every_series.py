@@ -14,6 +14,7 @@ import pytest
 
 from adaptsky.report.plot_metrics import METRICS
 from adaptsky.report.plot_runs import runs_figure
+from adaptsky.store.checksums import seal
 from adaptsky.store.layout import ENERGY_EPISODES, EPISODES, SERVICE_EPISODES
 from adaptsky_cli.cli.main import main
 from tests.helpers.cli import one_line
@@ -34,7 +35,9 @@ def run(tmp_path: Path) -> Path:
 
 def set_stored(path: Path, seed: int, name: str, values: np.ndarray) -> None:
     with h5py.File(path, "r+") as file:
-        file[f"seeds/{seed}/episodes/{name}"][: len(values)] = values
+        dataset = file[f"seeds/{seed}/episodes/{name}"]
+        dataset[: len(values)] = values
+        seal(dataset, dataset[()])  # its checksum made current (store.checksums)
 
 
 def test_every_scalar_per_episode_series_of_the_file_is_a_metric():
@@ -102,12 +105,12 @@ def test_a_loss_not_yet_learnt_is_one_line(tmp_path, capsys):
     ("sum_rate_bps", "did you mean 'sum-rate'? "), ("mean_rate_bps", "")])
 def test_an_unknown_metric_lists_every_allowed_one(run, tmp_path, capsys, name, guess):
     assert main(["plot", str(run), "--metric", f"epsilon,{name}", "--out",
-                 str(tmp_path / "f.png")]) == 1
+                 str(tmp_path / "f.png")]) == 2
     assert one_line(capsys) == (
-        f"--metric: unknown metric '{name}'; {guess}choose from sum-rate, fairness, greedy, "
-        "energy-efficiency, reward, height, epsilon, loss, energy, outage, least-rate, p5-rate, "
-        "or several comma-separated "
-        "(e.g. sum-rate,fairness)")
+        f"adaptsky plot: --metric: unknown metric '{name}'; {guess}choose from sum-rate, "
+        "fairness, greedy, energy-efficiency, reward, height, epsilon, loss, energy, outage, "
+        "least-rate, p5-rate, or several comma-separated (e.g. sum-rate,fairness); see "
+        "'adaptsky plot --help'")
 
 
 def test_a_real_run(tiny_run, tmp_path):

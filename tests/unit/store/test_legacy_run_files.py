@@ -21,6 +21,7 @@ import h5py
 import numpy as np
 import pytest
 
+from adaptsky.store.checksums import CRC_ATTR
 from adaptsky.store.layout import added_after
 from adaptsky.store.run_file import RunReader
 from adaptsky_cli.cli.main import main
@@ -35,7 +36,7 @@ FILES = {  # file -> (format, the --set options it was trained with)
 }
 RUN = ["--workers", "1", "--quiet"]
 SKIP = {"created_utc", "sessions", "command_line", "adaptsky_version", "wall_time_s",
-        "config", "format_version"}
+        "config", "format_version", CRC_ATTR}  # (a checksum: earlier files have none)
 EPISODES, STEPS = 2, 8  # what the shipped files hold: tiny.toml's steps, --episodes 2
 # Under /seeds, what counts rather than computes, the same on every machine: every attribute
 # (counters, the random generators' states, which only the number of draws moves, optimizer
@@ -112,14 +113,16 @@ def shipped(name: str, tmp_path: Path, copy: str | None = None) -> Path:
 
 
 def nodes(path: Path) -> dict[str, tuple]:
-    """Every group and dataset of the file: its kind, shape, dtype and attribute names."""
+    """Every group and dataset of the file: its kind, shape, dtype and attribute names (but a
+    dataset's checksum, which files of earlier versions lack: store.checksums)."""
     with h5py.File(path) as file:
         found = {"/": ("group", None, None, sorted(file.attrs))}
 
         def visit(name: str, item: h5py.HLObject) -> None:
             dataset = isinstance(item, h5py.Dataset)
             found[name] = ("dataset" if dataset else "group", getattr(item, "shape", None),
-                           str(item.dtype) if dataset else None, sorted(item.attrs))
+                           str(item.dtype) if dataset else None,
+                           sorted(key for key in item.attrs if key != CRC_ATTR))
         file.visititems(visit)
     return found
 

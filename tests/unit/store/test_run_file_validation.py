@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from adaptsky.store import run_file
+from adaptsky.store.checksums import seal
 from adaptsky.store.run_file import RunFileError, RunReader
 from adaptsky_cli.cli.main import main
 from tests.helpers.run_files import DAMAGES, POLICY, check_all_refuse
@@ -30,7 +31,14 @@ def run(tiny_run: Path) -> Path:
 
 
 def _nan_weight(f: h5py.File) -> None:
+    """A NaN written as a writer writes it (with its checksum: a diverged training)."""
     f[f"{POLICY}/advantage.bias"][3] = np.nan
+    _reseal(f[f"{POLICY}/advantage.bias"])
+
+
+def _reseal(dataset: h5py.Dataset) -> None:
+    """The dataset's CRC-32 made current after an edit in place (store.checksums)."""
+    seal(dataset, dataset[()])
 
 
 @pytest.mark.parametrize("case", sorted(DAMAGES))
@@ -72,6 +80,7 @@ def test_nan_in_learning_curve_is_refused_by_inspect(run, tmp_path, capsys):
     shutil.copyfile(run, path)
     with h5py.File(path, "a") as f:
         f["seeds/1/episodes/sum_rate_bps"][0] = np.inf
+        _reseal(f["seeds/1/episodes/sum_rate_bps"])
     check_all_refuse(path, tmp_path, capsys, "/seeds/1/episodes/sum_rate_bps: 1 value is "
                       "NaN or infinite", commands=("inspect",))
 
@@ -123,6 +132,7 @@ def test_seed_without_checkpoint_yet_is_valid(run, tmp_path):
             del seed[name]
         for table in seed["episodes"].values():
             table.resize(0, axis=0)
+            _reseal(table)
         seed.attrs["episodes_done"] = 0
     with RunReader(path) as reader:
         assert reader.has_checkpoint(0) and not reader.has_checkpoint(1)
