@@ -13,6 +13,7 @@ from typing import Annotated, Any, Literal
 from pydantic import Field, field_validator, model_validator
 
 from adaptsky.scenario.agents import AgentConfig, DqnAgent
+from adaptsky.scenario.ground import MIN_OPEN_SHARE, open_ground_share
 from adaptsky.scenario.sections import (  # noqa: F401 (names of the scenario model)
     AREA_MAX_SIDE_M,
     MAX_ANTENNAS,
@@ -209,6 +210,19 @@ class Users(Section):
             raise ValueError(f"association = '{self.association}' and uav: a list of "
                              "serving UAVs goes with association = 'listed', and only with it")
         return self
+
+
+def _missing_uavs(serving: list[int], count: int) -> str:
+    """``users.uav``'s UAVs that ``count`` UAVs do not have, each with its users (1-based, as
+    listed): ``UAV 5 serves users 5 and 6``; "" where every UAV exists."""
+    named: dict[int, list[int]] = {}
+    for user, u in enumerate(serving):
+        if u >= count:
+            named.setdefault(u, []).append(user + 1)
+    parts = [f"UAV {u} serves user{'s' if len(users) > 1 else ''} "
+             f"{', '.join(map(str, users[:-1]))}{' and ' if len(users) > 1 else ''}{users[-1]}"
+             for u, users in sorted(named.items())]
+    return "; ".join(parts) + " (users counted from 1)" if parts else ""
 
 
 def _default_users() -> Users:
@@ -644,11 +658,15 @@ class Scenario(Section):
             if len(users.uav) != n:
                 raise ValueError(f"users.uav: lists {len(users.uav)} UAVs for {n} users; give "
                                  "one serving UAV per user")
+            missing = _missing_uavs(users.uav, uav.count)
+            if missing:
+                raise ValueError(f"users.uav: {missing}, but uav.count = {uav.count} numbers "
+                                 f"the UAVs 0 to {uav.count - 1} (0-based); give every user "
+                                 "one of them, or raise uav.count")
             sizes = [users.uav.count(u) for u in range(uav.count)]
-            if max(users.uav) >= uav.count or any(size == 0 or size % 2 for size in sizes):
+            if any(size == 0 or size % 2 for size in sizes):
                 raise ValueError(f"users.uav: group sizes {sizes} for UAVs 0..{uav.count - 1}; "
-                                 "every UAV serves an even number >= 2 of users and no UAV "
-                                 f"number is {uav.count} or more")
+                                 "every UAV serves an even number >= 2 of users")
         elif n % uav.count or (n // uav.count) % 2:
             raise ValueError(f"users.association: {n} users do not split into {uav.count} "
                              "equal groups of an even size; choose N divisible by 2 U, or "
@@ -706,7 +724,29 @@ class Scenario(Section):
                         raise ValueError(f"users.positions_m: user {j + 1} at ({x:g}, {y:g}) "
                                          f"stands inside world.building {i}; users stand "
                                          "in the streets")
+        self._open_ground()
         return self
+
+    def _open_ground(self) -> None:
+        """Users drawn in the streets need MIN_OPEN_SHARE of the area off the footprints
+        (docs/scenario-format.md): the listed boxes' exact union, a generated city's 1 - alpha."""
+        world, placement = self.world, self.users.placement
+        if world.buildings == "none" or placement == "listed":
+            return
+        if world.buildings == "listed":
+            share = open_ground_share([b.box_m[:4] for b in world.building],
+                                      self.area.side_m / 2)
+        else:
+            share = 1.0 - world.city_parameters[0]
+        open_pct = math.floor(share * 1000) / 10      # rounded down: 0.99% reads 0.9%
+        what = (f"world.building: the boxes cover {100 - open_pct:.1f}% of the area, leaving "
+                f"{open_pct:.1f}% open ground" if world.buildings == "listed" else
+                f"world.built_up_ratio: {world.city_parameters[0]:g} leaves {open_pct:.1f}% "
+                "open ground")
+        if share < MIN_OPEN_SHARE:
+            raise ValueError(f"{what}; users.placement = '{placement}' draws users in "
+                             f"the open ground, which needs at least {MIN_OPEN_SHARE:.0%} of "
+                             "the area: shrink or remove buildings, or list the users")
 
     @model_validator(mode="after")
     def _uav_above_users(self) -> Scenario:

@@ -11,6 +11,7 @@ import tomllib
 from typing import Any
 
 from adaptsky.errors import ScenarioError
+from adaptsky.scenario.switches import drop_unread
 
 
 def parse_value(text: str) -> Any:
@@ -35,11 +36,27 @@ def apply_overrides(data: dict[str, Any], items: list[str], source: str) -> dict
     """A copy of the scenario mapping ``data`` with every override applied, in order.
 
     Keys are not checked here: the result is validated like a scenario file, so an unknown
-    key or a wrong type is reported as ``source: section.key: message``.
+    key or a wrong type is reported as ``source: section.key: message``. An override that
+    changes a model (``channel.fading.model``, ``agent.algorithm``, ...) drops the keys the
+    new one does not read (``adaptsky.scenario.switches``; :func:`override_notes` says which).
     """
+    return overridden(data, items, source)[0]
+
+
+def override_notes(data: dict[str, Any], items: list[str], source: str) -> list[str]:
+    """One line per model an override changes whose old keys were dropped (those the new
+    model does not read), naming them; [] where nothing was dropped."""
+    return overridden(data, items, source)[1]
+
+
+def overridden(data: dict[str, Any], items: list[str], source: str
+               ) -> tuple[dict[str, Any], list[str]]:
+    """:func:`apply_overrides` of ``data`` and :func:`override_notes`, in one pass."""
     result = copy.deepcopy(data)
+    paths: list[list[str]] = []
     for item in items:
         path, value = split_override(item, source)
+        paths.append(path)
         table = result
         for depth, part in enumerate(path[:-1]):
             child = table.setdefault(part, {})
@@ -49,4 +66,4 @@ def apply_overrides(data: dict[str, Any], items: list[str], source: str) -> dict
                                      "not a table"])
             table = child
         table[path[-1]] = value
-    return result
+    return result, drop_unread(data, result, paths, source)

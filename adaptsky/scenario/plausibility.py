@@ -22,9 +22,10 @@ NOISE_DENSITY_BELOW_KT_DB = 10.0
 NOISE_DENSITY_ABOVE_KT_DB = 60.0
 """A noise density this far above kT is no receiver's noise figure (the released code's sub-6
 -53 dBm over 50 MHz is 44 dB above)."""
-BANDWIDTH_HZ = (1e3, 1e10)
-"""The bandwidths of a cluster the field uses, Hz: 1 kHz (narrow-band IoT is 180 kHz) to
-10 GHz (sub-THz links)."""
+BANDWIDTH_HZ = (1e4, 1e10)
+"""The bandwidths of a cluster the field uses, Hz: 10 kHz (narrow-band IoT is 180 kHz) to
+10 GHz (sub-THz links). The low end is the high end written in MHz (1e10 / 1e6), so every
+plausible bandwidth given in MHz (2000 meant as 2 GHz) falls below it."""
 TX_POWER_LOOKS_LIKE_WATTS_DBM = (0.0, 1.0)
 """A power strictly between these, dBm, reads as watts written where dBm belong."""
 
@@ -40,6 +41,8 @@ class Plausible:
     unit: str
     hint: str
     value: Callable[[Scenario], float]
+    typed_as: tuple[float, str] | None = None
+    """A unit the value is often written in by mistake: (its size in ``unit``, its name)."""
 
     def shown(self, value: float) -> str:
         """``value`` with its unit: ``50 Hz``, ``2 GHz``, ``0.1 dBm``, ``2000`` (a count)."""
@@ -52,6 +55,11 @@ class Plausible:
         if self.unit == "Hz":
             return f"{_hertz(self.low)} .. {_hertz(self.high)}"
         return f"{self.low:g} .. {self.shown(self.high)}"
+
+
+def _exponent(value: float) -> str:
+    """``value`` as a TOML file writes it: ``2e9``, ``5e7``, ``180000``."""
+    return f"{value:g}".replace("e+", "e").replace("e0", "e")
 
 
 def _hertz(value: float) -> str:
@@ -74,7 +82,7 @@ PLAUSIBLE: tuple[Plausible, ...] = (
     Plausible("radio.carrier_hz", 1e8, 3e11, "Hz", "the unit is Hz (28 GHz = 28e9)",
               lambda s: s.radio.carrier_hz or math.nan),
     Plausible("radio.bandwidth_hz", *BANDWIDTH_HZ, "Hz", "the unit is Hz (50 MHz = 5e7)",
-              lambda s: s.radio.bandwidth_hz),
+              lambda s: s.radio.bandwidth_hz, typed_as=(1e6, "MHz")),
     Plausible("radio.tx_power_dbm", -10.0, 50.0, "dBm", "the unit is dBm (1 W = 30 dBm, "
               "100 mW = 20 dBm)", lambda s: s.radio.tx_power_dbm),
     Plausible("radio.noise_figure_db", 0.0, 20.0, "dB", "the unit is dB (a figure of 5 dB "
@@ -101,8 +109,13 @@ def _range_line(rule: Plausible, value: float) -> str | None:
     if math.isnan(value) or rule.low <= value <= rule.high:
         return None
     side = "below" if value < rule.low else "above"
+    hint = rule.hint
+    if rule.typed_as is not None and rule.low <= value * rule.typed_as[0] <= rule.high:
+        scale, unit = rule.typed_as
+        hint = (f"the unit is {rule.unit}: if {value:g} is in {unit}, write "
+                f"{_exponent(value * scale)} ({rule.shown(value * scale)})")
     return (f"{rule.key} = {rule.shown(value)} is far {side} what UAV networks use "
-            f"({rule.range_text()}); {rule.hint}")
+            f"({rule.range_text()}); {hint}")
 
 
 def _tx_power_in_watts(scenario: Scenario) -> str | None:
@@ -145,6 +158,44 @@ def _user_speed(scenario: Scenario) -> str | None:
             "1.4 m/s, a car of 14 m/s = 50 km/h)")
 
 
+MOBILITY_SPEED_KEYS = ("speed_mps", "speed_min_mps", "speed_max_mps", "mean_speed_mps",
+                       "speed_sigma_mps")
+"""The speeds of ``[users.mobility]``, m/s (the model's own; the others are unset)."""
+
+
+def _mobility_speed(scenario: Scenario) -> str | None:
+    """The mobility model's largest speed above what ground users move (as
+    :func:`_user_speed` for ``speed_m_per_step``): 90 m/s is a speed in km/h given as m/s."""
+    mobility = scenario.users.mobility
+    key, speed_mps = max(((key, getattr(mobility, key)) for key in MOBILITY_SPEED_KEYS
+                          if getattr(mobility, key) is not None),
+                         key=lambda item: item[1], default=("", 0.0))
+    if speed_mps <= MAX_USER_SPEED_M_PER_S:
+        return None
+    return (f"users.mobility.{key} = {speed_mps:g} m/s is far above what ground users move "
+            f"(at most {MAX_USER_SPEED_M_PER_S:g} m/s, 180 km/h); the unit is m/s "
+            f"({speed_mps:g} km/h = {speed_mps / 3.6:.3g} m/s; a walk of 1.4 m/s, a car of "
+            "14 m/s)")
+
+
+def _mobility_step_in_area(scenario: Scenario) -> str | None:
+    """The mobility model's fastest speed over one step crossing the area in a few steps (as
+    :func:`_user_step_in_area` for ``speed_m_per_step``)."""
+    mobility, step_s, side_m = scenario.users.mobility, scenario.uav.step_s, scenario.area.side_m
+    speeds = {key: getattr(mobility, key) for key in ("speed_mps", "speed_max_mps",
+                                                       "mean_speed_mps")}
+    key, speed_mps = max(((key, value) for key, value in speeds.items() if value is not None),
+                         key=lambda item: item[1], default=("", 0.0))
+    per_step = speed_mps * step_s
+    if per_step <= USER_STEP_MAX_SHARE_OF_SIDE * side_m:
+        return None
+    return (f"users.mobility.{key} = {speed_mps:g} m/s moves {per_step:.4g} m per step of "
+            f"uav.step_s = {step_s:g} s and crosses the {side_m:g} m area in "
+            f"{side_m / per_step:.2g} steps, far above what users move between two decisions "
+            f"(at most {USER_STEP_MAX_SHARE_OF_SIDE * side_m:g} m per step, a fifth of "
+            "area.side_m); the unit is m/s")
+
+
 def _user_step_in_area(scenario: Scenario) -> str | None:
     """A step that crosses the area in a few steps, whatever ``uav.step_s`` says (30 m per
     step in a 100 m area: km/h or m/min written as m per step)."""
@@ -167,7 +218,8 @@ def _uav_speed(scenario: Scenario) -> str | None:
 
 
 RULES: tuple[Callable[[Scenario], str | None], ...] = (
-    _tx_power_in_watts, _noise_density, _user_speed, _user_step_in_area, _uav_speed)
+    _tx_power_in_watts, _noise_density, _user_speed, _user_step_in_area,
+    _mobility_speed, _mobility_step_in_area, _uav_speed)
 """Checks that combine keys or look for a unit mistake inside a plausible range."""
 
 

@@ -25,10 +25,21 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from adaptsky.errors import AdaptskyError
+from adaptsky.scenario.ground import MIN_OPEN_SHARE, open_ground_share
 from adaptsky.scenario.models import Scenario, World
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
+
+MAX_DRAWS = 10_000
+"""The draws of one user's position (or hotspot offset) before the world is declared too
+closed for it (docs/scenario-format.md): at the least open ground validation lets through,
+1% of the area, a user fails them all with a chance below e^-100."""
+
+
+class PlacementError(AdaptskyError):
+    """Users could not be placed off the buildings within MAX_DRAWS draws (one line)."""
 
 _OFFSET_STREAM = 3    # generator streams of a world's seed: [seed, 3] the grid offset,
 _HEIGHT_STREAM = 4    # [seed, 4, layout hash...] the heights of one layout
@@ -151,10 +162,19 @@ def street_layouts(rng: np.random.Generator, count: int, num_users: int, half_m:
                    footprints_m: FloatArray) -> FloatArray:
     """``count`` layouts (count, N, 2) with every user uniform over the streets of the area
     (docs/model.md §12): uniform over the area (layout after layout, user after user, x before
-    y), then every user on a footprint drawn again, until none is."""
+    y), then every user on a footprint drawn again, until none is: PlacementError after
+    MAX_DRAWS draws of a user."""
     users_m = rng.uniform(-half_m, half_m, size=(count, num_users, 2))
     inside = on_footprints(users_m, footprints_m)
-    while inside.any():
+    for _ in range(MAX_DRAWS - 1):
+        if not inside.any():
+            return users_m
         users_m[inside] = rng.uniform(-half_m, half_m, size=(int(inside.sum()), 2))
         inside = on_footprints(users_m, footprints_m)
+    if inside.any():
+        share = open_ground_share(footprints_m.tolist(), half_m)
+        raise PlacementError(f"users: {int(inside.sum())} of {inside.size} users found no "
+                             f"position off the buildings in {MAX_DRAWS} draws each: the "
+                             f"buildings leave {share:.1%} of the area open ground (at least "
+                             f"{MIN_OPEN_SHARE:.0%} is needed, docs/scenario-format.md)")
     return users_m

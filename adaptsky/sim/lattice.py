@@ -9,6 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from adaptsky.scenario.models import Scenario
+from adaptsky.sim.city import PlacementError
 from adaptsky.sim.separation import horizontal_distances_m
 
 FloatArray = NDArray[np.float64]
@@ -52,8 +53,8 @@ def exploring_positions(scenario: Scenario, rngs: Sequence[np.random.Generator])
     """UAV positions to start a training episode from (``train.exploring_starts =
     "positions"``): for environment b, each UAV in turn at a uniform point of its
     :func:`position_lattices` drawn by ``rngs[b]`` (x, then y, then h), drawn again while it
-    is closer than ``uav.min_separation_m`` horizontally to a UAV placed before it;
-    (len(rngs), U, 3) m."""
+    is closer than ``uav.min_separation_m`` horizontally to a UAV placed before it
+    (PlacementError after MAX_DRAWS draws); (len(rngs), U, 3) m."""
     lattices = position_lattices(scenario)
     separation_m = scenario.uav.min_separation_m
     starts = np.empty((len(rngs), len(lattices), 3))
@@ -65,6 +66,10 @@ def exploring_positions(scenario: Scenario, rngs: Sequence[np.random.Generator])
                 if (apart_m >= separation_m).all():
                     break
             else:
-                raise ValueError(f"exploring starts: no start for UAV {u} at least "
-                                 f"{separation_m:g} m from the others in {MAX_DRAWS} draws")
+                placed = ", ".join(f"({x:g}, {y:g})" for x, y in starts[b, :u, :2])
+                raise PlacementError(f"train.exploring_starts: no start for UAV {u} at least "
+                                     f"uav.min_separation_m = {separation_m:g} m from the UAVs "
+                                     f"placed before it at {placed} in {MAX_DRAWS} draws: "
+                                     "lower min_separation_m or use exploring_starts = "
+                                     "'shares'")
     return starts

@@ -5,8 +5,15 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from adaptsky.scenario.ground import open_ground_share
 from adaptsky.scenario.models import Scenario
-from adaptsky.sim.city import on_footprints, scenario_footprints, street_layouts
+from adaptsky.sim.city import (
+    MAX_DRAWS,
+    PlacementError,
+    on_footprints,
+    scenario_footprints,
+    street_layouts,
+)
 
 
 def user_layouts(scenario: Scenario, num_layouts: int, layout_seed: int | None = None
@@ -35,7 +42,7 @@ def hotspot_layouts(scenario: Scenario, rng: np.random.Generator, count: int
     centres uniform over the area (over the streets with buildings), each user's centre
     uniform among them, its offset from it normal with deviation ``spread_m`` along x and y;
     an offset that puts the user outside the area or on a footprint is drawn again, until
-    none does."""
+    none does (PlacementError after MAX_DRAWS draws of a user)."""
     users = scenario.users
     assert users.hotspots is not None and users.spread_m is not None
     half_m = scenario.area.side_m / 2
@@ -49,11 +56,28 @@ def hotspot_layouts(scenario: Scenario, rng: np.random.Generator, count: int
         layout[...] = centres[rng.integers(0, users.hotspots, size=len(layout))]
         offsets = rng.normal(0.0, users.spread_m, size=layout.shape)
         redraw = _misplaced(layout + offsets, half_m, footprints_m)
-        while redraw.any():
+        for _ in range(MAX_DRAWS - 1):
+            if not redraw.any():
+                break
             offsets[redraw] = rng.normal(0.0, users.spread_m, size=(int(redraw.sum()), 2))
             redraw = _misplaced(layout + offsets, half_m, footprints_m)
+        if redraw.any():
+            raise PlacementError(_offset_failure(int(redraw.sum()), users.spread_m, half_m,
+                                                 footprints_m))
         layout += offsets
     return layouts
+
+
+def _offset_failure(count: int, spread_m: float, half_m: float,
+                    footprints_m: NDArray[np.float64] | None) -> str:
+    """The line of hotspot offsets that found no place in MAX_DRAWS draws."""
+    where = "in the area"
+    if footprints_m is not None:
+        share = open_ground_share(footprints_m.tolist(), half_m)
+        where = f"in the area off the buildings ({share:.1%} of it open ground)"
+    return (f"users.spread_m: {count} users found no offset from their hotspot's centre "
+            f"{where} in {MAX_DRAWS} draws each (spread_m = {spread_m:g} m, area side "
+            f"{2 * half_m:g} m): make spread_m smaller or open more ground")
 
 
 def _misplaced(users_m: NDArray[np.float64], half_m: float,

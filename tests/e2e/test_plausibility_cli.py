@@ -15,7 +15,8 @@ from tests.conftest import SCENARIOS
 EXPERIMENTS = SCENARIOS.parent / "experiments"
 
 WARNING = ("adaptsky: warning: {path}: radio.bandwidth_hz = 50 Hz is far below what UAV "
-           "networks use (1 kHz .. 10 GHz); the unit is Hz (50 MHz = 5e7)")
+           "networks use (10 kHz .. 10 GHz); the unit is Hz: if 50 is in MHz, write 5e7 "
+           "(50 MHz)")
 
 
 @pytest.fixture(autouse=True)

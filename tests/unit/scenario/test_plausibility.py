@@ -26,7 +26,15 @@ CASES = {
     "bandwidth in MHz": (
         {"radio": {"bandwidth_hz": 50.0}}, {"radio": {"bandwidth_hz": 50e6}},
         ["odd.toml: radio.bandwidth_hz = 50 Hz is far below what UAV networks use "
-         "(1 kHz .. 10 GHz); the unit is Hz (50 MHz = 5e7)"]),
+         "(10 kHz .. 10 GHz); the unit is Hz: if 50 is in MHz, write 5e7 (50 MHz)"]),
+    "bandwidth of 2 GHz in MHz": (  # issue 52, item 7: SoA then reported 26 kbit/s
+        {"radio": {"bandwidth_hz": 2000.0}}, {"radio": {"bandwidth_hz": 180e3}},
+        ["odd.toml: radio.bandwidth_hz = 2 kHz is far below what UAV networks use "
+         "(10 kHz .. 10 GHz); the unit is Hz: if 2000 is in MHz, write 2e9 (2 GHz)"]),
+    "bandwidth far below, not in MHz": (
+        {"radio": {"bandwidth_hz": 1e-3}}, {"radio": {"bandwidth_hz": 1e4}},
+        ["odd.toml: radio.bandwidth_hz = 0.001 Hz is far below what UAV networks use "
+         "(10 kHz .. 10 GHz); the unit is Hz (50 MHz = 5e7)"]),
     "bandwidth too wide": (
         {"radio": {"bandwidth_hz": 5e10}}, {"radio": {"bandwidth_hz": 2e9}},
         ["radio.bandwidth_hz = 50 GHz is far above", "the unit is Hz"]),
@@ -71,6 +79,32 @@ CASES = {
         {"users": {"speed_m_per_step": 10.0}, "uav": {"step_s": 0.1}},
         {"users": {"speed_m_per_step": 1.0}, "uav": {"step_s": 0.1}},
         ["users.speed_m_per_step = 10 m per step is 100 m/s with uav.step_s = 0.1 s"]),
+    "gauss-markov speed in km/h": (  # issue 52, item 7
+        {"users": {"mobility": {"model": "gauss-markov", "mean_speed_mps": 90.0}},
+         "area": {"side_m": 2000.0}},
+        {"users": {"mobility": {"model": "gauss-markov", "mean_speed_mps": 14.0}},
+         "area": {"side_m": 2000.0}},
+        ["odd.toml: users.mobility.mean_speed_mps = 90 m/s is far above what ground users "
+         "move (at most 50 m/s, 180 km/h); the unit is m/s (90 km/h = 25 m/s; a walk of "
+         "1.4 m/s, a car of 14 m/s)"]),
+    "gauss-markov speed spread": (
+        {"users": {"mobility": {"model": "gauss-markov", "mean_speed_mps": 1.5,
+                                "speed_sigma_mps": 60.0}}, "area": {"side_m": 2000.0}},
+        {"users": {"mobility": {"model": "gauss-markov", "mean_speed_mps": 1.5,
+                                "speed_sigma_mps": 3.0}}, "area": {"side_m": 2000.0}},
+        ["users.mobility.speed_sigma_mps = 60 m/s is far above", "the unit is m/s"]),
+    "random-waypoint speed": (
+        {"users": {"mobility": {"model": "random-waypoint", "speed_min_mps": 1.0,
+                                "speed_max_mps": 60.0}}, "area": {"side_m": 2000.0}},
+        {"users": {"mobility": {"model": "random-waypoint", "speed_min_mps": 1.0,
+                                "speed_max_mps": 30.0}}, "area": {"side_m": 2000.0}},
+        ["users.mobility.speed_max_mps = 60 m/s is far above", "at most 50 m/s"]),
+    "random-walk speed across a small area": (
+        {"users": {"mobility": {"model": "random-walk", "speed_mps": 30.0}}},
+        {"users": {"mobility": {"model": "random-walk", "speed_mps": 8.0}}},
+        ["odd.toml: users.mobility.speed_mps = 30 m/s moves 30 m per step of uav.step_s = 1 s "
+         "and crosses the 100 m area in 3.3 steps", "(at most 20 m per step, a fifth of "
+         "area.side_m); the unit is m/s"]),
     "uav speed": (
         {"uav": {"step_m": [150.0, 1.0, 1.0]}}, {"uav": {"step_m": [20.0, 20.0, 5.0]}},
         ["uav.step_m = 150 m per step is 150 m/s", "the unit is m per step"]),
@@ -146,3 +180,18 @@ def test_every_shipped_experiment_trains_plausible_scenarios(name):
             scenario, source = load_scenario_with_overrides(path.parent / group.scenario,
                                                             [*group.set, *point])
             assert plausibility_warnings(scenario, source) == []
+
+
+def test_a_mobility_speed_warns_as_a_speed_per_step_does():
+    """Issue 52, item 7: ``mean_speed_mps = 90`` in moving_users_sub6.toml (200 m, steps of
+    1 s) warns as ``speed_m_per_step = 90`` does there: a speed and a step across the area."""
+    from adaptsky.scenario.loading import load_scenario_with_overrides
+    path = SCENARIOS / "moving_users_sub6.toml"
+    fast, _ = load_scenario_with_overrides(path, ["users.mobility.mean_speed_mps=90"])
+    lines = plausibility_warnings(fast)
+    assert [line.split(" = ")[0] for line in lines] == ["users.mobility.mean_speed_mps"] * 2
+    assert "90 m/s is far above" in lines[0] and "in 2.2 steps" in lines[1]
+    older, _ = load_scenario_with_overrides(path, [
+        'users.mobility={model="static"}', "users.speed_m_per_step=90"])
+    assert [line.split(" = ")[0] for line in plausibility_warnings(older)] == [
+        "users.speed_m_per_step"] * 2

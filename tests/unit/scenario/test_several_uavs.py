@@ -87,10 +87,15 @@ def test_one_uav_given_as_start_positions_is_the_start_position():
      "uavs.toml: users.uav: lists 4 UAVs for 8 users; give one serving UAV per user"),
     ({"users": {**EIGHT_USERS, "uav": [0, 0, 0, 1, 1, 1, 1, 1]}, "uav": {"count": 2}},
      "uavs.toml: users.uav: group sizes [3, 5] for UAVs 0..1; every UAV serves an even number "
-     ">= 2 of users and no UAV number is 2 or more"),
+     ">= 2 of users"),
     ({"users": {**EIGHT_USERS, "uav": [0, 0, 0, 0, 2, 2, 2, 2]}, "uav": {"count": 2}},
-     "uavs.toml: users.uav: group sizes [4, 0] for UAVs 0..1; every UAV serves an even number "
-     ">= 2 of users and no UAV number is 2 or more"),
+     "uavs.toml: users.uav: UAV 2 serves users 5, 6, 7 and 8 (users counted from 1), but "
+     "uav.count = 2 numbers the UAVs 0 to 1 (0-based); give every user one of them, or raise "
+     "uav.count"),
+    ({"users": {**EIGHT_USERS, "uav": [0, 0, 5, 5, 1, 1, 3, 0]}, "uav": {"count": 2}},
+     "uavs.toml: users.uav: UAV 3 serves user 7; UAV 5 serves users 3 and 4 (users counted "
+     "from 1), but uav.count = 2 numbers the UAVs 0 to 1 (0-based); give every user "
+     "one of them, or raise uav.count"),
     ({"users": {**EIGHT_USERS, "association": "listed"}, "uav": {"count": 2}},
      "uavs.toml: users: association = 'listed' and uav: a list of serving UAVs goes with "
      "association = 'listed', and only with it"),
