@@ -41,6 +41,9 @@ from adaptsky.store.run_file import RunReader
 POLICY = "policy"
 SEARCH_KEYS = ("objective_bps", "rounds", "converged")
 """What ``results_json`` keeps of best response and OMA, per layout, under ``search``."""
+SEARCH_SECONDS = ("seconds_per_layout", "seconds_per_step")
+"""A search's process time: per layout, or per step for the per-step searches (users that
+move)."""
 # what a policy's inputs are scaled by: they must match between training and evaluation
 OBSERVATION_SCALING = ("agent.observation", "agent.user_order", "area.side_m",
                        "uav.max_height_m")
@@ -325,8 +328,9 @@ def results_json(methods: list[Method], scenario: Scenario, steps: int, layouts:
     for method in methods:
         entry = {"summary": summary_row(method.metrics),
                  "layouts": {k: v.tolist() for k, v in method.metrics.items()}}
-        if "seconds_per_layout" in method.details:
-            entry["seconds_per_layout"] = method.details["seconds_per_layout"]
+        for key in SEARCH_SECONDS:   # a search's process time, per layout or per step
+            if key in method.details:
+                entry[key] = float(method.details[key])
         if "rounds" in method.details:  # best response and OMA
             entry["search"] = {key: np.asarray(method.details[key]).tolist()
                                for key in SEARCH_KEYS}

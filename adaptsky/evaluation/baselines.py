@@ -12,9 +12,12 @@ draws (:data:`SAMPLED_LOS_NOTE`); under the built-in fading (docs/model.md §11)
 the mean gains, without fading, and hold what they found under the policy's own fading draws,
 best response with each cluster's share chosen for the largest mean sum rate over those draws
 where no minimum rate binds (:func:`searched_note`): a reference for static policies, not a
-bound. Where the users walk,
-every rollout moves them with the same draws as the policy's; the searches, which find one
-configuration for the users' home positions, are refused there.
+bound. Where the users walk, every rollout moves them with the same draws as the policy's;
+the oracle (and best response) of one UAV is then the per-step oracle (with LoS not sampled;
+under the built-in fading with no minimum rate), best response of several UAVs best response
+at every step (under sampled LoS or the built-in fading searched on the expected or mean
+gains and valued under the policy's own draws: :func:`step_response_note`), and OMA, which
+finds one configuration for the users' home positions, is refused.
 """
 
 from __future__ import annotations
@@ -78,9 +81,11 @@ SAMPLED_LOS_NOTE = ("searched on the expected gains (channel.los = 'expected'), 
 
 def require_applies(scenario: Scenario, method: str, option: str = "") -> None:
     """Refuse, in one line (starting with ``option``, the command's option, if given), a
-    baseline the scenario cannot have: the oracle for several UAVs; a search where the users
-    walk, or where gains are drawn at random (best response and OMA search sampled LoS on its
-    expected gains: :func:`searched_scenario`)."""
+    baseline the scenario cannot have: the oracle for several UAVs; OMA where the users walk;
+    the oracle (and best response) of one UAV where the users walk and no per-step oracle
+    applies (:func:`_refuse_per_step`: the true reason); a search where gains are drawn at
+    random (best response and OMA search sampled LoS on its expected gains:
+    :func:`searched_scenario`)."""
     count = scenario.uav.count
     if method == "oracle" and count > 1:
         where = f"{option}: " if option else ""
@@ -90,6 +95,8 @@ def require_applies(scenario: Scenario, method: str, option: str = "") -> None:
         name = "the oracle" if method == "oracle" else method
         if per_step_reference(scenario, method):
             return
+        if method in REFERENCES and users_move(scenario):
+            _refuse_per_step(scenario, name)
         require_static_users(scenario, name)
         if method == "oracle" and scenario.channel.fading.model != "none":
             require_fading_oracle(scenario)
@@ -99,17 +106,32 @@ def require_applies(scenario: Scenario, method: str, option: str = "") -> None:
 
 
 def per_step_reference(scenario: Scenario, method: str) -> bool:
-    """Whether ``method`` is searched at every step (users that move, deterministic gains
-    or, for one UAV, the built-in fading where its oracle applies): the oracle or best
-    response of one UAV, the per-step oracle (:mod:`adaptsky.rollouts.genie`, under fading
-    :mod:`adaptsky.rollouts.fading_genie`); best response of several UAVs, best response at
-    every step (:mod:`adaptsky.rollouts.step_response`)."""
-    if not (method in REFERENCES and users_move(scenario)
-            and (scenario.uav.count == 1 or method == "best-response")
-            and scenario.channel.los != "sampled"):
+    """Whether ``method`` is searched at every step where the users move: the oracle or best
+    response of one UAV, the per-step oracle (:mod:`adaptsky.rollouts.genie`, under the
+    built-in fading where its oracle applies :mod:`adaptsky.rollouts.fading_genie`), with LoS
+    not sampled; best response of several UAVs, best response at every step
+    (:mod:`adaptsky.rollouts.step_response`), searched on the gains of
+    :func:`searched_scenario` (the mean or expected ones under fading or sampled LoS) and
+    valued under the policy's own draws."""
+    if not (method in REFERENCES and users_move(scenario)):
         return False
-    return (scenario.channel.fading.model == "none"
-            or (scenario.uav.count == 1 and fading_oracle_refusal(scenario) is None))
+    if scenario.uav.count > 1:
+        return method == "best-response"
+    return scenario.channel.los != "sampled" and (
+        scenario.channel.fading.model == "none" or fading_oracle_refusal(scenario) is None)
+
+
+def _refuse_per_step(scenario: Scenario, name: str) -> None:
+    """Refuse, in one line with the true reason, the oracle (or best response, ``name``) of
+    one UAV where the users move and no per-step oracle applies: under the built-in fading
+    the reason of the fading oracle (a minimum rate, sampled LoS), else sampled LoS."""
+    if scenario.channel.fading.model != "none":
+        require_fading_oracle(scenario)
+    raise EvaluationError(
+        f"scenario '{scenario.name}': channel.los is 'sampled'; where the users move {name} "
+        "of one UAV is the per-step oracle, an upper bound that needs deterministic LoS "
+        "(channel.los = 'always', 'expected' or 'geometric'); compare with soa, tracking or "
+        "random, or evaluate with --set channel.los=expected")
 
 
 def static_ceiling(scenario: Scenario, method: str) -> bool:
@@ -142,16 +164,9 @@ def searched_note(scenario: Scenario, method: str = "best-response") -> str | No
     sampled LoS alone), else None. Under the built-in fading best response's shares are then
     those of the largest mean sum rate over the policy's draws where no minimum rate binds
     (:func:`refines_shares`)."""
-    sampled = scenario.channel.los == "sampled"
     if scenario.channel.fading.model == "none":
-        return SAMPLED_LOS_NOTE if sampled else None
-    if sampled:
-        gains = ("the expected gains without fading (channel.los = 'expected', "
-                 "channel.fading.model = 'none')")
-        draws = "LoS and fading draws"
-    else:
-        gains = "the mean gains, without fading (channel.fading.model = 'none': E|h|^2 = 1)"
-        draws = "fading draws"
+        return SAMPLED_LOS_NOTE if scenario.channel.los == "sampled" else None
+    gains, draws = _searched_gains(scenario)
     shares = ""
     if method == "best-response":
         shares = (f", each cluster's share then the one of the largest mean sum rate over the "
@@ -159,6 +174,32 @@ def searched_note(scenario: Scenario, method: str = "best-response") -> str | No
                   " (its shares as searched: a minimum rate couples the clusters)")
     return (f"searched on {gains}{shares}, its rates under the policy's own {draws}: a "
             "reference for static policies, not a bound")
+
+
+def _searched_gains(scenario: Scenario) -> tuple[str, str]:
+    """What :func:`searched_scenario` searches on, in words, and what it is then valued
+    under: ('the expected gains ...', 'LoS draws'), for a scenario with drawn gains."""
+    sampled = scenario.channel.los == "sampled"
+    if scenario.channel.fading.model == "none":
+        return "the expected gains (channel.los = 'expected')", "LoS draws"
+    if sampled:
+        return ("the expected gains without fading (channel.los = 'expected', "
+                "channel.fading.model = 'none')", "LoS and fading draws")
+    return ("the mean gains, without fading (channel.fading.model = 'none': E|h|^2 = 1)",
+            "fading draws")
+
+
+def step_response_note(scenario: Scenario) -> str:
+    """What best response at every step (several UAVs, users that move) is on ``scenario``:
+    :data:`STEP_RESPONSE_NOTE` on deterministic gains; under sampled LoS or the built-in
+    fading, searched on the gains of :func:`searched_scenario` at every step and valued
+    under the policy's own draws: a reference, not a bound."""
+    if scenario.channel.los != "sampled" and scenario.channel.fading.model == "none":
+        return STEP_RESPONSE_NOTE
+    gains, draws = _searched_gains(scenario)
+    return (f"best response at every step's user positions on {gains}, from the previous "
+            f"step's configuration, its rates under the policy's own {draws}: a reference, "
+            "not a bound")
 
 
 def refines_shares(scenario: Scenario) -> bool:
@@ -182,10 +223,10 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
                  seed: int = 0, on_progress: Tick | None = None) -> Method:
     """A baseline of :data:`BASELINES` on ``users_m`` (L, N, 2); ``on_progress`` hears the
     units of :func:`baseline_work` done (the searches: within a layout too, with where they
-    are). The searches' details: ``seconds_per_layout`` and
-    ``objective_bps`` (L,); best response and OMA also ``rounds`` and ``converged`` (L,),
-    and under sampled LoS or the built-in fading a ``note`` (:func:`searched_note`). Every
-    rollout moves the
+    are). The searches' details: ``seconds_per_layout`` (``seconds_per_step`` for the
+    per-step searches, where the users move) and ``objective_bps`` (L,); best response and
+    OMA also ``rounds`` and ``converged`` (L,), and under sampled LoS or the built-in fading
+    a ``note`` (:func:`searched_note`). Every rollout moves the
     users as the policy's does, with the same draws (:func:`~adaptsky.rollouts.rollout.hold`):
     SoA plans once and its rates are taken at each step's positions."""
     if method not in BASELINES:
@@ -205,7 +246,7 @@ def run_baseline(scenario: Scenario, method: str, steps: int, users_m: np.ndarra
                                         on_step=on_progress)
         details["seconds_per_step"] = found_steps.seconds_per_step
         details["objective_bps"] = found_steps.objective_bps.mean(axis=0)
-        details["note"] = STEP_RESPONSE_NOTE
+        details["note"] = step_response_note(scenario)
         details["rounds"] = found_steps.rounds.max(axis=0)
         # a step that used every round may not have converged
         details["converged"] = found_steps.rounds.max(axis=0) < several_uavs.DEFAULT_ROUNDS

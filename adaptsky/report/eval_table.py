@@ -59,6 +59,16 @@ def note_lines(results: dict[str, Any]) -> list[str]:
             if entry.get("note")]
 
 
+def search_time(entry: dict[str, Any]) -> str | None:
+    """'0.26 s per step' (the per-step searches, users that move) or '2.10 s per layout' of a
+    method's results, or None where they hold no time."""
+    for key, unit in (("seconds_per_step", "step"), ("seconds_per_layout", "layout")):
+        seconds = entry.get(key)
+        if seconds is not None and seconds == seconds:
+            return f"{seconds:.2f} s per {unit}"
+    return None
+
+
 def search_lines(results: dict[str, Any]) -> list[str]:
     """One line per search with rounds (best response, OMA): its rounds, the layouts where it
     converged (its last round gained less than 1e-9 relative) and its time."""
@@ -68,10 +78,10 @@ def search_lines(results: dict[str, Any]) -> list[str]:
         if search is None:
             continue
         rounds, converged = search["rounds"], search["converged"]
+        seconds = search_time(entry)
         lines.append(f"{name}: {sum(rounds) / len(rounds):.1f} rounds per layout on average "
                      f"(at most {max(rounds)}), converged on {sum(converged)} of "
-                     f"{len(converged)} layouts; {entry['seconds_per_layout']:.2f} s per "
-                     "layout")
+                     f"{len(converged)} layouts" + (f"; {seconds}" if seconds else ""))
     return lines
 
 
@@ -118,7 +128,8 @@ def oracle_line(results: dict[str, Any]) -> str | None:
         share = results.get(f"policy_steady_pct_of_{method.replace('-', '_')}")
         if share is None:
             continue
-        seconds = results["methods"][method].get("seconds_per_layout", float("nan"))
+        seconds = search_time(results["methods"][method])
         return (f"policy steady state: {share['mean']:.1f}% of {words} on average "
-                f"(median {share['median']:.1f}%); {method} search {seconds:.2f} s per layout")
+                f"(median {share['median']:.1f}%)"
+                + (f"; {method} search {seconds}" if seconds else ""))
     return None

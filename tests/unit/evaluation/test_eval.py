@@ -124,5 +124,5 @@ def test_baseline_command(capsys, tmp_path):
     assert main(["baseline", str(path), "--method", "soa", "--layouts", "3", "--steps",
                  "10"]) == 0
     assert "3 uniform layouts" in capsys.readouterr().out
-    assert main(["baseline", str(path), "--method", "best"]) == 1
-    assert "unknown method 'best'" in capsys.readouterr().err
+    assert main(["baseline", str(path), "--method", "best"]) == 2
+    assert "--method: unknown method 'best'" in capsys.readouterr().err

@@ -190,10 +190,6 @@ def test_bad_tables_are_one_line_before_any_work(tiny_run, evaluated, tmp_path, 
         ([*evaluate, "--layouts", "2", "--layout", "2"],
          "--layout 2: the evaluation has layouts 0 to 1"),
         ([*evaluate, "--layout", "1"], "--layout 1: the evaluation has only layout 0"),
-        ([*evaluate, "--layout", "-1"], "--layout -1: the evaluation has only layout 0"),
-        ([*evaluate, "--layout", "0", "--json"],
-         "--layout 0: picks the layout of the per-user table, which --json does not print (its "
-         "steady_user_rate_bps holds every layout); leave out one of them"),
         ([*evaluate, "--csv", str(tmp_path / "table.h5")],
          f"--csv {tmp_path / 'table.h5'}: a CSV file must end in .csv (it has '.h5')"),
         ([*evaluate, "--csv", str(tmp_path / "no" / "t.csv")],
@@ -210,5 +206,16 @@ def test_bad_tables_are_one_line_before_any_work(tiny_run, evaluated, tmp_path, 
     ]
     for argv, line in cases:
         assert main(argv) == 1, argv
+        assert one_line(capsys) == line
+    # what the command line alone gets wrong is a usage error (exit 2, issue 52)
+    usage = [([*evaluate, "--layout", "-1"],
+              "adaptsky eval: --layout: input should be greater than or equal to 0; see "
+              "'adaptsky eval --help'"),
+             ([*evaluate, "--layout", "0", "--json"],
+              "adaptsky eval: --layout 0: picks the layout of the per-user table, which --json "
+              "does not print (its steady_user_rate_bps holds every layout); leave out one of "
+              "them; see 'adaptsky eval --help'")]
+    for argv, line in usage:
+        assert main(argv) == 2, argv
         assert one_line(capsys) == line
     assert list(tmp_path.iterdir()) == []  # no eval file, no CSV, no temporary copy
