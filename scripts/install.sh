@@ -13,7 +13,8 @@
 # newest build that fits is installed. PYTHON (default python3) and VENV (default .venv)
 # choose the interpreter and the environment's folder. Each of the four stages (the
 # environment, torch, adaptsky with its test tools, the example plugin) says on stderr what it
-# does and how long it took; pip itself is quiet.
+# does and how long it took, and every INSTALL_HEARTBEAT_S seconds (default 15) while it runs
+# the time so far and pip's latest step (from its log); pip itself is quiet.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 python=${PYTHON:-python3}
@@ -50,15 +51,51 @@ run() {  # run a command, or only print it with --dry-run
 }
 
 stages=4 stage=0 started=$SECONDS
+heartbeat_s=${INSTALL_HEARTBEAT_S:-15}
 took() {  # seconds as "42 s" or "2 min 5 s"
   if (($1 < 60)); then echo "$1 s"; else echo "$(($1 / 60)) min $(($1 % 60)) s"; fi
+}
+steps='Collecting|Processing|Obtaining|Downloading|Building|Preparing|Installing|Getting requirements'
+latest_step() {  # pip's latest step in its verbose log: "Collecting h5py>=3.10", ...
+  local line commas
+  line=$(grep -E "^[^ ]+ ($steps)" "$1" 2>/dev/null | tail -n 1 | cut -d' ' -f2-) || true
+  case $line in
+    "Installing collected packages: "*)  # a list of dozens: how many
+      commas=${line//[^,]/}
+      line="Installing $((${#commas} + 1)) collected package"
+      [ -z "$commas" ] || line+="s" ;;
+  esac
+  printf '%s\n' "${line:0:100}"
+}
+heartbeat() {  # heartbeat START LOG: every heartbeat_s seconds, the time so far and pip's step
+  local sleeper="" step
+  trap '[ -z "$sleeper" ] || kill "$sleeper" 2>/dev/null; exit 0' TERM
+  while :; do
+    sleep "$heartbeat_s" & sleeper=$!
+    wait "$sleeper"
+    step=$(latest_step "$2")
+    echo "install: [$stage/$stages] $(took $((SECONDS - $1))) so far${step:+: $step}" >&2
+  done
+}
+# run a command with a heartbeat on stderr and pip's verbose log (PIP_LOG; with a log pip would
+# draw its download bars even with -q: off)
+run_beating() {
+  local log status=0 beat
+  log=$(mktemp "${TMPDIR:-/tmp}/adaptsky-install-pip.XXXXXX")
+  heartbeat "$SECONDS" "$log" &
+  beat=$!
+  PIP_LOG=$log PIP_PROGRESS_BAR=off "$@" || status=$?
+  kill "$beat" 2>/dev/null || true
+  wait "$beat" 2>/dev/null || true
+  rm -f "$log"
+  return "$status"
 }
 stage() {  # stage WHAT COMMAND...: a line saying WHAT, the command, a line with its time
   local what=$1 start=$SECONDS status=0
   shift
   stage=$((stage + 1))
   echo "install: [$stage/$stages] $what" >&2
-  run "$@" || status=$?
+  if [ -n "$dry_run" ]; then run "$@"; else run_beating "$@" || status=$?; fi
   if [ "$status" -ne 0 ]; then
     echo "install: [$stage/$stages] failed after $(took $((SECONDS - start))) (exit code" \
          "$status; the reason is above)" >&2

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from adaptsky.errors import AdaptskyError
-from adaptsky.progress import LogLines, Pace, Reporter
+from adaptsky.progress import LOG_EVERY_S, LogLines, Pace, Reporter
 from adaptsky.scenario.loading import parse_with_overrides, read_scenario_text
 from adaptsky.scenario.toml_writer import dumps
 from adaptsky.store.atomic import make_parent, write_text_atomic
@@ -74,18 +74,25 @@ def tune(*, scenario_path: str | os.PathLike[str], space_path: str | os.PathLike
     check_against(space, space_path, scenario_path, set_values)
     t = scenario.train
     total_episodes = episodes or t.episodes
-    if t.eval_every <= 0 or t.eval_every > total_episodes:
+    if t.eval_every <= 0:
         raise AdaptskyError(
             f"{scenario_path}: train.eval_every = {t.eval_every}: tune scores trials by the "
             f"greedy evaluations during training; set it between 1 and the episodes "
             f"({total_episodes}), e.g. --set train.eval_every={max(1, total_episodes // 10)}")
+    eval_every, adjusted = t.eval_every, None
+    if eval_every > total_episodes:  # --episodes shortened the trials below the period
+        eval_every = adjusted = total_episodes
+        progress.message(
+            f"tune: train.eval_every = {t.eval_every} is more than the {total_episodes} "
+            f"episodes of a trial: set to {total_episodes} (one greedy evaluation, at each "
+            f"trial's end; the pruner needs more: --set train.eval_every=N)")
     folder = Path(out) if out is not None else Path("tune") / name
     if folder.exists() and not folder.is_dir():
         raise AdaptskyError(f"{folder}: is a file; --out names the study's folder")
     make_parent(folder / "study.db")
     tuning = Tuning(folder, storage or default_storage(folder), name, space,
-                    TrialRun(scenario_path, set_values, episodes, steps), trials,
-                    t.eval_every, len(t.seeds))
+                    TrialRun(scenario_path, set_values, episodes, steps, adjusted), trials,
+                    eval_every, len(t.seeds))
     the_study = open_study(tuning)
     view = _View(progress, tuning, the_study)
     others: list[multiprocessing.process.BaseProcess] = []
@@ -94,9 +101,11 @@ def tune(*, scenario_path: str | os.PathLike[str], space_path: str | os.PathLike
     interrupted = False
     try:
         with view:
+            # beside a live display the others stay silent; in a log each says its trials
+            lines = not progress.live and not progress.quiet
             for index in range(1, workers):
                 process = context.Process(target=_worker, args=(tuning, index, os.getpid(),
-                                                               stop_event), daemon=False)
+                                                               stop_event, lines), daemon=False)
                 process.start()
                 others.append(process)
             finished = work(tuning, the_study, view.event, stop_event.is_set)
@@ -125,9 +134,11 @@ def tune(*, scenario_path: str | os.PathLike[str], space_path: str | os.PathLike
     return outcome
 
 
-def _worker(tuning: Tuning, index: int, parent_pid: int, stop_event: Any) -> None:
+def _worker(tuning: Tuning, index: int, parent_pid: int, stop_event: Any,
+            lines: bool = False) -> None:
     """A process beside ``tune``'s: trials until the study is done, the parent is gone or
-    asks for a stop (Ctrl-C reaches every process: the training checkpoints and ends)."""
+    asks for a stop (Ctrl-C reaches every process: the training checkpoints and ends); with
+    ``lines``, its trials' log lines on standard error, as the parent's."""
     import signal
 
     from adaptsky.training.host import pin_threads
@@ -138,8 +149,9 @@ def _worker(tuning: Tuning, index: int, parent_pid: int, stop_event: Any) -> Non
     def stop() -> bool:
         return stop_event.is_set() or os.getppid() != parent_pid
 
+    log = _TrialLog(LogLines(quiet=not lines), f"process {index}: ")
     with contextlib.suppress(KeyboardInterrupt):  # a second Ctrl-C: the parent reports
-        work(tuning, open_study(tuning, worker=index), lambda kind, fields: None, stop)
+        work(tuning, open_study(tuning, worker=index), log.event, stop)
 
 
 def _table(study: Any) -> list[dict[str, Any]]:
@@ -178,10 +190,47 @@ def write_best(tuning: Tuning, study: Any) -> Path | None:
     return path
 
 
+class _TrialLog:
+    """Log lines of the trials one process runs (nothing where the display is live): a line
+    as a trial starts, at its first episode and at most one every ``log_every_s`` after
+    (episodes done, time per episode, time left), and as it ends."""
+
+    def __init__(self, progress: Reporter, prefix: str = "",
+                 log_every_s: float | None = None) -> None:
+        self.progress, self.prefix = progress, prefix
+        self.log_every_s = LOG_EVERY_S if log_every_s is None else log_every_s
+        self.pace: Pace | None = None
+        self.last_log: float | None = None
+
+    def event(self, kind: str, fields: dict[str, Any]) -> None:
+        if kind == "start":
+            params = ", ".join(f"{k}={shown(v)}" for k, v in fields["params"].items())
+            verb = "continues" if fields["continued"] else "starts"
+            self.progress.log(f"{self.prefix}trial {fields['number']} {verb}: {params}")
+            self.pace, self.last_log = None, None
+        elif kind == "episode":
+            self._episode(fields["number"], fields["episode"], fields["episodes"])
+        elif kind == "end":  # (the parent's view says it with the study's best)
+            self.progress.log(self.prefix + _ended(fields["number"], fields["outcome"],
+                                                   Counts()))
+
+    def _episode(self, number: int, episode: int, episodes: int) -> None:
+        if self.pace is None:
+            self.pace = Pace(episodes, episode - 1)
+        self.pace.update(episode)
+        now = time.monotonic()
+        if self.last_log is not None and now - self.last_log < self.log_every_s:
+            return
+        self.last_log = now
+        speed = self.pace.text("episode")
+        self.progress.log(f"{self.prefix}trial {number}: episode {episode}/{episodes}"
+                          + (f", {speed}" if speed else ""))
+
+
 class _View:
     """One bar of the study's trials (finished or pruned of ``trials``), its text the running
-    trial's episodes here, the trials running anywhere and the best so far; a line per trial
-    this process starts and ends."""
+    trial's episodes here, the trials running anywhere and the best so far; in a log, the
+    lines of the trials this process runs (:class:`_TrialLog`) and one as each ends."""
 
     def __init__(self, progress: Reporter, tuning: Tuning, study: Any) -> None:
         self.progress, self.tuning, self.study = progress, tuning, study
@@ -189,6 +238,7 @@ class _View:
         self.pace = Pace(tuning.trials, self.counts.settled)
         self.here = ""
         self.polled = 0.0
+        self.lines = _TrialLog(progress)
 
     def __enter__(self) -> _View:
         self.progress.open("trials")
@@ -211,19 +261,19 @@ class _View:
                 f"{best}")
 
     def _refresh(self, now: bool = False) -> None:
-        if not now and time.monotonic() - self.polled < POLL_S:
-            return
-        self.polled = time.monotonic()
-        self.counts = counts_of(self.study)
-        self.pace.update(min(self.counts.settled, self.tuning.trials))
+        """The bar's text now (the running trial's episode), the study's counts read from the
+        storage at most every :data:`POLL_S` (unless ``now``)."""
+        if now or time.monotonic() - self.polled >= POLL_S:
+            self.polled = time.monotonic()
+            self.counts = counts_of(self.study)
+            self.pace.update(min(self.counts.settled, self.tuning.trials))
         self.progress.advance(self, min(self.counts.settled, self.tuning.trials),
                               status=self._status(), eta=self.pace.left(short=True))
 
     def event(self, kind: str, fields: dict[str, Any]) -> None:
+        if kind != "end":
+            self.lines.event(kind, fields)
         if kind == "start":
-            params = ", ".join(f"{k}={shown(v)}" for k, v in fields["params"].items())
-            verb = "continues" if fields["continued"] else "starts"
-            self.progress.log(f"trial {fields['number']} {verb}: {params}")
             self.here = f"trial {fields['number']} "
         elif kind == "episode":
             self.here = f"trial {fields['number']} ep {fields['episode']}/{fields['episodes']} · "

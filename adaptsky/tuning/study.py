@@ -241,7 +241,8 @@ def _run(tuning: Tuning, trial: optuna.trial.Trial, params: dict[str, Any], cont
     overrides = [*tuning.run.overrides, *tuning.space.overrides(params)]
     trial.set_user_attr("run_file", trial_path(tuning.folder, number).name)
     event("start", {"number": number, "params": params, "continued": continued})
-    run = TrialRun(tuning.run.scenario_path, overrides, tuning.run.episodes, tuning.run.steps)
+    run = TrialRun(tuning.run.scenario_path, overrides, tuning.run.episodes, tuning.run.steps,
+                   tuning.run.eval_every)
     return run_trial(trial, run, trial_path(tuning.folder, number), tuning.space.study.objective,
                      tuning.seeds,
                      on_episode=lambda e, total: event("episode", {"number": number,

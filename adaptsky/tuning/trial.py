@@ -38,12 +38,19 @@ def trial_path(folder: Path, number: int) -> Path:
 class TrialRun:
     """What a trial trains: the scenario file with ``overrides`` (the command's ``--set``
     first, then the sampled values), and ``episodes``/``steps`` where the command gives
-    them."""
+    them; ``eval_every`` where tune set ``train.eval_every`` itself (``--episodes`` fewer than
+    the scenario's period: the trial is evaluated at its end), not written to best.toml."""
 
     scenario_path: Path
     overrides: list[str]
     episodes: int | None
     steps: int | None
+    eval_every: int | None = None
+
+    def training_overrides(self) -> list[str]:
+        """``overrides``, then the evaluation period tune set, if it set one."""
+        period = [] if self.eval_every is None else [f"train.eval_every={self.eval_every}"]
+        return [*self.overrides, *period]
 
 
 @dataclass
@@ -124,7 +131,7 @@ def run_trial(trial: optuna.trial.Trial, run: TrialRun, path: Path, objective: s
         scenario, _ = api.load_with_overrides(run.scenario_path, run.overrides)
         total = run.episodes or scenario.train.episodes
         _, outcome = api.train(scenario_path=run.scenario_path, out=path,
-                               set_values=run.overrides, episodes=run.episodes,
+                               set_values=run.training_overrides(), episodes=run.episodes,
                                steps=run.steps, workers=1, progress=Silent(), watch=watch)
     if pruned:
         return TrialOutcome("pruned", pruned_at=pruned[0])

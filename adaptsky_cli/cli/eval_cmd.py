@@ -15,6 +15,13 @@ from adaptsky_cli.cli.console import err, out
 from adaptsky_cli.cli.options import CsvFile, Json, Layout, ScenarioFile, command_line
 from adaptsky_cli.cli.plausibility import warn_scenario_file
 from adaptsky_cli.cli.usage import click_errors
+from adaptsky_cli.cli.values import (
+    conflict,
+    method_value,
+    policy_value,
+    set_value,
+    split_list,
+)
 
 Layouts = Annotated[int | None, typer.Option(min=1, metavar="N", show_default=False,
                                              help="evaluate on this many uniform layouts "
@@ -23,7 +30,7 @@ LayoutSeed = Annotated[int, typer.Option(min=0, metavar="SEED",
                                          help="seed of the uniform layouts")]
 Steps = Annotated[int, typer.Option(min=1, metavar="N", help="steps per layout")]
 EvalSetValues = Annotated[list[str] | None, typer.Option(
-    "--set", metavar="KEY=VALUE", show_default=False,
+    "--set", metavar="KEY=VALUE", show_default=False, callback=set_value,
     help="override a key of the evaluation scenario, section.key=value (repeatable), e.g. "
     "--set channel.los=expected; recorded in the eval file")]
 PROBE_BYTES = 64 * 1024
@@ -91,9 +98,9 @@ def check_tables(layout: int | None, layouts: int, csv_file: Path | None,
 
     if layout is not None:
         if as_json:
-            raise AdaptskyError(f"--layout {layout}: picks the layout of the per-user table, "
-                                "which --json does not print (its steady_user_rate_bps holds "
-                                "every layout); leave out one of them")
+            raise conflict(f"--layout {layout}: picks the layout of the per-user table, "
+                           "which --json does not print (its steady_user_rate_bps holds "
+                           "every layout); leave out one of them")
         check_layout(layout, layouts)
     if csv_file is not None:
         check_csv_path(csv_file)
@@ -118,7 +125,7 @@ def evaluate(
         metavar="RUN.h5", show_default=False,
         help="the run file, as an option (the same as the argument)")] = None,
     seed: Annotated[int | None, typer.Option(
-        metavar="SEED", show_default=False,
+        min=0, metavar="SEED", show_default=False,
         help="which seed's policy (default: the first)")] = None,
     scenario: Annotated[Path | None, typer.Option(
         metavar="SCENARIO.toml", show_default=False,
@@ -126,15 +133,17 @@ def evaluate(
     layouts: Layouts = None,
     layout_seed: LayoutSeed = 0,
     steps: Steps = 1000,
-    compare: Annotated[str, typer.Option(
-        metavar="METHODS", help="comma-separated: soa, tracking, oracle (one UAV), "
-        "best-response, oma, random, or other run files")] = "soa,random",
+    compare: Annotated[list[str], typer.Option(
+        metavar="METHODS",
+        help="comma-separated or the option repeated: soa, tracking, oracle (one UAV), "
+        "best-response, oma, random, or other run files")] = ["soa,random"],  # noqa: B006
     out_file: Annotated[Path | None, typer.Option(
         "--out", metavar="FILE.h5", show_default=False,
         help="eval file to write (default: next to the run file)")] = None,
     policy: Annotated[str, typer.Option(
-        metavar="best|last", help="best: the policy of the best greedy evaluation during "
-        "training (the last where a run has none); last: the last checkpoint")] = "best",
+        metavar="best|last", callback=policy_value,
+        help="best: the policy of the best greedy evaluation during training (the last "
+        "where a run has none); last: the last checkpoint")] = "best",
     layout: Layout = None,
     csv_file: CsvFile = None,
     as_json: Json = False,
@@ -155,8 +164,8 @@ def evaluate(
     if out_file is not None or path.parent.is_dir():  # else the run file is missing: said next
         _writable_new_file(path)
     check_tables(layout, layouts or 1, csv_file, as_json)
-    methods = [item.strip() for item in compare.split(",") if item.strip()]
-    warn_scenario_file(scenario, set_values)
+    methods = [item for item in split_list(compare) if item]
+    warn_scenario_file(scenario, set_values, run=checkpoint)
     results, traces = api.evaluate(checkpoint=checkpoint, seed=seed, scenario_path=scenario,
                                    layouts=layouts, layout_seed=layout_seed, steps=steps,
                                    compare_with=methods, progress=RichReporter(err),
@@ -196,6 +205,7 @@ def baseline(
     scenario: ScenarioFile,
     method: Annotated[str, typer.Option(
         metavar="soa|tracking|oracle|best-response|oma|random", show_default=False,
+        callback=method_value,
         help="the baseline to run (oracle: one UAV only)")],
     layouts: Layouts = None,
     layout_seed: LayoutSeed = 0,
@@ -209,9 +219,6 @@ def baseline(
     with their rounds."""
     from adaptsky.evaluation import api
     from adaptsky_cli.cli.progress_display import RichReporter
-    if method not in api.BASELINES:
-        raise AdaptskyError(f"--method: unknown method '{method}'; choose from "
-                            f"{', '.join(api.BASELINES)}")
     warn_scenario_file(scenario, set_values)
     results, (result,) = api.baseline(scenario_path=scenario, method=method, layouts=layouts,
                                       layout_seed=layout_seed, steps=steps,

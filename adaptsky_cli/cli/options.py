@@ -1,12 +1,13 @@
 """Argument and option aliases shared by several commands, and the ``--seeds`` syntax."""
 
-import re
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
-from adaptsky.errors import AdaptskyError
+from adaptsky_cli.cli.values import MAX_SEEDS, device_value, parse_seeds, seeds_value, set_value
+
+__all__ = ["MAX_SEEDS", "parse_seeds"]  # their home before the values module
 
 ScenarioFile = Annotated[Path, typer.Argument(help="scenario file (TOML)", show_default=False,
                                               metavar="SCENARIO.toml")]
@@ -17,7 +18,7 @@ PluginName = Annotated[str, typer.Argument(help="channel-model name, as in 'plug
                                            show_default=False, metavar="NAME")]
 Json = Annotated[bool, typer.Option("--json", help="print JSON on stdout, nothing else")]
 Layout = Annotated[int | None, typer.Option(
-    metavar="L", show_default=False,
+    min=0, metavar="L", show_default=False,
     help="an evaluation's layout (0, 1, ...) whose per-user rates are shown (default: the "
     "first)")]
 CsvFile = Annotated[Path | None, typer.Option(
@@ -25,49 +26,25 @@ CsvFile = Annotated[Path | None, typer.Option(
     help="an evaluation's per-layout numbers and per-user rates, every method and layout, to "
     "this CSV")]
 Device = Annotated[str, typer.Option(
-    "--device", metavar="cpu|cuda|auto", help="where to train: cpu, cuda (or cuda:N) or auto "
-    "(cuda when available); on cuda all seeds train as one stack, recorded as CUDA graphs")]
+    "--device", metavar="cpu|cuda|auto", callback=device_value,
+    help="where to train: cpu, cuda (or cuda:N) or auto (cuda when available); on cuda all "
+    "seeds train as one stack, recorded as CUDA graphs")]
 Episodes = Annotated[int | None, typer.Option(min=1, metavar="N", help="episodes per seed",
                                               show_default=False)]
 Steps = Annotated[int | None, typer.Option(min=1, metavar="N", help="steps per episode",
                                            show_default=False)]
 SetValues = Annotated[list[str] | None, typer.Option(
-    "--set", metavar="KEY=VALUE", show_default=False,
+    "--set", metavar="KEY=VALUE", show_default=False, callback=set_value,
     help="override a scenario key, section.key=value (repeatable), e.g. --set "
     "reward.min_se=1.5 --set agent.dueling=false; recorded in the run file")]
-SEEDS_HELP = "seeds: a list or ranges, e.g. 0,1,2 or 0-5 or 0-2,7"
+SEEDS_HELP = "seeds: a list or ranges, e.g. 0,1,2 or 0-5 or 0-2,7 (or the option repeated)"
 """How ``--seeds`` is written, for every command's help."""
 
-MAX_SEEDS = 1000
-"""The most seeds one run trains (``train.seeds``, docs/scenario-format.md)."""
-_SEEDS_ITEM = re.compile(r"(\d+)(?:-(\d+))?")
 
-
-def parse_seeds(text: str | None) -> list[int] | None:
-    """``--seeds``: integers >= 0 and ranges ``a-b`` (both ends included), comma-separated,
-    each seed once, in the order given: ``0-2,7`` -> [0, 1, 2, 7]; None where not given."""
-    if text is None:
-        return None
-    seeds: list[int] = []
-    for item in text.split(","):
-        found = _SEEDS_ITEM.fullmatch(item.strip())
-        if found is None:
-            raise AdaptskyError(f"--seeds: '{text}' is not a list of seeds; give integers >= 0 "
-                                "and ranges, e.g. 0,1,2 or 0-5 or 0-2,7")
-        low, high = int(found.group(1)), int(found.group(2) or found.group(1))
-        if high < low:
-            raise AdaptskyError(f"--seeds: the range {item.strip()} ends before it starts; "
-                                f"write it low-high, e.g. {high}-{low}")
-        if len(seeds) + high - low + 1 > MAX_SEEDS:
-            raise AdaptskyError(f"--seeds: '{text}' names more than {MAX_SEEDS} seeds; "
-                                "a run trains at most that many")
-        seeds += range(low, high + 1)
-    repeated = sorted({seed for seed in seeds if seeds.count(seed) > 1})
-    if repeated:
-        raise AdaptskyError(f"--seeds: {', '.join(map(str, repeated))} given more than once; "
-                            "give each seed once, e.g. 0,1,2")
-    return seeds
-
+def seeds_option(help_text: str) -> Any:
+    """The ``--seeds`` option: comma-separated, repeated or both, checked by the parser."""
+    return typer.Option("--seeds", metavar="SEEDS", show_default=False, callback=seeds_value,
+                        help=help_text)
 
 
 def command_line(ctx: typer.Context) -> list[str]:

@@ -10,6 +10,7 @@ import typer
 
 from adaptsky.errors import AdaptskyError
 from adaptsky_cli.cli.console import err
+from adaptsky_cli.cli.values import conflict, metric_value, profile_value, split_list
 
 
 class Band(StrEnum):
@@ -28,20 +29,22 @@ def plot(
         help="figure to write, in the format its suffix names (.png, .pdf or .svg), with the "
         "plotted numbers in a .csv beside it (default: <first run file>-curves.png beside it)",
         show_default=False)] = None,
-    metric: Annotated[str, typer.Option(
-        metavar="METRICS", help="what to draw: sum-rate (R_e^tot), fairness (J_e), greedy "
+    metric: Annotated[list[str], typer.Option(
+        metavar="METRICS", callback=metric_value,
+        help="what to draw: sum-rate (R_e^tot), fairness (J_e), greedy "
         "(the greedy evaluations' score), energy-efficiency (bit/J per episode), reward (the "
         "episode's return), height (mean UAV height), epsilon (exploration rate), loss (mean "
         "TD loss), energy (J per episode), outage (share of user-steps), least-rate (mean "
         "least user rate) or p5-rate (5th percentile of the user rates); several "
-        "comma-separated draw a panel each, e.g. sum-rate,fairness")] = "sum-rate",
+        "(comma-separated or the option repeated) draw a panel each, e.g. "
+        "sum-rate,fairness")] = ["sum-rate"],  # noqa: B006
     band: Annotated[Band, typer.Option(
         metavar="std|bootstrap", help="shaded band: mean ± 1 std over seeds, or a 95% "
         "bootstrap interval of the mean")] = Band.std,
     title: Annotated[str | None, typer.Option(metavar="TEXT", help="figure title",
                                               show_default=False)] = None,
     profile: Annotated[str | None, typer.Option(
-        metavar="last|best", show_default=False,
+        metavar="last|best", show_default=False, callback=profile_value,
         help="draw performance profiles instead of curves: per scenario, the share of seeds "
         "whose last (or best) greedy evaluation score is above each threshold, with 95% "
         "stratified bootstrap bands (default --out: <first run file>-profile.png)")] = None,
@@ -64,13 +67,13 @@ def plot(
     if profile is not None:
         from adaptsky.report.profile_plot import plot_profiles
 
-        if metric != "sum-rate" or band != Band.std:
-            raise AdaptskyError("--profile draws the greedy evaluations' scores: give it "
-                                "without --metric and --band")
+        if split_list(metric) != ["sum-rate"] or band != Band.std:
+            raise conflict("--profile draws the greedy evaluations' scores: give it "
+                           "without --metric and --band")
         path = plot_profiles(run_paths=runs, policy=profile, title=title,
                              out=out_file or runs[0].with_name(f"{runs[0].stem}-profile.png"))
         err.print(f"figure: {path}")
         return
     path = plot_runs(run_paths=runs, out=out_file or default_figure_path(runs[0]),
-                     band=band.value, title=title, metric=metric)
+                     band=band.value, title=title, metric=",".join(split_list(metric)))
     err.print(f"figure: {path}")

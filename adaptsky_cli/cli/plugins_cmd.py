@@ -12,6 +12,7 @@ from rich.text import Text
 from adaptsky.errors import PluginError
 from adaptsky_cli.cli.console import err, out
 from adaptsky_cli.cli.options import Json, PluginName
+from adaptsky_cli.cli.values import param_value
 
 if TYPE_CHECKING:  # the registry (numpy, pydantic) is imported when a command runs
     from adaptsky.channels.registry import PluginInfo
@@ -157,7 +158,8 @@ CarrierHz = Annotated[float | None, typer.Option(
 
 
 Params = Annotated[list[str] | None, typer.Option(
-    "--param", metavar="KEY=VALUE", help="check with this parameter (a TOML value, e.g. "
+    "--param", metavar="KEY=VALUE", callback=param_value,
+    help="check with this parameter (a TOML value, e.g. "
     "shadowing=true); repeatable; the others keep their defaults")]
 
 

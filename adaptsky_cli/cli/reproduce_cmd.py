@@ -5,10 +5,10 @@ from typing import Annotated
 
 import typer
 
-from adaptsky.errors import AdaptskyError
 from adaptsky_cli.cli.console import err
-from adaptsky_cli.cli.options import SEEDS_HELP, Device, Episodes, Steps, parse_seeds
+from adaptsky_cli.cli.options import SEEDS_HELP, Device, Episodes, Steps, parse_seeds, seeds_option
 from adaptsky_cli.cli.plausibility import warn_experiment
+from adaptsky_cli.cli.values import conflict, format_value, set_value
 
 
 def reproduce(
@@ -25,9 +25,8 @@ def reproduce(
         min=1, metavar="N", show_default=False,
         help="at most N runs per group and sweep point (seeds 0 .. N-1), for a quick "
         "look")] = None,
-    seeds: Annotated[str | None, typer.Option(
-        metavar="SEEDS", show_default=False,
-        help=f"only these of the experiment's planned seeds; {SEEDS_HELP}")] = None,
+    seeds: Annotated[list[str] | None, seeds_option(
+        f"only these of the experiment's planned seeds; {SEEDS_HELP}")] = None,
     episodes: Episodes = None,
     steps: Steps = None,
     workers: Annotated[int | None, typer.Option(
@@ -37,7 +36,7 @@ def reproduce(
         metavar="tcp://HOST:PORT", show_default=False,
         help="address of a Dask scheduler; DIR must be on storage every worker shares")] = None,
     set_values: Annotated[list[str] | None, typer.Option(
-        "--set", metavar="KEY=VALUE", show_default=False,
+        "--set", metavar="KEY=VALUE", show_default=False, callback=set_value,
         help="override a key of every run's scenario, section.key=value (repeatable)")] = None,
     runs_only: Annotated[bool, typer.Option(
         "--runs-only", help="train the missing runs, then stop before evaluating and "
@@ -47,7 +46,7 @@ def reproduce(
         "finished")] = False,
     device: Device = "cpu",
     figure_format: Annotated[str | None, typer.Option(
-        "--format", metavar="png|pdf|svg", show_default=False,
+        "--format", metavar="png|pdf|svg", show_default=False, callback=format_value,
         help="the format of the experiments' figures, which report.md links (default: "
         "png)")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", help="no progress, only the final "
@@ -58,10 +57,10 @@ def reproduce(
     Runs what is missing, resumes what was interrupted, skips what is done, evaluates, and
     writes figures, CSVs and report.md."""
     if runs_only and report_only:
-        raise AdaptskyError("--runs-only and --report-only exclude each other")
+        raise conflict("--runs-only and --report-only exclude each other")
     if runs_only and figure_format is not None:
-        raise AdaptskyError(f"--format {figure_format}: --runs-only draws no figure; leave out "
-                            "one of them")
+        raise conflict(f"--format {figure_format}: --runs-only draws no figure; leave out "
+                       "one of them")
     # training and evaluation import torch: only when the command runs, not for --help
     from adaptsky.experiment.reproduce import reproduce as run_experiment
     from adaptsky.experiment.reproduce import reproduce_all

@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 
 from adaptsky_cli.cli.console import err
+from adaptsky_cli.cli.values import conflict, policy_value
 
 
 def show(
@@ -22,14 +23,15 @@ def show(
         help="the episode as an animation: .gif, or .mp4 (needs pip install "
         "'adaptsky[video]')")] = None,
     seed: Annotated[int | None, typer.Option(
-        metavar="SEED", show_default=False,
+        min=0, metavar="SEED", show_default=False,
         help="run file: which seed's policy (default: the first)")] = None,
     policy: Annotated[str | None, typer.Option(
-        metavar="best|last", show_default=False,
+        metavar="best|last", show_default=False, callback=policy_value,
         help="run file: the policy of the best greedy evaluation during training (the "
         "default; the last where a run has none) or of the last checkpoint")] = None,
     layout: Annotated[int | None, typer.Option(
-        metavar="L", show_default=False, help="eval file: which layout (default: 0)")] = None,
+        min=0, metavar="L", show_default=False,
+        help="eval file: which layout (default: 0)")] = None,
     method: Annotated[str | None, typer.Option(
         metavar="NAME", show_default=False,
         help="eval file: the method drawn beside the policy (default: the first stored)")
@@ -51,6 +53,9 @@ def show(
     A run file: the greedy episode of a seed's policy on the training layout. An eval file:
     its policy and one baseline on one layout. A figure (top view, height, power split,
     rates), an animation, or both."""
+    if out_file is None and animate is None:
+        raise conflict("nothing to write: give --out FIG.png (.pdf, .svg), --animate "
+                       "FILE.gif (.mp4), or both")
     from adaptsky.evaluation.show import show as show_episode
     from adaptsky_cli.cli.progress_display import RichReporter
 

@@ -5,11 +5,19 @@ from typing import Annotated
 
 import typer
 
-from adaptsky.errors import AdaptskyError
 from adaptsky_cli.cli.console import err, out
-from adaptsky_cli.cli.options import SEEDS_HELP, Device, Episodes, SetValues, Steps, parse_seeds
+from adaptsky_cli.cli.options import (
+    SEEDS_HELP,
+    Device,
+    Episodes,
+    SetValues,
+    Steps,
+    parse_seeds,
+    seeds_option,
+)
 from adaptsky_cli.cli.plausibility import warn_scenario_file
 from adaptsky_cli.cli.usage import click_errors
+from adaptsky_cli.cli.values import conflict, log_value, split_list
 
 
 def train(
@@ -20,9 +28,8 @@ def train(
     out_file: Annotated[Path | None, typer.Option(
         "--out", metavar="FILE.h5", show_default=False,
         help="run file to write (default: runs/<scenario>-<time>.h5)")] = None,
-    seeds: Annotated[str | None, typer.Option(
-        metavar="SEEDS", show_default=False,
-        help=f"{SEEDS_HELP}; one run file holds them all (default: the scenario's)")] = None,
+    seeds: Annotated[list[str] | None, seeds_option(
+        f"{SEEDS_HELP}; one run file holds them all (default: the scenario's)")] = None,
     episodes: Episodes = None,
     steps: Steps = None,
     workers: Annotated[int | None, typer.Option(
@@ -36,9 +43,10 @@ def train(
         help="continue this run file from its last checkpoints")] = None,
     device: Device = "cpu",
     log: Annotated[list[str] | None, typer.Option(
-        "--log", metavar="tensorboard|csv", show_default=False,
+        "--log", metavar="tensorboard|csv", show_default=False, callback=log_value,
         help="also log every episode's scalars beside the run file, in RUN.logs/: "
-        "TensorBoard event files or a CSV (repeatable; --resume continues the run's logs)")
+        "TensorBoard event files, a CSV or both (tensorboard,csv or the option repeated; "
+        "--resume continues the run's logs)")
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", help="print only the final table")] = False,
 ) -> None:
@@ -51,10 +59,11 @@ def train(
     progress = RichReporter(err, quiet=quiet)
     if resume is not None:
         if scenario is not None or seeds or steps or checkpoint_every or out_file or set_values:
-            raise AdaptskyError("--resume continues a run as it was configured: give only "
-                                "--episodes, --workers, --device, --log and --quiet with it")
+            raise conflict("--resume continues a run as it was configured: give only "
+                           "--episodes, --workers, --device, --log and --quiet with it")
         path, outcome = api.resume(run_path=resume, episodes=episodes, workers=workers,
-                                   device=device, quiet=quiet, progress=progress, logs=log)
+                                   device=device, quiet=quiet, progress=progress,
+                                   logs=split_list(log) if log else None)
     elif scenario is None:
         raise click_errors.UsageError("missing argument SCENARIO.toml (or --resume RUN.h5 to "
                                       "continue a run)", ctx)
@@ -64,7 +73,7 @@ def train(
                                   episodes=episodes, steps=steps, workers=workers,
                                   checkpoint_every=checkpoint_every, set_values=set_values,
                                   device=device, quiet=quiet, progress=progress,
-                                  logs=log or ())
+                                  logs=split_list(log))
     out.print(summary_table(summarize(path)))
     if outcome.interrupted:
         err.print(f"interrupted; checkpoints saved. Continue with: adaptsky train --resume {path}")

@@ -9,6 +9,7 @@ from rich.table import Table
 
 from adaptsky_cli.cli.console import err, out
 from adaptsky_cli.cli.options import Episodes, SetValues, Steps
+from adaptsky_cli.cli.values import study_value
 
 TABLE_ROWS = 10
 
@@ -25,7 +26,7 @@ def tune(
         metavar="URL", show_default=False,
         help="Optuna storage, any SQLAlchemy URL (default: sqlite:///OUT/study.db)")] = None,
     study: Annotated[str | None, typer.Option(
-        metavar="NAME", show_default=False,
+        metavar="NAME", show_default=False, callback=study_value,
         help="the study's name (default: the scenario file's name)")] = None,
     out_dir: Annotated[Path | None, typer.Option(
         "--out", metavar="DIR", show_default=False,

@@ -109,6 +109,9 @@ def usage_line(usage: UsageLine, argv: list[str]) -> str:
     if isinstance(error, click_errors.MissingParameter):
         return f"{command}: missing {_param_words(error)}; {see}"
     if isinstance(error, click_errors.BadParameter) and error.param is not None:
+        split = _split_key_value(argv, error.param)
+        if split:
+            return f"{command}: {split}"
         return f"{command}: {_hint(error.param)}: {_sentence(error.message)}; {see}"
     said = _sentence(error.format_message())
     return f"{command}: {said}" if "did you mean" in said else f"{command}: {said}; {see}"
@@ -130,9 +133,9 @@ def _command_path(root: Any, argv: list[str]) -> str:
 
 def _sentence(text: str) -> str:
     """Sentences as clauses of one line: ``No such command 'x'. Did you mean 'y'?`` ->
-    ``no such command 'x'; did you mean 'y'?``."""
+    ``no such command 'x'; did you mean 'y'?`` ("e.g." ends no sentence)."""
     text = re.sub(r"^value error, ", "", " ".join(text.split()), flags=re.IGNORECASE)
-    parts = [part.strip() for part in re.split(r"(?<=\.)\s+", text)]
+    parts = [part.strip() for part in re.split(r"(?<=\.)(?<!e\.g\.)(?<!i\.e\.)\s+", text)]
     clauses = [part[:1].lower() + part[1:].rstrip(".") for part in parts if part]
     return "; ".join(clauses)
 
@@ -171,6 +174,18 @@ def _key_value_options(ctx: Any) -> set[str]:
         return {"--set"}
     return {name for param in ctx.command.get_params(ctx) if param.metavar == "KEY=VALUE"
             for name in param.opts}
+
+
+def _split_key_value(argv: list[str], param: Any) -> str | None:
+    """``--set reward.min_se 1``, refused by ``--set``'s check of its value: said as the word
+    too many, with the fix."""
+    if param.metavar != "KEY=VALUE":
+        return None
+    for index, word in enumerate(argv[:-2]):
+        key, value = argv[index + 1], argv[index + 2]
+        if word in param.opts and "=" not in key and not value.startswith("-"):
+            return f"unexpected argument '{value}'; did you mean {word} {key}={value}?"
+    return None
 
 
 def _key_value_fix(argv: list[str], extra: list[str], options: set[str]) -> str | None:

@@ -249,12 +249,13 @@ def test_stale_copies_of_dead_writers_are_removed(reference, tmp_path):
 def test_command_line_lines(scenario, reference, tmp_path, capsys):
     out = tmp_path / "x.h5"
     cases = [
-        (["--seeds", "0,,1"], "--seeds: '0,,1' is not a list of seeds; give integers >= 0 "
-                                "and ranges, e.g. 0,1,2 or 0-5 or 0-2,7"),
-        (["--seeds", "0,1,0"], "--seeds: 0 given more than once; give each seed once"),
+        (["--seeds", "0,,1"], "adaptsky train: --seeds: '0,,1' is not a list of seeds; give "
+                                "integers >= 0 and ranges, e.g. 0,1,2 or 0-5 or 0-2,7"),
+        (["--seeds", "0,1,0"], "adaptsky train: --seeds: 0 given more than once; give each "
+                                 "seed once"),
     ]
-    for extra, expected in cases:
-        assert main(["train", str(scenario), *extra, "--out", str(out)]) == 1
+    for extra, expected in cases:  # usage errors (issue 52)
+        assert main(["train", str(scenario), *extra, "--out", str(out)]) == 2
         assert one_line(capsys.readouterr()).startswith(expected)
     assert main(train_args(scenario, tmp_path)) == 1  # a folder: not "--resume DIR"
     assert one_line(capsys.readouterr()) == (f"{tmp_path}: is a folder; give a run file "

@@ -133,6 +133,36 @@ def test_a_stage_run_says_its_time_and_a_failing_one_where_it_stopped(tmp_path):
         "install: [4/4] failed after 0 s (exit code 3; the reason is above)"]
 
 
+def test_a_long_stage_says_every_few_seconds_how_long_so_far_and_what_pip_does(tmp_path):
+    """Stage 3 printed nothing for 89 s (issue 52): a heartbeat line every
+    INSTALL_HEARTBEAT_S seconds with pip's latest step from its log; no line left behind."""
+    python = tmp_path / "python"
+    # a "python" whose pip install of .[dev] takes 4 s and logs its steps as pip does
+    python.write_text('#!/bin/bash\nif [ "$1" = -c ]; then echo "3.11.9 cp311"; exit 0; fi\n'
+                      'if [ "$2" = venv ]; then mkdir -p "$3/bin" && ln -s "$0" "$3/bin/python";'
+                      ' exit 0; fi\n'
+                      'case "$*" in *dev*) echo "2026-01-01T00:00:00,000 Collecting h5py>=3.10"'
+                      ' >> "$PIP_LOG"; sleep 2; echo "2026-01-01T00:00:02,000 Installing '
+                      'collected packages: h5py, numpy, rich" >> "$PIP_LOG"; sleep 2;; esac\n'
+                      'exit 0\n')
+    python.chmod(0o755)
+    env = dict(os.environ, PIP_CONFIG_FILE=os.devnull, PIP_FIND_LINKS="",
+               PATH=_path_without_nvidia_smi(), PYTHON=str(python), VENV=str(tmp_path / "v"),
+               INSTALL_HEARTBEAT_S="1", TMPDIR=str(tmp_path))
+    result = subprocess.run(["bash", str(SCRIPT), "--cpu"], env=env, text=True,
+                            capture_output=True, timeout=60)
+    assert result.returncode == 0, result.stderr
+    beats = [line for line in result.stderr.splitlines() if "so far" in line]
+    assert beats, result.stderr
+    assert all(re.fullmatch(r"install: \[3/4\] [1-9] s so far: (Collecting h5py>=3\.10|"
+                            r"Installing 3 collected packages)", line) for line in beats), beats
+    assert beats[-1].endswith("Installing 3 collected packages")  # a list: how long it is
+    lines = result.stderr.splitlines()
+    assert lines.index(beats[0]) > lines.index(
+        "install: [3/4] adaptsky and its test tools (editable, with the dev extras)")
+    assert not list(tmp_path.glob("adaptsky-install-pip.*"))  # its log is removed
+
+
 @pytest.mark.parametrize(("flags", "message"), [
     (("--cpu", "--cuda"), "install.sh: --cpu and --cuda exclude each other; give one of them"),
     (("--gpu",), "install.sh: unknown option '--gpu'; allowed: --cpu, --cuda, --dry-run, "

@@ -34,11 +34,13 @@ def test_figure_formats(tmp_path, capsys):
     capsys.readouterr()
     before = sorted(p.relative_to(out) for p in out.rglob("*"))
     assert main(["reproduce", str(experiment), "--out", str(out), *SHORT,
-                 "--format", "jpeg"]) == 1
-    assert one_line(capsys) == "--format jpeg: not a figure format; choose png, pdf or svg"
+                 "--format", "jpeg"]) == 2
+    assert one_line(capsys) == ("adaptsky reproduce: --format: 'jpeg' is not a figure format; "
+                                "choose from png, pdf, svg; see 'adaptsky reproduce --help'")
     assert main(["reproduce", str(experiment), "--out", str(out), *SHORT, "--runs-only",
-                 "--format", "pdf"]) == 1
-    assert one_line(capsys) == "--format pdf: --runs-only draws no figure; leave out one of them"
+                 "--format", "pdf"]) == 2
+    assert one_line(capsys) == ("adaptsky reproduce: --format pdf: --runs-only draws no "
+                                "figure; leave out one of them; see 'adaptsky reproduce --help'")
     assert sorted(p.relative_to(out) for p in out.rglob("*")) == before
 
 
@@ -46,6 +48,8 @@ def test_a_bad_format_is_refused_before_training(tmp_path, capsys):
     experiment = curves_experiment(tmp_path, runs=1)
     out = tmp_path / "never"
     for target in (str(experiment), "all"):
-        assert main(["reproduce", target, "--out", str(out), *SHORT, "--format", "eps"]) == 1
-        assert one_line(capsys) == "--format eps: not a figure format; choose png, pdf or svg"
+        assert main(["reproduce", target, "--out", str(out), *SHORT, "--format", "eps"]) == 2
+        assert one_line(capsys) == ("adaptsky reproduce: --format: 'eps' is not a figure "
+                                    "format; choose from png, pdf, svg; see 'adaptsky reproduce "
+                                    "--help'")
     assert not Path(out).exists()

@@ -179,10 +179,104 @@ def test_seeds_are_lists_and_ranges(text, seeds):
     ("0,x", "is not a list of seeds"), ("3-1", "ends before it starts"),
     ("0-2,1", "1 given more than once"), ("", "is not a list of seeds"),
     ("0-5000", "more than 1000 seeds"), ("-1", "is not a list of seeds")])
-def test_bad_seeds_are_one_line_and_exit_1(text, message, capsys):
+def test_bad_seeds_are_usage_errors(text, message, capsys):
+    # they exited 1 while --episodes 0 exited 2 (issue 52): a bad option value is a usage error
     for argv in (["train", SCENARIO, "--seeds", text], ["reproduce", "e1a", "--seeds", text]):
-        assert main(argv) == 1
-        assert message in one_line(capsys)
+        assert main(argv) == 2
+        line = one_line(capsys)
+        assert line.startswith(f"adaptsky {argv[0]}: --seeds: ") and message in line
+
+
+def test_seeds_may_be_repeated_or_comma_separated():
+    assert parse_seeds(["0-2", "7"]) == parse_seeds(["0-2,7"]) == parse_seeds("0-2,7") == [
+        0, 1, 2, 7]
+    assert parse_seeds([]) is None and parse_seeds(None) is None
+
+
+# ---- one rule for every option's value: malformed, out of range, conflicting: exit 2 ------
+
+RUN = "missing-run.h5"  # never read: the parser refuses first
+BAD_VALUES = [
+    (["train", SCENARIO, "--seeds", "0-"], "--seeds: '0-' is not a list of seeds"),
+    (["train", SCENARIO, "--episodes", "0"], "--episodes: input should be greater than"),
+    (["train", SCENARIO, "--steps", "-3"], "--steps: input should be greater than"),
+    (["train", SCENARIO, "--workers", "0"], "--workers: input should be greater than"),
+    (["train", SCENARIO, "--log", "tensorboard,wandb"], "--log: unknown kind 'wandb'; "
+     "choose from tensorboard, csv"),
+    (["train", SCENARIO, "--device", "gpu"], "--device: 'gpu' is not a device"),
+    (["train", SCENARIO, "--set", "reward.min_se"], "--set: 'reward.min_se' is not "
+     "section.key=value"),
+    (["train", "--resume", RUN, "--seeds", "1"], "--resume continues a run as it was"),
+    (["eval", RUN, "--policy", "worst"], "--policy: unknown policy 'worst'; choose from "
+     "best, last"),
+    (["eval", RUN, "--seed", "-1"], "--seed: input should be greater than or equal to 0"),
+    (["eval", RUN, "--layout", "0", "--json"], "--layout 0: picks the layout"),
+    (["eval", RUN, "--set", "=1"], "--set: '=1' is not section.key=value"),
+    (["baseline", SCENARIO, "--method", "best"], "--method: unknown method 'best'"),
+    (["plot", RUN, "--metric", "sum-rate", "--metric", "power"],
+     "--metric: unknown metric 'power'"),
+    (["plot", RUN, "--profile", "first"], "--profile: unknown policy 'first'"),
+    (["plot", RUN, "--profile", "last", "--metric", "fairness"], "--profile draws the"),
+    (["show", RUN, "--policy", "worst", "--out", "f.png"], "--policy: unknown policy"),
+    (["show", RUN], "nothing to write"),
+    (["reproduce", "e1a", "--seeds", "3-1"], "--seeds: the range 3-1 ends before it starts"),
+    (["reproduce", "e1a", "--format", "bmp"], "--format: 'bmp' is not a figure format"),
+    (["reproduce", "e1a", "--runs-only", "--report-only"],
+     "--runs-only and --report-only exclude each other"),
+    (["tune", SCENARIO, "--space", "s.toml", "--trials", "1", "--study", "a b"],
+     "--study: 'a b' is not a study name"),
+    (["tune", SCENARIO, "--space", "s.toml", "--trials", "0"], "--trials: input should be"),
+    (["plugins", "check", "mmwave-nyc", "--param", "shadowing"],
+     "--param: 'shadowing' is not KEY=VALUE"),
+    (["plugins", "check", "mmwave-nyc", "--carrier-hz", "5"], "--carrier-hz: "),
+]
+
+
+@pytest.mark.parametrize(("argv", "expected"), BAD_VALUES,
+                         ids=[" ".join(argv[:1] + argv[2:]) for argv, _ in BAD_VALUES])
+def test_every_bad_option_value_is_one_usage_line_with_exit_2(argv, expected, capsys,
+                                                              tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # nothing is written, wherever it would go
+    assert main(argv) == 2
+    line = one_line(capsys)
+    command = "adaptsky " + " ".join(argv[:2] if argv[0] == "plugins" else argv[:1])
+    assert line.startswith(f"{command}: {expected}"), line
+    assert line.endswith(f"; see '{command} --help'")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_what_only_the_files_tell_stays_exit_1(capsys):
+    # a seed the experiment does not plan: its file says so, not the command line
+    assert main(["reproduce", "e1a", "--seeds", "12", "--out", "x"]) == 1
+    assert one_line(capsys).endswith("--seeds: 12 not planned; the experiment's seeds are 0-9")
+
+
+# ---- list options: comma-separated, repeated, or both --------------------------------------
+
+def test_list_options_take_commas_and_repetition_alike(tmp_path):
+    """``train --log tensorboard,csv`` was refused (issue 52); --seeds, --log, --compare and
+    --metric take either form, and both mixed."""
+    pytest.importorskip("tensorboard")
+    runs = {}
+    for name, options in (("commas", ["--seeds", "0,1", "--log", "tensorboard,csv"]),
+                          ("repeated", ["--seeds", "0", "--seeds", "1", "--log", "tensorboard",
+                                        "--log", "csv"])):
+        runs[name] = tmp_path / f"{name}.h5"
+        assert main(["train", SCENARIO, *options, "--episodes", "1", "--steps", "2",
+                     "--workers", "1", "--out", str(runs[name]), "--quiet"]) == 0
+        logs = tmp_path / f"{name}.logs"
+        assert (logs / "scalars.csv").is_file(), name
+        assert sorted(p.name for p in logs.glob("seed*")) == ["seed0", "seed1"], name
+        with RunReader(runs[name]) as run:
+            assert run.seeds == [0, 1]
+    for form in (["--compare", "soa,random"], ["--compare", "soa", "--compare", "random"]):
+        out = tmp_path / f"eval-{len(form)}.json"
+        assert main(["eval", str(runs["commas"]), "--steps", "3", *form, "--json",
+                     "--out", str(out.with_suffix(".h5"))]) == 0
+    from adaptsky_cli.cli.values import set_value, split_list
+    assert split_list(["soa", "oracle,random"]) == ["soa", "oracle", "random"]
+    assert set_value(['agent={algorithm="ppo"}']) == ['agent={algorithm="ppo"}']  # a table
+    assert split_list(["tensorboard, csv"]) == ["tensorboard", "csv"]
 
 
 def test_train_takes_a_range_of_seeds(tmp_path):

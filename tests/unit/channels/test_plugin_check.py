@@ -288,14 +288,16 @@ def test_plugins_check_takes_parameters_and_a_carrier():
         "fading hook checked, parameters: shadowing=True)")
     for param, line in (("shadowing=3", "--param shadowing: Input should be a valid boolean"),
                         ("nope=1", "--param nope: unknown key"),
-                        ("carrier_hz", "--param 'carrier_hz': expected KEY=VALUE, e.g. "
-                                       "carrier_hz=3.5e9"),
                         ("carrier_hz=3e9", "uma-av: carrier: carrier_hz = 3.5e+09 Hz differs "
                                            "from the parameters' carrier_hz = 3e+09 Hz; in a "
                                            "run they are one value")):
         refused = _run(Path("."), "plugins", "check", "uma-av", "--param", param,
                        "--carrier-hz", "3.5e9")
         assert refused.returncode == 1 and refused.stderr.strip().splitlines() == [line]
+    refused = _run(Path("."), "plugins", "check", "uma-av", "--param", "carrier_hz")
+    assert refused.returncode == 2 and refused.stderr.strip().splitlines() == [
+        "adaptsky plugins check: --param: 'carrier_hz' is not KEY=VALUE; e.g. carrier_hz=3.5e9; "
+        "see 'adaptsky plugins check --help'"]
 
 
 def test_plugins_show_prints_the_contract_and_markup_free_text(capsys):

@@ -166,8 +166,6 @@ def test_bad_choices_name_what_exists(tiny_run, eval_file, tmp_path, capsys):
     figure = tmp_path / "fig.png"
     cases = [
         ([str(tiny_run), "--seed", "7"], f"{tiny_run}: has no seed 7; it has 0, 1"),
-        ([str(tiny_run), "--policy", "worst"],
-         "--policy: unknown policy 'worst'; choose best or last"),
         ([str(tiny_run), "--layout", "1"], f"--layout: {tiny_run} is a run file; --layout and "
                                            "--method choose what an eval file holds"),
         ([str(eval_file), "--layout", "3"], f"--layout 3: {eval_file} holds 1 layout: 0"),
@@ -184,9 +182,14 @@ def test_bad_choices_name_what_exists(tiny_run, eval_file, tmp_path, capsys):
         assert main(["show", *argv, "--out", str(figure), "--quiet"]) == 1, argv
         assert one_line(capsys) == expected
         assert not figure.exists()
-    assert main(["show", str(tiny_run)]) == 1
-    assert one_line(capsys) == ("nothing to write: give --out FIG.png (.pdf, .svg), --animate "
-                                "FILE.gif (.mp4), or both")
+    # what the command line alone gets wrong is a usage error (exit 2, issue 52)
+    assert main(["show", str(tiny_run), "--policy", "worst", "--out", str(figure)]) == 2
+    assert one_line(capsys) == ("adaptsky show: --policy: unknown policy 'worst'; choose from "
+                                "best, last; see 'adaptsky show --help'")
+    assert main(["show", str(tiny_run)]) == 2
+    assert one_line(capsys) == ("adaptsky show: nothing to write: give --out FIG.png (.pdf, "
+                                ".svg), --animate FILE.gif (.mp4), or both; see 'adaptsky show "
+                                "--help'")
 
 
 def test_an_eval_file_of_two_uavs_draws_both_and_their_users(tmp_path, capsys):

@@ -109,8 +109,10 @@ def test_bad_metrics_are_one_line_and_write_nothing(tmp_path, capsys):
                        "(train.eval_every is 0, the runs are shorter than it, or they were made "
                        "before evaluations existed); nothing to plot for --metric greedy"}
     for metric, line in cases.items():
-        assert main(["plot", str(bare), "--metric", metric, "--out", str(out)]) == 1
-        assert one_line(capsys) == line
+        usage = metric != "greedy"  # a malformed value is a usage error (issue 52)
+        assert main(["plot", str(bare), "--metric", metric, "--out", str(out)]) == 1 + usage
+        assert one_line(capsys) == (f"adaptsky plot: {line}; see 'adaptsky plot --help'"
+                                    if usage else line)
     assert main(["plot", str(bare), "--out", str(tmp_path / "fig.jpg")]) == 1
     assert one_line(capsys).endswith("a figure file must end in .png, .pdf or .svg (it has "
                                      "'.jpg')")
@@ -167,8 +169,8 @@ def test_profile_draws_the_share_of_seeds_above_each_threshold(tmp_path):
 
 def test_profile_refuses_an_unknown_policy_and_curve_options(tmp_path, capsys):
     run = make_run(tmp_path / "run.h5", {0: 20}, {0: [10, 20]})
-    assert main(["plot", str(run), "--profile", "first"]) == 1
+    assert main(["plot", str(run), "--profile", "first"]) == 2
     assert "--profile: unknown policy 'first'; choose from last, best" in one_line(capsys)
-    assert main(["plot", str(run), "--profile", "last", "--metric", "fairness"]) == 1
+    assert main(["plot", str(run), "--profile", "last", "--metric", "fairness"]) == 2
     assert "without --metric and --band" in one_line(capsys)
     assert not list(tmp_path.glob("*.png"))

@@ -38,7 +38,7 @@ def test_unknown_device_is_one_line(tmp_path, capsys):
     code = main(["train", str(small_scenario(tmp_path)), "--device", "tpu",
                  "--out", str(tmp_path / "x.h5")])
     err = capsys.readouterr().err
-    assert code == 1 and "Traceback" not in err and "cpu, cuda" in err
+    assert code == 2 and "Traceback" not in err and "cpu, cuda" in err  # a usage error
 
 
 @cuda

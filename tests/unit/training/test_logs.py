@@ -100,9 +100,10 @@ def test_ppo_logs_every_scalar_of_every_episode_and_a_resume_continues_them(tmp_
 def test_log_kinds_are_checked_in_one_line(tmp_path, capsys):
     path = ppo_scenario(tmp_path, episodes=1)
     assert main(["train", str(path), "--log", "wandb", "--out", str(tmp_path / "r.h5"),
-                 "--quiet"]) == 1
-    assert capsys.readouterr().err.strip() == ("--log: unknown kind 'wandb'; allowed: "
-                                               "tensorboard, csv")
+                 "--quiet"]) == 2
+    assert capsys.readouterr().err.strip() == (
+        "adaptsky train: --log: unknown kind 'wandb'; choose from tensorboard, csv; see "
+        "'adaptsky train --help'")
     assert not (tmp_path / "r.h5").exists()
 
 

@@ -4,6 +4,8 @@ two processes; the best trial as a scenario; a study refuses another search."""
 
 from __future__ import annotations
 
+import io
+import re
 import signal
 import subprocess
 import time
@@ -13,11 +15,13 @@ import optuna
 import pytest
 from optuna.trial import TrialState
 
+from adaptsky.progress import LogLines
 from adaptsky.scenario import load_scenario
 from adaptsky.store.run_file import RunReader
+from adaptsky.tuning.api import _TrialLog, tune
 from adaptsky.tuning.space import load_space
 from adaptsky.tuning.study import StudyError, open_storage
-from adaptsky.tuning.trial import objective_of
+from adaptsky.tuning.trial import TrialOutcome, objective_of
 from adaptsky_cli.cli.main import main
 from tests.helpers.cli import ADAPTSKY
 from tests.helpers.training import small_scenario
@@ -118,13 +122,29 @@ def _wait_for(study_folder: Path, settled: int, process: subprocess.Popen,
         time.sleep(0.1)
 
 
+def _kill_halfway(study_folder: Path, settled: int, process: subprocess.Popen) -> None:
+    """SIGKILL ``process`` while a trial runs past its first checkpoint, after ``settled``
+    trials: the process is stopped (SIGSTOP) and the study read again before the kill, since
+    a trial of a few episodes can end between a read and a kill."""
+    while True:
+        _wait_for(study_folder, settled, process)
+        process.send_signal(signal.SIGSTOP)
+        try:  # (stopped while it held the database's lock: let it go on and try again)
+            running = _study(study_folder).get_trials(states=(TrialState.RUNNING,))
+        except Exception:
+            running = []
+        if running and _checkpointed(study_folder / f"trial-{running[0].number:04d}.h5"):
+            process.send_signal(signal.SIGKILL)
+            return
+        process.send_signal(signal.SIGCONT)
+
+
 def test_kill_9_halfway_then_the_same_command_ends_with_every_trial_once(files, tmp_path):
     scenario, space = files
     out = tmp_path / "study"
     process = subprocess.Popen(_command(scenario, space, out, 8), stdout=subprocess.PIPE,
                                stderr=subprocess.PIPE, text=True)
-    _wait_for(out, 4, process)
-    process.send_signal(signal.SIGKILL)
+    _kill_halfway(out, 4, process)
     process.wait()
     killed = _study(out)
     running = [t.number for t in killed.get_trials(states=(TrialState.RUNNING,))]
@@ -218,6 +238,61 @@ def test_tune_needs_greedy_evaluations(files, tmp_path, capsys):
                  "--out", str(tmp_path / "study"), "--set", "train.eval_every=0"]) == 1
     line = capsys.readouterr().err.strip()
     assert "train.eval_every = 0" in line and "--set train.eval_every=" in line
+
+
+def test_episodes_below_the_evaluation_period_set_it_and_say_so(files, tmp_path):
+    """tune --episodes 2 with train.eval_every = 5 was refused (issue 52): the trials are
+    evaluated at their end, one line says so, and best.toml keeps the scenario's period."""
+    scenario, space = files
+    out, said = tmp_path / "study", io.StringIO()
+    outcome = tune(scenario_path=scenario, space_path=space, trials=1, out=out, episodes=2,
+                   steps=10, set_values=["train.eval_every=5", "train.eval_steps=20",
+                                         "train.seeds=[0]"],
+                   progress=LogLines(said, quiet=True))
+    assert [line.split(" ", 2)[2] for line in said.getvalue().splitlines()] == [
+        "tune: train.eval_every = 5 is more than the 2 episodes of a trial: set to 2 (one "
+        "greedy evaluation, at each trial's end; the pruner needs more: --set "
+        "train.eval_every=N)"]
+    assert outcome.counts.complete == 1
+    with RunReader(out / "trial-0000.h5", needs="curves") as run:
+        assert run.config["train"]["eval_every"] == 2
+        assert run.evaluations(0)["episode"].tolist() == [2]
+    assert load_scenario(out / "best.toml").train.eval_every == 5
+
+
+def test_a_trial_says_its_episodes_as_it_trains(files, tmp_path):
+    """A trial printed nothing from its start to its end (about 30 s, issue 52): in a log,
+    a line at its first episode, then at most one every 30 s, with the time left."""
+    scenario, space = files
+    said = io.StringIO()
+    tune(scenario_path=scenario, space_path=space, trials=1, out=tmp_path / "study",
+         episodes=3, steps=10, set_values=["train.eval_every=3", "train.eval_steps=20",
+                                           "train.seeds=[0]"], progress=LogLines(said))
+    lines = [line.split(" ", 2)[2] for line in said.getvalue().splitlines()]  # no time stamp
+    start = next(i for i, line in enumerate(lines) if line.startswith("trial 0 starts: "))
+    assert lines[start + 1] == "trial 0: episode 1/3, estimating time left"
+    assert lines[start + 2].startswith("trial 0: ") and "episode" not in lines[start + 2]
+
+
+def test_the_trial_log_paces_its_episodes():
+    said = io.StringIO()
+    log = _TrialLog(LogLines(said), "process 1: ", log_every_s=0)
+    log.event("start", {"number": 4, "params": {"agent.lr": 0.001}, "continued": False})
+    for episode in (1, 2, 3, 4):
+        log.event("episode", {"number": 4, "episode": episode, "episodes": 10})
+    log.event("end", {"number": 4, "outcome": TrialOutcome("pruned", pruned_at=4)})
+    lines = [line.split(" ", 2)[2] for line in said.getvalue().splitlines()]
+    assert lines[:3] == ["process 1: trial 4 starts: agent.lr=0.001",
+                         "process 1: trial 4: episode 1/10, estimating time left",
+                         "process 1: trial 4: episode 2/10, estimating time left"]
+    assert re.fullmatch(r"process 1: trial 4: episode 4/10, [0-9.]+ ms/episode, under 1 s "
+                        r"left", lines[4]), lines[4]
+    assert lines[5] == "process 1: trial 4: pruned at episode 4"
+    quiet = io.StringIO()
+    log = _TrialLog(LogLines(quiet), log_every_s=3600)
+    for episode in (1, 2, 3):
+        log.event("episode", {"number": 0, "episode": episode, "episodes": 3})
+    assert len(quiet.getvalue().splitlines()) == 1  # the first, then none within the hour
 
 
 def test_space_values_become_overrides(tmp_path):
