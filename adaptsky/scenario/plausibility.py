@@ -187,25 +187,26 @@ def _mobility_step_in_area(scenario: Scenario) -> str | None:
     key, speed_mps = max(((key, value) for key, value in speeds.items() if value is not None),
                          key=lambda item: item[1], default=("", 0.0))
     per_step = speed_mps * step_s
-    if per_step <= USER_STEP_MAX_SHARE_OF_SIDE * side_m:
-        return None
-    return (f"users.mobility.{key} = {speed_mps:g} m/s moves {per_step:.4g} m per step of "
-            f"uav.step_s = {step_s:g} s and crosses the {side_m:g} m area in "
-            f"{side_m / per_step:.2g} steps, far above what users move between two decisions "
-            f"(at most {USER_STEP_MAX_SHARE_OF_SIDE * side_m:g} m per step, a fifth of "
-            "area.side_m); the unit is m/s")
+    return _crossing(f"users.mobility.{key} = {speed_mps:g} m/s moves {per_step:.4g} m per "
+                     f"step of uav.step_s = {step_s:g} s and", per_step, side_m, "m/s")
 
 
 def _user_step_in_area(scenario: Scenario) -> str | None:
     """A step that crosses the area in a few steps, whatever ``uav.step_s`` says (30 m per
     step in a 100 m area: km/h or m/min written as m per step)."""
     per_step, side_m = scenario.users.speed_m_per_step, scenario.area.side_m
-    if per_step <= USER_STEP_MAX_SHARE_OF_SIDE * side_m:
+    return _crossing(f"users.speed_m_per_step = {per_step:g} m per step", per_step, side_m,
+                     "m per step (30 km/h for 1 s = 8.3)")
+
+
+def _crossing(what: str, per_step_m: float, side_m: float, unit: str) -> str | None:
+    """``what`` crosses the area in a few steps: the line that says so, else None."""
+    if per_step_m <= USER_STEP_MAX_SHARE_OF_SIDE * side_m:
         return None
-    return (f"users.speed_m_per_step = {per_step:g} m per step crosses the {side_m:g} m area in "
-            f"{side_m / per_step:.2g} steps, far above what users move between two decisions "
-            f"(at most {USER_STEP_MAX_SHARE_OF_SIDE * side_m:g} m per step, a fifth of "
-            "area.side_m); the unit is m per step (30 km/h for 1 s = 8.3)")
+    return (f"{what} crosses the {side_m:g} m area in {side_m / per_step_m:.2g} steps, far "
+            f"above what users move between two decisions (at most "
+            f"{USER_STEP_MAX_SHARE_OF_SIDE * side_m:g} m per step, a fifth of area.side_m); "
+            f"the unit is {unit}")
 
 
 def _uav_speed(scenario: Scenario) -> str | None:
