@@ -7,9 +7,10 @@ with the reason.
 :func:`check_channel_model` adds the behaviour on a fixed set of links: shapes, dtypes,
 finite and positive gains, LoS probabilities in [0, 1], gains that fall with distance,
 ``expected_gain`` between the LoS and NLoS gains, LoS draws and (contract 2) fading draws that
-come from the generator passed in and nothing else. A contract-2 model is checked with users on
-the ground and with user antennas above it. Each failure is one line, ``rule: what was found``;
-a plugin's own tests assert ``check_channel_model(MyModel) == []``.
+come from the generator passed in and nothing else, and, for a model that declares
+``Supports(monotone_gains=True)``, that promise on lines of links. A contract-2 model is
+checked with users on the ground and with user antennas above it. Each failure is one line,
+``rule: what was found``; a plugin's own tests assert ``check_channel_model(MyModel) == []``.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from adaptsky.channels.contract import (
     Supports,
     carrier_parameter_hz,
     contract_version_of,
+    declares_monotone_gains,
     default_carrier_hz,
     implements_fading,
     supported_range,
@@ -135,6 +137,8 @@ def _supports_problems(model: type[ChannelModel], defaults: ChannelParams) -> li
     if contract_version_of(model) < 2:
         return ["contract: supports is a contract-2 declaration; declare contract_version = 2 "
                 "in the class to use it"]
+    if not isinstance(declared.monotone_gains, bool):
+        return [f"supports: monotone_gains = {declared.monotone_gains!r} is not True or False"]
     problems = [f"supports: {setting} = {value!r} is not a range (low, high) of finite numbers "
                 f"with {'0 <=' if setting.endswith('_m') else '0 <'} low <= high"
                 for setting in SHARED_SETTINGS
@@ -348,6 +352,8 @@ def _behaviour(instance: ChannelModel, user_height_m: float, carrier_hz: float) 
     # gains already found broken on these links are not followed along a line as well
     failures += _monotone(instance, user_height_m, carrier_hz,
                           [m for m in ("gain_los", "gain_nlos") if m in values])
+    if declares_monotone_gains(instance) and not failures:
+        failures += _monotone_gains(instance, geometry, user_height_m, carrier_hz)
     failures += _sampling(instance, geometry)
     if contract_version_of(instance) >= 2:
         failures += _fading(instance, geometry)
@@ -369,6 +375,48 @@ def _monotone(instance: ChannelModel, user_height_m: float, carrier_hz: float,
                                 f"{height_m:g} m")
                 break
     return failures
+
+
+def _monotone_gains(instance: ChannelModel, geometry: LinkGeometry, user_height_m: float,
+                    carrier_hz: float) -> list[str]:
+    """The promise of ``Supports(monotone_gains=True)``: neither gain grows with the UAV's
+    height at a fixed ground distance, the NLoS gain is at most the LoS gain (on the random
+    links and on lines of links), and (contract 3) the buildings' LoS states change
+    neither."""
+    failures: list[str] = []
+    lines = [(f"at a ground distance of {d:g} m", _column(d, user_height_m, carrier_hz))
+             for d in (0.0, 50.0, 140.0)]
+    for method in ("gain_los", "gain_nlos"):
+        for where, links in lines:
+            gain = _call(failures, method, lambda m=method, g=links: getattr(instance, m)(g))
+            if gain is None or not _array(failures, method, gain, links.shape):
+                return failures
+            if (np.diff(gain[:, 0]) > 0).any():
+                failures.append(f"monotone_gains: {method}() grows with the UAV height {where}"
+                                " (declared Supports(monotone_gains=True))")
+                break
+    every = [geometry, *(_line(h, user_height_m, carrier_hz) for h in (10.0, 60.0, 150.0)),
+             *(links for _, links in lines)]
+    if any((instance.gain_nlos(links) > instance.gain_los(links)).any() for links in every):
+        failures.append("monotone_gains: gain_nlos() exceeds gain_los() on some links "
+                        "(declared Supports(monotone_gains=True))")
+    if contract_version_of(instance) >= 3:
+        mask = np.random.default_rng(5).random(geometry.shape) < 0.5
+        with_mask = geometry.with_los(mask)
+        if any(not np.array_equal(getattr(instance, m)(geometry), getattr(instance, m)(with_mask))
+               for m in ("gain_los", "gain_nlos")):
+            failures.append("monotone_gains: the gains change with the links' LoS states "
+                            "(geometry.los; declared Supports(monotone_gains=True))")
+    return failures
+
+
+def _column(horizontal_m: float, user_height_m: float, carrier_hz: float) -> LinkGeometry:
+    """UAVs at heights 10 to 200 m, each with one user ``horizontal_m`` away (links (30, 1))."""
+    heights_m = np.linspace(10.0, 200.0, 30)
+    uav_m = np.column_stack([np.zeros_like(heights_m), np.zeros_like(heights_m), heights_m])
+    users_m = np.broadcast_to([[[horizontal_m, 0.0]]], (len(heights_m), 1, 2))
+    return LinkGeometry.between(uav_m, np.array(users_m), user_height_m=user_height_m,
+                                carrier_hz=carrier_hz)
 
 
 def _global_state() -> tuple[Any, ...]:

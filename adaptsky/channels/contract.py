@@ -162,7 +162,8 @@ class Supports:
     (docs/plugins.md §2): for each, the inclusive range ``(low, high)`` of values it models,
     one value ``(f, f)`` where its constants hold only that one (``mmwave-nyc``'s 28 GHz: it
     ignores any other); None: every value a scenario allows, as for a model that declares
-    nothing. A scenario outside a declared range is refused."""
+    nothing. A scenario outside a declared range is refused. ``monotone_gains`` is a promise
+    about the gains instead, which lets the per-step searches bound them."""
 
     carrier_hz: tuple[float, float] | None = None
     """f_c, Hz (``radio.carrier_hz``)."""
@@ -170,6 +171,15 @@ class Supports:
     """W of each cluster, Hz (``radio.bandwidth_hz``)."""
     user_height_m: tuple[float, float] | None = None
     """h_UT, the users' antenna height, m (``users.height_m``)."""
+    monotone_gains: bool = False
+    """True promises, for the parameters and shared settings of a run: ``gain_los`` and
+    ``gain_nlos`` depend on a link only through its ground distance d2D and the UAV's height
+    h (not on ``geometry.los``), neither grows with d2D at a fixed h nor with h at a fixed d2D
+    (h above the users' antennas), and ``gain_nlos <= gain_los`` on every link. So the LoS
+    gain at a region's nearest point to a user bounds every gain in the region, and the
+    gain at its farthest point bounds them from below: the per-step oracle and best response
+    at every step search by branch and bound (docs/model.md §6, §9). False: every lattice
+    point is searched, to the same results, slower."""
 
 
 class ChannelModel(ABC):
@@ -238,6 +248,11 @@ class ChannelModel(ABC):
 def implements_fading(model: Any) -> bool:
     """Whether a model class implements :meth:`ChannelModel.sample_fading`."""
     return getattr(model, "sample_fading", None) is not ChannelModel.sample_fading
+
+
+def declares_monotone_gains(model: Any) -> bool:
+    """Whether a model class (or instance) declares ``Supports(monotone_gains=True)``."""
+    return getattr(getattr(model, "supports", None), "monotone_gains", False) is True
 
 
 def carrier_parameter_hz(params: BaseModel) -> float | None:

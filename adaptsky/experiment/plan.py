@@ -16,7 +16,7 @@ from pydantic import ValidationError
 
 from adaptsky.errors import ScenarioError
 from adaptsky.experiment.models import Experiment, Group
-from adaptsky.scenario.loading import _error_lines, parse_toml, read_scenario_text
+from adaptsky.scenario.loading import parse_toml, read_scenario_text, validation_error_lines
 from adaptsky.scenario.toml_writer import toml_value
 from adaptsky.shipped_files import shipped_folder
 from adaptsky.training.api import load_with_overrides
@@ -56,7 +56,7 @@ def load_experiment(name: str) -> tuple[Experiment, Path]:
     try:
         experiment = Experiment.model_validate(data)
     except ValidationError as error:
-        raise ScenarioError(_error_lines(str(path), error, model=Experiment)) from None
+        raise ScenarioError(validation_error_lines(str(path), error, model=Experiment)) from None
     for group in experiment.groups:
         scenario_file = path.parent / group.scenario
         if not scenario_file.is_file():

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 from matplotlib.figure import Figure
 
-from adaptsky.report.figures import FONT_SMALL, _new_figure, legend_below
+from adaptsky.report.figures import FONT_SMALL, legend_below, new_figure
 
 
 @dataclass(frozen=True)
@@ -29,7 +29,7 @@ def draw_energy_front(points: list[FrontPoint], references: dict[str, tuple[floa
     """Sum rate / ``rate_scale`` (Gbit/s) against energy efficiency / ``ee_scale`` (Mbit/J):
     the ``points`` joined in order, each labelled; ``references`` (name -> (EE, rate)) as
     single markers; a dashed vertical line at ``bound_bpj``."""
-    figure = _new_figure()
+    figure = new_figure()
     axes = figure.add_subplot()
     axes.grid(True, alpha=0.3)
     ee = np.array([p.ee_bpj for p in points]).reshape(-1, 3) / ee_scale

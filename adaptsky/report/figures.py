@@ -80,7 +80,9 @@ class Panel:
     marker: str | None = None
 
 
-def _new_figure(size_in: tuple[float, float] = SIZE_IN) -> Figure:
+def new_figure(size_in: tuple[float, float] = SIZE_IN) -> Figure:
+    """An empty figure of ``size_in`` (width, height) inches, constrained layout, drawn with
+    Agg (no display needed)."""
     figure = Figure(figsize=size_in, layout="constrained")
     FigureCanvasAgg(figure)
     return figure
@@ -139,7 +141,7 @@ def curve_panels(panels: list[Panel], *, title: str, note: str | None = None,
     if not panels:
         raise ValueError("no panel to draw")
     height = SIZE_IN[1] if len(panels) == 1 else 1.5 + PANEL_HEIGHT_IN * len(panels)
-    figure = _new_figure((SIZE_IN[0], height))
+    figure = new_figure((SIZE_IN[0], height))
     grid = figure.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
     labels = dict.fromkeys(line.label for panel in panels for line in panel.series)
     colors = {label: f"C{i}" for i, label in enumerate(labels)}
@@ -176,7 +178,7 @@ def min_se_sweep(series: list[Series], served: dict[str, float | None], *, title
     unknown = sorted(set(served) - {line.label for line in series})
     if unknown:
         raise ValueError(f"served names no series: {', '.join(unknown)}")
-    figure = _new_figure()
+    figure = new_figure()
     axes = figure.add_subplot()
     _draw_series(axes, series, scale, marker="o")
     for i, line in enumerate(series):
@@ -198,7 +200,7 @@ def layout_gains(gains_pct: dict[str, np.ndarray], *, title: str,
     """Fig. 4: per label (``"vs SoA"``, ...), the empirical CDF over layouts of the policy's
     sum-rate gain in % ((policy - other) / other * 100), a line at 0%, and in the legend the
     share of layouts gained on, the median and max gain (and ``paper[label]`` below them)."""
-    figure = _new_figure()
+    figure = new_figure()
     axes = figure.add_subplot()
     axes.grid(True, alpha=0.3)
     for i, (label, gains) in enumerate(gains_pct.items()):
@@ -222,7 +224,7 @@ def uav_count(rates: list[Series], fairness: list[Series], *, title: str,
               ylabel: str = "sum rate (Gbit/s)", scale: float = 1e9) -> Figure:
     """E4: sum rate / ``scale`` (left) and Jain's fairness (right) against the number of
     UAVs, a line with a band per method; integer ticks; the legend below the panels."""
-    figure = _new_figure((9.0, 4.5))
+    figure = new_figure((9.0, 4.5))
     left, right = figure.subplots(1, 2)
     for axes, lines, label, divisor in ((left, rates, ylabel, scale),
                                         (right, fairness, "Jain's fairness", 1.0)):
@@ -258,7 +260,7 @@ def conditions(panels: list[tuple[str, list[str], list[Bars]]], *, title: str,
     if not panels:
         raise ValueError("no panel to draw")
     widths = [max(2, len(names)) for _, names, _ in panels]
-    figure = _new_figure((min(14.0, 2.0 + 1.1 * sum(widths)), 4.8))
+    figure = new_figure((min(14.0, 2.0 + 1.1 * sum(widths)), 4.8))
     grid = figure.subplots(1, len(panels), squeeze=False, width_ratios=widths)[0]
     labels = dict.fromkeys(bar.label for _, _, bars in panels for bar in bars)
     colors = {label: f"C{i}" for i, label in enumerate(labels)}

@@ -28,7 +28,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from adaptsky.rollouts.fading_oracle import _Layout, require_fading_oracle
+from adaptsky.rollouts.fading_oracle import FadingLayoutSearch, require_fading_oracle
 from adaptsky.rollouts.genie import (
     GenieResult,
     LatticeBoxes,
@@ -38,7 +38,7 @@ from adaptsky.rollouts.genie import (
     per_step_search,
     start_configuration,
 )
-from adaptsky.rollouts.oracle import _best_alpha_on_grid, lattice
+from adaptsky.rollouts.oracle import best_alpha_on_grid, lattice
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.fading import root_k_factor
 from adaptsky.sim.network import NetworkBatch
@@ -109,7 +109,7 @@ def step_fading_oracle(env: NetworkBatch, layout: int, users_m: FloatArray,
     environment ``layout`` and the step's scattered parts ``scattered`` (2, N); ``boxes``
     None values every point."""
     scenario = env.scenario
-    search = _Layout(env, scenario, layout, users_m, scattered[None])
+    search = FadingLayoutSearch(env, scenario, layout, users_m, scattered[None])
     xs, ys, hs, alphas = lattice(scenario)
     if boxes is None:
         boxes = LatticeBoxes([xs, ys, hs])
@@ -118,8 +118,8 @@ def step_fading_oracle(env: NetworkBatch, layout: int, users_m: FloatArray,
         gain = (gains_at(env, boxes.nearest(users_m), users_m)
                 * box_fading_bound(boxes, scenario, users_m, scattered))
         first, second = gain[:, search.first], gain[:, search.second]
-        _, rate = _best_alpha_on_grid(np.maximum(first, second), np.minimum(first, second),
-                                      either_share(alphas), scenario, snr_scale)
+        _, rate = best_alpha_on_grid(np.maximum(first, second), np.minimum(first, second),
+                                     either_share(alphas), scenario, snr_scale)
         bound = rate.sum(axis=1) * (1 + BOUND_SLACK)
 
     def values(points: FloatArray) -> tuple[FloatArray, FloatArray]:

@@ -88,7 +88,7 @@ def require_fading_oracle(scenario: Scenario) -> None:
         raise AdaptskyError(f"scenario '{scenario.name}': the oracle under fading: {reason}")
 
 
-class _Layout:
+class FadingLayoutSearch:
     """One layout's search: its users, clusters, draws and the lattice's gains."""
 
     def __init__(self, env: NetworkBatch, scenario: Scenario, layout: int,
@@ -193,7 +193,8 @@ def fading_oracle(scenario: Scenario, users_m: FloatArray, steps: int, seed: int
     best_alpha = np.full((num_layouts, scenario.num_clusters), scenario.uav.start_alpha)
     valued = np.zeros(num_layouts, dtype=np.int64)
     for layout in range(num_layouts):
-        search = _Layout(env, scenario, layout, users_m[layout], scattered[:, :, layout])
+        search = FadingLayoutSearch(env, scenario, layout, users_m[layout],
+                                    scattered[:, :, layout])
         bound = np.concatenate([search.jensen_bound(grid[start:start + POINTS_PER_CHUNK])
                                 for start in range(0, len(grid), POINTS_PER_CHUNK)])
         # from the largest bound down; equal bounds in lattice order (a stable sort)

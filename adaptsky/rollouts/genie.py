@@ -3,19 +3,20 @@ objective over the reachable lattice at that step's user positions, clustered as
 environment clusters them then -- a genie that may jump from one lattice point to any other
 between steps, and so an upper bound on any policy of one UAV.
 
-Every step is the oracle's exhaustive search (:func:`~adaptsky.rollouts.oracle.point_values`
-at every lattice point), made fast by branch and bound where the channel allows a bound. The
-lattice is cut into boxes of ``BOX`` points; for a built-in channel model (its LoS gain falls
-with the distance and its NLoS gain lies below it) a user's gain anywhere in a box is at most
-the LoS gain at the box's nearest point to that user, and a cluster's best value rises with
-its strong user's gain and with its weak user's (at any share: the strong user's SINR rises
-with its own gain, the weak user's with its own; and the larger of two gains bounds the strong
-one, the smaller the weak). So a box's value is at most the sum over clusters of the best
-value at those gains over every share either user can hold (the grid and its complement),
-with R_min's feasibility relaxed the same way. Boxes are valued exactly from the largest bound
-down (the box of the previous step's optimum first, whose value starts the search), until a
-bound falls to the best value found: the objective is the exhaustive search's, exactly (among
-equal optima the first found is kept). Other channel models search every point at every step.
+Every step is the oracle's exhaustive search (:func:`~adaptsky.rollouts.oracle.point_values` at
+every lattice point), made fast by branch and bound where the channel model declares
+``Supports(monotone_gains=True)`` (the built-in models: their gains fall with the distance and
+the NLoS gain lies below the LoS gain). The lattice is cut into boxes of ``BOX`` points; a
+user's gain anywhere in a box is then at most the LoS gain at the box's nearest point to that
+user, and a cluster's best value rises with its strong user's gain and with its weak user's (at
+any share: the strong user's SINR rises with its own gain, the weak user's with its own; and
+the larger of two gains bounds the strong one, the smaller the weak). So a box's value is at
+most the sum over clusters of the best value at those gains over every share either user can
+hold (the grid and its complement), with R_min's feasibility relaxed the same way. Boxes are
+valued exactly from the largest bound down (the box of the previous step's optimum first, whose
+value starts the search), until a bound falls to the best value found: the objective is the
+exhaustive search's, exactly (among equal optima the first found is kept). Other channel models
+(the default, no such declaration) search every point at every step.
 """
 
 from __future__ import annotations
@@ -26,8 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from adaptsky.channels.contract import LinkGeometry
-from adaptsky.rollouts.oracle import _best_alpha_on_grid, lattice, point_values
+from adaptsky.channels.contract import LinkGeometry, declares_monotone_gains
+from adaptsky.rollouts.oracle import best_alpha_on_grid, lattice, point_values
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.links import carrier_hz
 from adaptsky.sim.network import NetworkBatch
@@ -37,8 +38,6 @@ BOX = (8, 8, 8)
 """Lattice points of a box along x, y and h."""
 POINTS_PER_BATCH = 16_384
 """Lattice points valued at once (whole boxes)."""
-BOUNDED_MODELS = ("mmwave-nyc", "sub6-al-hourani")
-"""Channel models whose LoS gain falls with the 3D distance and bounds their NLoS gain."""
 
 GENIE_NOTE = ("the best lattice point and shares at every step's user positions, free to jump "
               "between steps: an upper bound on any policy of one UAV")
@@ -152,8 +151,8 @@ def _bounds(env: NetworkBatch, layout: int, boxes: LatticeBoxes, users_m: FloatA
     can meet R_min."""
     gain = gains_at(env, boxes.nearest(users_m), users_m)
     first, second = gain[:, env.first_user[layout]], gain[:, env.second_user[layout]]
-    _, rate = _best_alpha_on_grid(np.maximum(first, second), np.minimum(first, second),
-                                  shares, env.scenario, snr_scale)
+    _, rate = best_alpha_on_grid(np.maximum(first, second), np.minimum(first, second),
+                                 shares, env.scenario, snr_scale)
     return rate.sum(axis=1)
 
 
@@ -241,8 +240,7 @@ def per_step_search(scenario: Scenario, users_m: FloatArray, steps: int, seed: i
     env.reset()
     radio = scenario.radio
     snr_scale = radio.tx_power_w * radio.antenna_gain / radio.noise_w
-    boxes = (LatticeBoxes(lattice(scenario)[:3]) if scenario.channel.model in BOUNDED_MODELS
-             else None)
+    boxes = LatticeBoxes(lattice(scenario)[:3]) if declares_monotone_gains(env.channel) else None
     k = scenario.num_clusters
     objective = np.zeros((steps, num_layouts))
     uav_m = np.zeros((steps, num_layouts, 3))

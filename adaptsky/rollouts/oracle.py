@@ -63,14 +63,14 @@ def lattice(scenario: Scenario) -> tuple[FloatArray, FloatArray, FloatArray, Flo
     return xs, ys, hs, alphas
 
 
-def _best_alpha_first(gain_first: FloatArray, gain_second: FloatArray, alphas: FloatArray,
-                      scenario: Scenario, snr_scale: float) -> tuple[FloatArray, FloatArray]:
+def best_alpha_first(gain_first: FloatArray, gain_second: FloatArray, alphas: FloatArray,
+                     scenario: Scenario, snr_scale: float) -> tuple[FloatArray, FloatArray]:
     """Per point and cluster: the grid alpha_first maximising the cluster's sum rate under
     R_min, and that sum rate (-inf where no grid alpha meets R_min): the closed form of the
     module doc under perfect SIC, every grid alpha under imperfect SIC (docs/model.md §13),
     where the sum rate need not rise with the strong user's share."""
     if scenario.radio.sic_residual:
-        return _best_alpha_on_grid(gain_first, gain_second, alphas, scenario, snr_scale)
+        return best_alpha_on_grid(gain_first, gain_second, alphas, scenario, snr_scale)
     first_strong = noma.is_strong(gain_first, gain_second, gain_first, gain_second, True)
     weak_snr = snr_scale * np.minimum(gain_first, gain_second)
     threshold = 2.0 ** scenario.reward.min_se
@@ -98,9 +98,9 @@ def _best_alpha_first(gain_first: FloatArray, gain_second: FloatArray, alphas: F
     return best_alpha, best_rate
 
 
-def _best_alpha_on_grid(gain_first: FloatArray, gain_second: FloatArray, alphas: FloatArray,
-                        scenario: Scenario, snr_scale: float) -> tuple[FloatArray, FloatArray]:
-    """:func:`_best_alpha_first` by trying every grid alpha of every cluster (exact for any
+def best_alpha_on_grid(gain_first: FloatArray, gain_second: FloatArray, alphas: FloatArray,
+                       scenario: Scenario, snr_scale: float) -> tuple[FloatArray, FloatArray]:
+    """:func:`best_alpha_first` by trying every grid alpha of every cluster (exact for any
     SIC residual; ties to the smallest alpha)."""
     best_rate = np.full(gain_first.shape, -np.inf)
     best_alpha = np.full(gain_first.shape, np.nan)
@@ -130,7 +130,7 @@ def point_values(env: NetworkBatch, layout: int, points_m: FloatArray, users_m: 
     gain = deterministic_gain(env.channel, scenario.channel.los, geometry)
     gain_first = gain[:, env.first_user[layout]]
     gain_second = gain[:, env.second_user[layout]]
-    alpha, rate = _best_alpha_first(gain_first, gain_second, alphas, scenario, snr_scale)
+    alpha, rate = best_alpha_first(gain_first, gain_second, alphas, scenario, snr_scale)
     total = rate.sum(axis=1)
     if env.city is not None:     # a UAV never stands inside a building
         total = np.where(inside_buildings(points_m[None], env.city.environment(layout))[0],

@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from adaptsky.rollouts.objective import constrained_sum_rate
 from adaptsky.rollouts.oracle import (
     POINTS_PER_CHUNK,
-    _best_alpha_first,
+    best_alpha_first,
     oracle,
     require_deterministic_gains,
 )
@@ -75,7 +75,7 @@ def soa_per_uav(scenario: Scenario, users_m: FloatArray) -> tuple[FloatArray, Fl
     return soa_per_uav_configuration(env)
 
 
-class _Search:
+class BestResponseSearch:
     """Best responses of one layout (module doc): the lattice of every UAV, the fixed
     association, and the constants of the rates."""
 
@@ -201,9 +201,9 @@ class _Search:
         serving_gain, interference = self._serving(gain)
         effective = self.power / (interference + self.noise_w) * serving_gain
         valid = self.first[u] >= 0           # its own K_u clusters
-        alpha, _ = _best_alpha_first(effective[:, self.first[u][valid]],
-                                     effective[:, self.second[u][valid]], self.alphas,
-                                     self.scenario, 1.0)
+        alpha, _ = best_alpha_first(effective[:, self.first[u][valid]],
+                                    effective[:, self.second[u][valid]], self.alphas,
+                                    self.scenario, 1.0)
         shares = np.full((len(gain), len(valid)), self.alphas[0])
         shares[:, valid] = np.where(np.isnan(alpha), self.alphas[0], alpha)
         return shares
@@ -249,7 +249,7 @@ def _search(scenario: Scenario, users_m: FloatArray, rounds: int, oma: bool,
         return report
 
     for layout in range(num_layouts):
-        search = _Search(env, layout, oma)
+        search = BestResponseSearch(env, layout, oma)
         positions, shares = uav_m[layout], alpha_first[layout]
         value = search.objective(positions, shares)
         for round_index in range(rounds):

@@ -4,11 +4,12 @@ step's configuration (SoA per UAV at the first) and runs best-response rounds on
 user positions and clusters, until a round gains less than 1e-9 relative or ``rounds`` rounds.
 
 Each UAV's response is the exhaustive search of best response
-(:meth:`~adaptsky.rollouts.several_uavs._Search.totals` at every lattice point), made fast by
-branch and bound over boxes of ``BOX`` lattice points where the channel allows a bound (the
-built-in models: the LoS gain falls with the distance and bounds the NLoS gain). In a box of
-UAV u's positions: each of u's users' gain is at most the LoS gain at the box's nearest point
-(its interference, from the others, is fixed), so its effective gain c = P g / (I + sigma^2)
+(:meth:`~adaptsky.rollouts.several_uavs.BestResponseSearch.totals` at every lattice point),
+made fast by branch and bound over boxes of ``BOX`` lattice points where the channel model
+declares ``Supports(monotone_gains=True)`` (the built-in models: the gains fall with the
+distance, the NLoS gain below the LoS gain). In a box of UAV u's positions: each of u's users'
+gain is at most the LoS gain at the box's nearest point (its interference, from the others,
+is fixed), so its effective gain c = P g / (I + sigma^2)
 is bounded, and each of u's clusters is worth at most its best value over every share either
 user may hold at those gains (R_min relaxed alike); every other user hears at least u's gain
 at the box's farthest point (the LoS gain there for LoS always, else the NLoS gain, the
@@ -16,7 +17,7 @@ smaller), so its effective gain is bounded, and each other cluster, at its fixed
 worth at most the larger of its sum rate in either SIC order at those bounds. A box is
 valued exactly only where that bound exceeds the value the response must beat (the current
 configuration's): the response is the exhaustive search's (among equal values the first
-found). Other channel models search every point.
+found). Other channel models (the default, no such declaration) search every point.
 """
 
 from __future__ import annotations
@@ -28,16 +29,20 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from adaptsky.channels.contract import declares_monotone_gains
 from adaptsky.rollouts.genie import (
-    BOUNDED_MODELS,
     BOX,
     POINTS_PER_BATCH,
     LatticeBoxes,
     either_share,
     gains_at,
 )
-from adaptsky.rollouts.oracle import _best_alpha_on_grid
-from adaptsky.rollouts.several_uavs import DEFAULT_ROUNDS, RELATIVE_TOLERANCE, _Search
+from adaptsky.rollouts.oracle import best_alpha_on_grid
+from adaptsky.rollouts.several_uavs import (
+    DEFAULT_ROUNDS,
+    RELATIVE_TOLERANCE,
+    BestResponseSearch,
+)
 from adaptsky.rollouts.soa import soa_per_uav_configuration
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim import noma
@@ -65,14 +70,14 @@ class StepResponseResult:
     seconds_per_step: float
 
 
-class _StepSearch(_Search):
+class _StepSearch(BestResponseSearch):
     """Best responses of one layout at one step: the env's clusters now, the users at
     ``users_m`` (N, 2)."""
 
     def __init__(self, env: NetworkBatch, layout: int, users_m: FloatArray) -> None:
         super().__init__(env, layout, oma=False)
         self.users_m = users_m
-        self.bounded = env.scenario.channel.model in BOUNDED_MODELS
+        self.bounded = declares_monotone_gains(env.channel)
         self.shares = either_share(self.alphas)
         self._boxes = [LatticeBoxes([np.unique(plane[:, 0]), np.unique(plane[:, 1]), heights])
                        for plane, heights in zip(self.planes, self.heights, strict=True)]
@@ -103,8 +108,8 @@ class _StepSearch(_Search):
             valid = first[v] >= 0
             c1, c2 = effective[:, first[v][valid]], effective[:, second[v][valid]]
             if v == u:
-                _, rate = _best_alpha_on_grid(np.maximum(c1, c2), np.minimum(c1, c2),
-                                              self.shares, self.scenario, 1.0)
+                _, rate = best_alpha_on_grid(np.maximum(c1, c2), np.minimum(c1, c2),
+                                             self.shares, self.scenario, 1.0)
                 bound += rate.sum(axis=1)
                 continue
             alpha = alpha_first[v][valid]

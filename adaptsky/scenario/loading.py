@@ -64,8 +64,9 @@ def _unknown_key(model: type[BaseModel] | None, where: tuple[str | int, ...]) ->
     return f"unknown key; did you mean '{close[0]}'?" if close else "unknown key"
 
 
-def _error_lines(source: str, error: ValidationError, prefix: tuple[str | int, ...] = (),
-                 model: type[BaseModel] | None = None) -> list[str]:
+def validation_error_lines(source: str, error: ValidationError,
+                           prefix: tuple[str | int, ...] = (),
+                           model: type[BaseModel] | None = None) -> list[str]:
     """One ``source: field.path: message`` line per error; an unknown key of ``model`` (the
     validated model, None: no suggestions) names the closest allowed key."""
     lines = []
@@ -95,7 +96,7 @@ def parse_scenario(data: dict[str, Any], source: str = "<scenario>") -> Scenario
     try:
         scenario = Scenario.model_validate(data)
     except ValidationError as error:
-        raise ScenarioError(_error_lines(source, error, model=Scenario)) from None
+        raise ScenarioError(validation_error_lines(source, error, model=Scenario)) from None
     try:
         model_class = get_model_class(scenario.channel.model)
     except PluginError as error:
@@ -139,8 +140,9 @@ def _default_radio(scenario: Scenario, model_class: type[ChannelModel], source: 
     try:
         paper = Radio.model_validate(dict(table))
     except ValidationError as error:
+        lines = validation_error_lines(where, error, model=Radio)
         raise ScenarioError([f"{line}; fix the plugin (docs/plugins.md)"
-                             for line in _error_lines(where, error, model=Radio)]) from None
+                             for line in lines]) from None
     given = scenario.radio.model_fields_set
     taken = {key: getattr(paper, key) for key in table if key not in given}
     carrier_hz = taken.pop("carrier_hz", None)
@@ -209,7 +211,7 @@ def _channel_params(scenario: Scenario, model_class: type[ChannelModel], source:
     try:
         params = model_class.Params.model_validate(data)
     except ValidationError as error:
-        lines = _error_lines(source, error, ("channel", "params"), model_class.Params)
+        lines = validation_error_lines(source, error, ("channel", "params"), model_class.Params)
         if shared and radio_hz is not None and given_hz is None:  # the carrier came from [radio]
             lines = [line.replace(": channel.params.carrier_hz: ", ": radio.carrier_hz: ")
                      + f" (the range of channel model '{scenario.channel.model}')"

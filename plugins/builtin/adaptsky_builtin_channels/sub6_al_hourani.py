@@ -12,7 +12,7 @@ from types import MappingProxyType
 import numpy as np
 from pydantic import Field
 
-from adaptsky.channels import ChannelModel, ChannelParams, LinkGeometry, db_to_linear
+from adaptsky.channels import ChannelModel, ChannelParams, LinkGeometry, Supports, db_to_linear
 from adaptsky.channels.contract import SPEED_OF_LIGHT_M_PER_S
 
 _ZERO = np.array(0.0)
@@ -35,6 +35,9 @@ class Sub6AlHouraniParams(ChannelParams):
 class Sub6AlHourani(ChannelModel):
     Params = Sub6AlHouraniParams
     contract_version = 3
+    # eq. 7's gains fall with the 3D distance, the NLoS one below the LoS one (its excess
+    # loss is the larger): the per-step searches may bound them
+    supports = Supports(monotone_gains=True)
     # the paper's Table I, sub-6 column: what a scenario's [radio] leaves out
     default_radio = MappingProxyType({
         "carrier_hz": 2e9, "tx_power_dbm": 30.0, "bandwidth_hz": 50e6,
