@@ -20,6 +20,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,6 +41,19 @@ closed for it (docs/scenario-format.md): at the least open ground validation let
 
 class PlacementError(AdaptskyError):
     """Users could not be placed off the buildings within MAX_DRAWS draws (one line)."""
+
+
+def redraw_while(misplaced: Callable[[], BoolArray], redraw: Callable[[BoolArray], None]
+                 ) -> BoolArray:
+    """Call ``redraw`` on the mask ``misplaced()`` gives while any is set, MAX_DRAWS draws in
+    all (the caller's first included); the mask left (any set: the draws ran out)."""
+    mask = misplaced()
+    for _ in range(MAX_DRAWS - 1):
+        if not mask.any():
+            break
+        redraw(mask)
+        mask = misplaced()
+    return mask
 
 _OFFSET_STREAM = 3    # generator streams of a world's seed: [seed, 3] the grid offset,
 _HEIGHT_STREAM = 4    # [seed, 4, layout hash...] the heights of one layout
@@ -165,12 +179,11 @@ def street_layouts(rng: np.random.Generator, count: int, num_users: int, half_m:
     y), then every user on a footprint drawn again, until none is: PlacementError after
     MAX_DRAWS draws of a user."""
     users_m = rng.uniform(-half_m, half_m, size=(count, num_users, 2))
-    inside = on_footprints(users_m, footprints_m)
-    for _ in range(MAX_DRAWS - 1):
-        if not inside.any():
-            return users_m
+
+    def redraw(inside: BoolArray) -> None:
         users_m[inside] = rng.uniform(-half_m, half_m, size=(int(inside.sum()), 2))
-        inside = on_footprints(users_m, footprints_m)
+
+    inside = redraw_while(lambda: on_footprints(users_m, footprints_m), redraw)
     if inside.any():
         share = open_ground_share(footprints_m.tolist(), half_m)
         raise PlacementError(f"users: {int(inside.sum())} of {inside.size} users found no "

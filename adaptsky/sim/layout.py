@@ -11,6 +11,7 @@ from adaptsky.sim.city import (
     MAX_DRAWS,
     PlacementError,
     on_footprints,
+    redraw_while,
     scenario_footprints,
     street_layouts,
 )
@@ -54,18 +55,24 @@ def hotspot_layouts(scenario: Scenario, rng: np.random.Generator, count: int
         else:
             centres = street_layouts(rng, 1, users.hotspots, half_m, footprints_m)[0]
         layout[...] = centres[rng.integers(0, users.hotspots, size=len(layout))]
-        offsets = rng.normal(0.0, users.spread_m, size=layout.shape)
-        redraw = _misplaced(layout + offsets, half_m, footprints_m)
-        for _ in range(MAX_DRAWS - 1):
-            if not redraw.any():
-                break
-            offsets[redraw] = rng.normal(0.0, users.spread_m, size=(int(redraw.sum()), 2))
-            redraw = _misplaced(layout + offsets, half_m, footprints_m)
-        if redraw.any():
-            raise PlacementError(_offset_failure(int(redraw.sum()), users.spread_m, half_m,
-                                                 footprints_m))
-        layout += offsets
+        layout += _offsets(rng, layout, users.spread_m, half_m, footprints_m)
     return layouts
+
+
+def _offsets(rng: np.random.Generator, centres_m: NDArray[np.float64], spread_m: float,
+             half_m: float, footprints_m: NDArray[np.float64] | None) -> NDArray[np.float64]:
+    """Each user's offset (N, 2) from its centre, normal with deviation ``spread_m``, drawn
+    again where it puts the user outside the area or on a footprint (PlacementError after
+    MAX_DRAWS draws)."""
+    offsets = rng.normal(0.0, spread_m, size=centres_m.shape)
+
+    def again(redraw: NDArray[np.bool_]) -> None:
+        offsets[redraw] = rng.normal(0.0, spread_m, size=(int(redraw.sum()), 2))
+
+    redraw = redraw_while(lambda: _misplaced(centres_m + offsets, half_m, footprints_m), again)
+    if redraw.any():
+        raise PlacementError(_offset_failure(int(redraw.sum()), spread_m, half_m, footprints_m))
+    return offsets
 
 
 def _offset_failure(count: int, spread_m: float, half_m: float,
