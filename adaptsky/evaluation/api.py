@@ -16,16 +16,10 @@ import numpy as np
 from adaptsky.algos.registry import algorithm_of
 from adaptsky.arrays import Tree
 from adaptsky.errors import AdaptskyError
-from adaptsky.evaluation.baselines import (
-    BASELINES,
-    REFERENCES,
-    EvaluationError,
-    baseline_work,
-    require_applies,
-    run_baseline,
-)
 from adaptsky.evaluation.labels import distinct_labels
 from adaptsky.progress import Reporter, Silent, WorkProgress
+from adaptsky.references.registry import NAMES, REFERENCE_ORDER, resolve
+from adaptsky.references.registry import run_baseline as run_baseline  # (the library's name)
 from adaptsky.report.evaluations import curve_json, score_kind
 from adaptsky.rollouts.metrics import Method, compare, percent_of, summary_row
 from adaptsky.rollouts.rollout import Policy, greedy_policy, rollout
@@ -39,6 +33,8 @@ from adaptsky.sim.observation import observation_size_of
 from adaptsky.store.run_file import RunReader
 
 POLICY = "policy"
+BASELINES = NAMES
+"""The methods ``--compare`` and ``baseline --method`` take (the references' registry)."""
 SEARCH_KEYS = ("objective_bps", "rounds", "converged")
 """What ``results_json`` keeps of best response and OMA, per layout, under ``search``."""
 SEARCH_SECONDS = ("seconds_per_layout", "seconds_per_step")
@@ -47,6 +43,10 @@ move)."""
 # what a policy's inputs are scaled by: they must match between training and evaluation
 OBSERVATION_SCALING = ("agent.observation", "agent.user_order", "area.side_m",
                        "uav.max_height_m")
+
+
+class EvaluationError(AdaptskyError):
+    pass
 
 
 def eval_layouts(scenario: Scenario, layouts: int | None) -> np.ndarray:
@@ -218,8 +218,9 @@ def _policy_method(name: str, scenario: Scenario, policy: Policy, steps: int,
 
 def _baseline_method(scenario: Scenario, name: str, steps: int, users_m: np.ndarray,
                      progress: WorkProgress) -> Method:
-    with progress.stage(name, *baseline_work(name, steps, users_m, scenario)) as tick:
-        return run_baseline(scenario, name, steps, users_m, on_progress=tick)
+    reference = resolve(name, scenario)
+    with progress.stage(name, *reference.work(scenario, steps, users_m)) as tick:
+        return reference.run(scenario, steps, users_m, on_progress=tick)
 
 
 def checked_compared(scenario: Scenario, compared: list[Compared], policy: str
@@ -228,7 +229,7 @@ def checked_compared(scenario: Scenario, compared: list[Compared], policy: str
     (``best`` or ``last``) of every compared run file, checked to fit it, by label."""
     for item in compared:
         if item.baseline is not None:
-            require_applies(scenario, item.baseline, "--compare")
+            resolve(item.baseline, scenario, "--compare")
     return {item.label: load_policy(item.run, None, scenario, policy)
             for item in compared if item.run is not None}
 
@@ -307,7 +308,7 @@ def baseline(*, scenario_path: Path, method: str, layouts: int | None = None,
     if method not in BASELINES:
         raise EvaluationError(f"--method: unknown method '{method}'; choose from "
                               f"{', '.join(BASELINES)}")
-    require_applies(scenario, method, "--method")
+    resolve(method, scenario, "--method")
     check_rollout_memory(scenario, steps, layouts or 1, 1, str(scenario_path))
     users_m = eval_layouts(scenario, layouts)
     with WorkProgress(progress or Silent()) as work:
@@ -340,7 +341,7 @@ def results_json(methods: list[Method], scenario: Scenario, steps: int, layouts:
     first, others = methods[0], methods[1:]
     if first.name == POLICY:
         results["comparison"] = {m.name: compare(first.metrics, m.metrics) for m in others}
-        reference = next((m for name in REFERENCES for m in others if m.name == name), None)
+        reference = next((m for name in REFERENCE_ORDER for m in others if m.name == name), None)
         if reference is not None:
             pct = percent_of(first.metrics["steady_sum_rate_bps"],
                              reference.metrics["mean_sum_rate_bps"])

@@ -26,6 +26,7 @@ from adaptsky.envs.action_spaces import (
     to_dense,
 )
 from adaptsky.evaluation.api import (
+    EvaluationError,
     check_rollout_memory,
     checked_compared,
     compared_methods,
@@ -34,7 +35,6 @@ from adaptsky.evaluation.api import (
     results_json,
     rollouts,
 )
-from adaptsky.evaluation.baselines import EvaluationError
 from adaptsky.progress import Reporter
 from adaptsky.rollouts.metrics import Method
 from adaptsky.rollouts.rollout import Policy

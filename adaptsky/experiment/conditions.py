@@ -20,16 +20,18 @@ from adaptsky.experiment.analysis import (
 )
 from adaptsky.experiment.evaluation import Evaluations, Metrics
 from adaptsky.experiment.plan import Plan
+from adaptsky.references.registry import REFERENCE_ORDER, title_of
 from adaptsky.report import figures
 from adaptsky.report.curves import band
 from adaptsky.scenario import parse_scenario
 from adaptsky.sim.state import users_move
 from adaptsky.units import rate_unit
 
-BOUNDS = (("oracle", "oracle"), ("best-response", "best response"))
+BOUNDS = tuple((name, title_of(name)) for name in REFERENCE_ORDER)
 """The bound of a condition, the first evaluated: the oracle (one UAV), else best response
 (several UAVs: a reference, docs/model.md §9)."""
-BASELINES = (("soa", "SoA"), ("tracking", "tracking"), *BOUNDS, ("oma", "OMA (best found)"))
+BASELINES = tuple((name, title_of(name)) for name in ("soa", "tracking", *REFERENCE_ORDER,
+                                                      "oma"))
 
 
 @dataclass

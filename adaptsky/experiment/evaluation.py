@@ -17,16 +17,11 @@ from typing import Any
 import numpy as np
 
 from adaptsky.errors import AdaptskyError
-from adaptsky.evaluation.api import (
-    baseline_work,
-    eval_layouts,
-    results_json,
-    run_baseline,
-    with_policy,
-)
+from adaptsky.evaluation.api import eval_layouts, results_json, with_policy
 from adaptsky.experiment.models import PER_GROUP_KINDS
 from adaptsky.experiment.plan import Plan, RunSpec
 from adaptsky.progress import Reporter, WorkProgress
+from adaptsky.references.registry import resolve
 from adaptsky.rollouts.metrics import Method
 from adaptsky.rollouts.rollout import greedy_policy, rollout
 from adaptsky.scenario import Scenario, parse_scenario
@@ -175,13 +170,14 @@ def _evaluate_plan(plan: Plan, progress: WorkProgress) -> Evaluations:
                 if key not in ("agent", "train", "name", "description")}}, sort_keys=True)
             metrics = shared.get(network) or _cached(path, record)
             if metrics is None:
-                total, unit = baseline_work(name, spec.steps, users_m, scenario)
-                stage = f"evaluating {name}{_label(value)}" + (
-                    "" if unit == "layout" else f" on {plural(len(users_m), 'layout')}")
                 try:
+                    reference = resolve(name, scenario)
+                    total, unit = reference.work(scenario, spec.steps, users_m)
+                    stage = f"evaluating {name}{_label(value)}" + (
+                        "" if unit == "layout" else f" on {plural(len(users_m), 'layout')}")
                     with progress.stage(stage, total, unit) as tick:
-                        method = run_baseline(scenario, name, spec.steps, users_m,
-                                              on_progress=tick)
+                        method = reference.run(scenario, spec.steps, users_m,
+                                               on_progress=tick)
                 except AdaptskyError as error:
                     evaluations.missing[f"{name}{_label(value)}"] = str(error)
                     continue

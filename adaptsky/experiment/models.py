@@ -15,7 +15,7 @@ from adaptsky.scenario.models import NAME_MAX_LENGTH, Section, safe_name
 
 FigureKind = Literal["learning-curves", "min-se-sweep", "layout-gains", "uav-count",
                      "energy-front", "conditions"]
-Baseline = Literal["soa", "tracking", "oracle", "random", "best-response", "oma"]
+Baseline = Literal["soa", "tracking", "oracle", "random", "best-response", "oma", "centroid"]
 # figure kinds whose evaluated groups are each an x point of their own (their own scenario,
 # layouts and baselines) rather than rows over one set of layouts
 PER_GROUP_KINDS = ("uav-count", "conditions")

@@ -10,7 +10,7 @@ import numpy as np
 from rich import box
 from rich.table import Table
 
-from adaptsky.rollouts.oracle import has_oracle
+from adaptsky.references.registry import layout_reference
 from adaptsky.scenario import Scenario
 from adaptsky.units import format_rate
 
@@ -88,4 +88,4 @@ def policy_line(record: dict[str, Any], kind: str) -> str:
 
 def score_kind(scenario: Scenario) -> str:
     """Whether a run's scores are percentages of the oracle ("pct") or sum rates ("rate")."""
-    return "pct" if has_oracle(scenario) else "rate"
+    return "pct" if layout_reference(scenario) is not None else "rate"

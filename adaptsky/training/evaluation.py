@@ -40,10 +40,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from adaptsky.errors import AdaptskyError
 from adaptsky.progress import Reporter, Silent, Tick, WorkProgress
+from adaptsky.references.reference import Reference
+from adaptsky.references.registry import layout_reference, reference_words
 from adaptsky.rollouts.metrics import STEADY_STEPS, percent_of
-from adaptsky.rollouts.oracle import has_oracle
-from adaptsky.rollouts.several_uavs import OnSearch, best_response
+from adaptsky.rollouts.several_uavs import OnSearch
 from adaptsky.rollouts.tracking import tracking_target
 from adaptsky.scenario import Scenario
 from adaptsky.scenario.variants import eval_scenario
@@ -52,7 +54,7 @@ from adaptsky.sim.network import NetworkBatch
 from adaptsky.sim.noma import jain_fairness
 from adaptsky.sim.state import users_move
 from adaptsky.store.layout import FORMAT_VERSION, evaluation_fields
-from adaptsky.store.search_cache import cache_folder, cached_search, physics_json, search_once
+from adaptsky.store.search_cache import cache_folder, physics_json
 from adaptsky.units import plural
 
 FloatArray = NDArray[np.float64]
@@ -115,7 +117,7 @@ def evaluation_set(scenario: Scenario, oracle_bps: list[FloatArray] | None = Non
     stored = dict(zip(groups, oracle_bps or [], strict=False))
     layouts = {name: user_layouts(variant, count) for name, (variant, count) in groups.items()}
     wanted = [name for name, (variant, _) in groups.items()
-              if name not in stored and has_oracle(variant)]
+              if name not in stored and layout_reference(variant) is not None]
     cached = {name: found for name in wanted
               if (found := cached_reference_bps(groups[name][0], layouts[name])) is not None}
     if cached:
@@ -143,7 +145,7 @@ def evaluation_set(scenario: Scenario, oracle_bps: list[FloatArray] | None = Non
 def reference_name(scenario: Scenario) -> str:
     """What the greedy evaluations are a percentage of: 'oracle' for one UAV, 'best
     response' for several (docs/model.md §9)."""
-    return "best response" if scenario.uav.count > 1 else "oracle"
+    return reference_words(scenario)
 
 
 @contextmanager
@@ -195,25 +197,36 @@ def cached_reference_bps(scenario: Scenario, layouts_m: FloatArray) -> FloatArra
     (:mod:`adaptsky.store.search_cache`) has it, else None."""
     memo_key = (physics_json(scenario), layouts_m.tobytes())
     if memo_key not in _REFERENCES:
-        found = cached_search(scenario, layouts_m)
+        found = _layout_reference(scenario).layout_bps(scenario, layouts_m, cached_only=True)
         if found is None:
             return None
-        _REFERENCES[memo_key] = found.objective_bps
+        _REFERENCES[memo_key] = found
     return _REFERENCES[memo_key].copy()
 
 
 def reference_bps(scenario: Scenario, layouts_m: FloatArray,
                   on_progress: OnSearch | None = None) -> FloatArray:
-    """The reference sum rate (L,) of every layout: the oracle; for several UAVs best
-    response (docs/model.md §9). Kept per process and in the search cache for the scenario's
-    physics and layouts, so the runs of a stack, and other processes on the machine, which
-    share them, search once (best response takes minutes a layout). ``on_progress`` hears
-    the layouts done (a fraction within one) and where the search is."""
+    """The reference sum rate (L,) of every layout (:func:`~adaptsky.references.registry.
+    layout_reference`): the oracle; for several UAVs best response (docs/model.md §9). Kept
+    per process and in the search cache for the scenario's physics and layouts, so the runs
+    of a stack, and other processes on the machine, which share them, search once (best
+    response takes minutes a layout). ``on_progress`` hears the layouts done (a fraction
+    within one) and where the search is."""
     memo_key = (physics_json(scenario), layouts_m.tobytes())
     if memo_key not in _REFERENCES:
-        _REFERENCES[memo_key] = search_once(scenario, layouts_m, lambda: best_response(
-            scenario, layouts_m, on_layout=on_progress, on_search=on_progress)).objective_bps
+        _REFERENCES[memo_key] = _layout_reference(scenario).layout_bps(
+            scenario, layouts_m, on_progress)
     return _REFERENCES[memo_key].copy()
+
+
+def _layout_reference(scenario: Scenario) -> Reference:
+    """The registry's reference of the greedy evaluations on ``scenario``; refused in one
+    line where there is none."""
+    found = layout_reference(scenario)
+    if found is None:
+        raise AdaptskyError(f"scenario '{scenario.name}': no reference has a value per layout "
+                            "(gains drawn at random, or users that move)")
+    return found
 
 
 def evaluation_seeds(layouts: int) -> list[np.random.SeedSequence]:
@@ -331,7 +344,8 @@ def _per_member(rates: FloatArray, reduce: Callable[[FloatArray], FloatArray]) -
 def score(row: dict[str, float], evaluation: EvaluationSet) -> float:
     """What chooses the best policy (module docstring); higher is better."""
     if evaluation.training is not None:
-        oracle = has_oracle(evaluation.training.scenario)
+        oracle = layout_reference(evaluation.training.scenario) is not None
         return row["pct_oracle"] if oracle else row["sum_rate_bps"]
-    oracle = evaluation.held_out is not None and has_oracle(evaluation.held_out.scenario)
+    oracle = (evaluation.held_out is not None
+              and layout_reference(evaluation.held_out.scenario) is not None)
     return row["heldout_pct_oracle"] if oracle else row["heldout_sum_rate_bps"]

@@ -136,7 +136,7 @@ def evaluate(
     compare: Annotated[list[str], typer.Option(
         metavar="METHODS",
         help="comma-separated or the option repeated: soa, tracking, oracle (one UAV), "
-        "best-response, oma, random, or other run files")] = ["soa,random"],  # noqa: B006
+        "best-response, oma, random, centroid, or other run files")] = ["soa,random"],  # noqa: B006
     out_file: Annotated[Path | None, typer.Option(
         "--out", metavar="FILE.h5", show_default=False,
         help="eval file to write (default: next to the run file)")] = None,
@@ -204,7 +204,8 @@ def show_training(results: dict[str, Any]) -> None:
 def baseline(
     scenario: ScenarioFile,
     method: Annotated[str, typer.Option(
-        metavar="soa|tracking|oracle|best-response|oma|random", show_default=False,
+        metavar="soa|tracking|oracle|best-response|oma|random|centroid",
+        show_default=False,
         callback=method_value,
         help="the baseline to run (oracle: one UAV only)")],
     layouts: Layouts = None,

@@ -134,8 +134,8 @@ def test_a_run_file_named_like_a_baseline_gets_its_folder():
 def test_unknown_method_names_the_valid_ones(run, tmp_path, capsys):
     assert _eval(run, tmp_path / "e.h5", "--compare", "soa,orcale") == 1
     assert _one_line(capsys) == ("--compare: unknown method 'orcale'; choose from soa, "
-                                 "tracking, oracle, best-response, oma, random or a run file "
-                                 "(.h5)")
+                                 "tracking, oracle, best-response, oma, random, centroid or a "
+                                 "run file (.h5)")
     assert _eval(run, tmp_path / "e.h5", "--compare", str(tmp_path / "gone.h5")) == 1
     assert _one_line(capsys) == f"{tmp_path / 'gone.h5'}: no such run file"
 

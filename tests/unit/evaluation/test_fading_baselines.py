@@ -16,7 +16,7 @@ import pytest
 
 from adaptsky.errors import AdaptskyError
 from adaptsky.evaluation.api import eval_layouts, run_baseline
-from adaptsky.evaluation.baselines import searched_note, searched_scenario
+from adaptsky.references.searched import searched_note, searched_scenario
 from adaptsky.rollouts import several_uavs
 from adaptsky.rollouts.fading_oracle import STATIC_CEILING_NOTE
 from adaptsky.rollouts.mean_shares import mean_best_shares

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from adaptsky.evaluation.api import eval_layouts, run_baseline
-from adaptsky.evaluation.baselines import SAMPLED_LOS_NOTE, searched_scenario
+from adaptsky.references.searched import SAMPLED_LOS_NOTE, searched_scenario
 from adaptsky.rollouts import several_uavs
 from adaptsky.rollouts.genie import GENIE_NOTE
 from adaptsky.rollouts.rollout import random_policy, rollout

@@ -156,8 +156,8 @@ def test_the_older_walk_and_a_mobility_model_exclude_each_other():
 
 
 def test_moving_users_are_refused_by_the_searches():
-    from adaptsky.evaluation.baselines import require_applies
+    from adaptsky.references.registry import resolve
     scenario = make_scenario(users={"count": 4, "positions_m": None, "mobility": WAYPOINT})
     with pytest.raises(AdaptskyError, match="users"):
-        require_applies(scenario, "oma")
+        resolve("oma", scenario)
     assert math.isfinite(scenario.users.mobility.pause_max_s)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from adaptsky.evaluation import baselines
+from adaptsky.references import searches
 from adaptsky.rollouts import several_uavs
 from adaptsky.rollouts.several_uavs import SearchResult
 from adaptsky.scenario import load_scenario
@@ -44,7 +44,6 @@ def _counting(monkeypatch) -> list[str]:
             return _real(*args, **kwargs)
 
         monkeypatch.setattr(several_uavs, name, counted)
-    monkeypatch.setattr(evaluation, "best_response", several_uavs.best_response)
     return calls
 
 
@@ -65,7 +64,7 @@ def test_a_second_process_finds_the_reference_bit_for_bit_without_searching(
     assert calls == ["best_response"]
     assert again.tobytes() == first.tobytes() and again.shape == (2,)
     # the baseline's search is the same search: found, whole
-    found = baselines.search(scenario, "best-response", layouts_m)
+    found = searches.search(scenario, "best-response", layouts_m)
     assert calls == ["best_response"] and found.objective_bps.tobytes() == first.tobytes()
     # another name, agent or training shares it; other physics, layouts or method do not
     renamed = scenario.model_copy(update={"name": "renamed", "agent": scenario.agent.model_copy(
@@ -77,7 +76,7 @@ def test_a_second_process_finds_the_reference_bit_for_bit_without_searching(
     assert evaluation.reference_bps(louder, layouts_m)[0] > first[0]
     evaluation.reference_bps(scenario, layouts_m[:1])
     assert calls == ["best_response"] * 3
-    baselines.search(scenario, "oma", layouts_m)
+    searches.search(scenario, "oma", layouts_m)
     assert calls == ["best_response"] * 3 + ["best_oma"]
 
 
@@ -86,8 +85,8 @@ def test_a_baseline_search_is_stored_whole_and_found_bit_for_bit(cache, tmp_path
     layouts_m = user_layouts(scenario, 2)
     calls = _counting(monkeypatch)
     for method in ("best-response", "oma"):
-        searched = baselines.search(scenario, method, layouts_m)
-        found = baselines.search(scenario, method, layouts_m)
+        searched = searches.search(scenario, method, layouts_m)
+        found = searches.search(scenario, method, layouts_m)
         assert _same(searched, found)
     assert calls == ["best_response", "best_oma"]
 
