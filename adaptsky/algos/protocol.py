@@ -10,7 +10,7 @@ a stack of S members (seeds), each a whole independent run, stepped in lockstep 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
-from typing import Any, NoReturn, Protocol
+from typing import Any, NoReturn, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,17 +23,18 @@ Policy = Callable[[NDArray[np.float32]], NDArray[np.int64]]
 
 
 class Algorithm(Protocol):
-    """The learner of S members. Observations are float32 with a leading member axis S;
-    every member draws only from its own generator (``rngs[s]``, given when it is built)."""
+    """The learner of S members: what the trainer does with every learner, whatever its
+    family (:mod:`adaptsky.algos.off_policy`, :mod:`adaptsky.algos.on_policy`). Observations
+    are float32 with a leading member axis S; every member draws only from its own generator
+    (``rngs[s]``, given when it is built)."""
 
     size: int
-    epsilon: float
-    """The exploration rate of the last :meth:`act` (a learning-curve column); NaN for a
-    learner without one (PPO)."""
     reward_parts: int
-    """1: :meth:`observe` takes eq. 13's reward (S,); G > 1: its parts per UAV (S, G), from
-    the environment's ``reward_parts`` (the BDQ with ``agent.reward_split`` "per-uav" or
-    "difference")."""
+    """1: :meth:`observe` takes eq. 13's reward (S,); G > 1: its parts per UAV (S, G), split
+    as :attr:`reward_split` says (the environment's ``reward_parts``)."""
+    reward_split: str
+    """How the reward is split where :attr:`reward_parts` > 1 (``agent.reward_split`` of the
+    BDQ, MAPPO and IPPO: "per-uav" or "difference"); "team" otherwise."""
 
     def begin_episode(self, global_step: int) -> None:
         """A new episode starts at ``global_step`` (its schedules move on)."""
@@ -41,7 +42,7 @@ class Algorithm(Protocol):
     def act(self, observations: NDArray[np.float32], global_step: int) -> NDArray[Any]:
         """Exploring actions (S E,) (continuous: (S E, D)) for one observation per
         environment (S E, obs), member-major: E environments per member
-        (:meth:`AlgorithmSpec.envs_per_member`, 1 for the DQN and the BDQ)."""
+        (:meth:`AlgorithmSpec.envs_per_member`, 1 off-policy)."""
         ...
 
     def greedy(self, observations: NDArray[np.float32]) -> NDArray[Any]:
@@ -51,17 +52,13 @@ class Algorithm(Protocol):
 
     def observe(self, observations: NDArray[np.float32], actions: NDArray[Any],
                 rewards: NDArray[np.float64], next_observations: NDArray[np.float32]) -> None:
-        """One step of every environment (S E, ...), to learn from (stored, for the DQN;
-        kept for the rollout, for PPO); rewards (S E,), or (S, G) with :attr:`reward_parts`
-        G > 1."""
-
-    def update(self) -> None:
-        """Learn after a step where the algorithm learns per step (off-policy: one update of
-        every member where it is due); nothing for an on-policy learner."""
+        """One step of every environment (S E, ...): rewards (S E,), or (S, G) with
+        :attr:`reward_parts` G > 1. Off-policy: stored, and the updates due after it made;
+        on-policy: kept for the rollout."""
 
     def end_episode(self, episodes_before: int) -> None:
-        """The episode after ``episodes_before`` episodes is over (an on-policy learner
-        learns from its rollout here: PPO's epochs of minibatches)."""
+        """The episode after ``episodes_before`` episodes is over (on-policy: the update from
+        its rollout; off-policy: what the learner does per episode, the DQN's target copy)."""
 
     def take_mean_loss(self) -> NDArray[np.float64] | None:
         """Each member's mean loss since the last call (S,), None without an update."""
@@ -69,7 +66,7 @@ class Algorithm(Protocol):
 
     def take_stats(self) -> dict[str, NDArray[np.float64]]:
         """Each member's statistics of its last update (S,) by name (PPO: entropy, policy
-        and value loss, approximate KL, clip fraction); {} for a learner with none."""
+        and value loss, approximate KL, clip fraction; every learner its learning rate)."""
         ...
 
     def device_name(self) -> str:
@@ -87,6 +84,15 @@ class Algorithm(Protocol):
     def policy(self, member: int) -> Tree:
         """The arrays of ``member``'s greedy policy now (a copy: kept as the best policy)."""
         ...
+
+
+@runtime_checkable
+class EpsilonGreedy(Protocol):
+    """A learner that explores epsilon-greedily (the DQN and the BDQ): its exploration rate
+    is a learning-curve column (NaN for every other learner)."""
+
+    epsilon: float
+    """The exploration rate of the last :meth:`Algorithm.act`."""
 
 
 class Node(Protocol):

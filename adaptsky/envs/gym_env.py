@@ -59,6 +59,7 @@ from pydantic import ValidationError
 
 from adaptsky.drawing.episode import EpisodeBuffer
 from adaptsky.envs.action_spaces import action_space_kind, gym_action_space, to_dense
+from adaptsky.envs.observations import AgentView
 from adaptsky.envs.registration import register_envs
 from adaptsky.scenario import Scenario, load_scenario
 from adaptsky.shipped_files import default_scenario_path
@@ -175,7 +176,8 @@ class NomaUavEnv(gym.Env[np.ndarray, np.int64 | np.ndarray]):
         else:
             layouts = np.asarray(users_m, dtype=np.float64)[None]
         self.action_kind = action_space_kind(self.scenario, action_space)
-        self.batch = NetworkBatch(self.scenario, num_envs=1, users_m=layouts)
+        self.batch = NetworkBatch(self.scenario, num_envs=1, users_m=layouts,
+                                  view=AgentView.of(self.scenario))
         self._fresh = users_m is None and self.scenario.users.placement == "fresh"
         self.observation_space = observation_space(self.scenario, self.batch)
         self.action_space = gym_action_space(self.batch.controls, self.action_kind)
@@ -282,7 +284,8 @@ class NomaUavVectorEnv(VectorEnv):
         self.max_episode_steps = episode_steps(self.scenario, max_episode_steps)
         self.num_envs = num_envs
         self.action_kind = action_space_kind(self.scenario, action_space)
-        self.batch = NetworkBatch(self.scenario, num_envs=num_envs, users_m=users_m)
+        self.batch = NetworkBatch(self.scenario, num_envs=num_envs, users_m=users_m,
+                                  view=AgentView.of(self.scenario))
         self._fresh = users_m is None and self.scenario.users.placement == "fresh"
         self._info_keys = MULTI_INFO_KEYS if self.batch.num_uavs > 1 else INFO_KEYS
         self.single_observation_space = observation_space(self.scenario, self.batch)

@@ -13,7 +13,7 @@ Observation Space
     Gymnasium env's observation (U > 1: 5 N + 3 U values, U = 1: 4 N + 1), the same for all
     agents. ``"local"``: UAV u observes its own users and every UAV's position, 5 S + 3 U
     values, S = 2 K_max user slots, zeros past its own users
-    (:class:`adaptsky.sim.observation.LocalObserver`); one ``Box`` for all agents. Either way
+    (:class:`adaptsky.envs.observations.LocalObserver`); one ``Box`` for all agents. Either way
     ``state()`` is the global observation and ``state_space`` its ``Box`` (for centralised
     critics).
 Rewards
@@ -48,8 +48,9 @@ from pettingzoo import ParallelEnv
 
 from adaptsky.envs.action_spaces import per_component_kind, uav_action_space
 from adaptsky.envs.gym_env import RENDER_FPS, RENDER_MODES, NomaUavEnv, resolve_scenario
+from adaptsky.envs.observations import LocalObserver, user_order_of, users_in_order
 from adaptsky.scenario import Scenario
-from adaptsky.sim.observation import LocalObserver, local_observation_bounds
+from adaptsky.sim.observation import local_observation_bounds
 
 AgentID = str
 OBSERVATIONS = ("global", "local")
@@ -170,9 +171,10 @@ class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
         batch = self.env.batch
         state = batch.state
         assert state is not None
+        order = users_in_order(batch.association, user_order_of(self.scenario))
         local = self._local(state.uav_m.reshape(1, batch.num_uavs, 3), batch.users_m,
                             batch.association.serving_uav, state.alpha, state.gain,
-                            state.interference_w, batch.observation_order)[0]
+                            state.interference_w, order)[0]
         return {agent: local[u] for u, agent in enumerate(self.possible_agents)
                 if agent in agents}
 

@@ -7,7 +7,7 @@ lattice point to any other between steps, and so an upper bound on any policy of
 A step's value at lattice point p is sum_k max_alpha R_k(p, alpha), the gains
 g = L(p) |h_t(p)|^2 of eq. 11.1 (:class:`~adaptsky.rollouts.fading_oracle` with one step).
 It is found exactly by branch and bound over the boxes of the deterministic per-step oracle
-(:class:`~adaptsky.rollouts.genie.LatticeBoxes`). In a box, a user's large-scale gain is at
+(:class:`~adaptsky.rollouts.search.LatticeBoxes`). In a box, a user's large-scale gain is at
 most the LoS gain at the box's nearest point (a built-in channel: the LoS gain falls with the
 distance and bounds the NLoS gain), and its |h_t|^2 = (K + 2 sqrt(K) Re s + |s|^2) / (K + 1)
 is at most its largest value over the K-factors the box's elevations give (K in dB is linear
@@ -29,16 +29,16 @@ import numpy as np
 from numpy.typing import NDArray
 
 from adaptsky.rollouts.fading_oracle import FadingLayoutSearch, require_fading_oracle
-from adaptsky.rollouts.genie import (
-    GenieResult,
+from adaptsky.rollouts.genie import GenieResult, per_step_search, start_configuration
+from adaptsky.rollouts.search import (
     LatticeBoxes,
-    best_in_boxes,
+    best_shares_on_grid,
+    bound_gains,
+    branch_and_bound,
     either_share,
-    gains_at,
-    per_step_search,
-    start_configuration,
+    every_point,
+    lattice,
 )
-from adaptsky.rollouts.oracle import best_alpha_on_grid, lattice
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.fading import root_k_factor
 from adaptsky.sim.network import NetworkBatch
@@ -115,19 +115,21 @@ def step_fading_oracle(env: NetworkBatch, layout: int, users_m: FloatArray,
         boxes = LatticeBoxes([xs, ys, hs])
         bound = np.full(len(boxes.low), np.inf)
     else:
-        gain = (gains_at(env, boxes.nearest(users_m), users_m)
+        gain = (bound_gains(env, boxes.nearest(users_m), users_m)
                 * box_fading_bound(boxes, scenario, users_m, scattered))
         first, second = gain[:, search.first], gain[:, search.second]
-        _, rate = best_alpha_on_grid(np.maximum(first, second), np.minimum(first, second),
-                                     either_share(alphas), scenario, snr_scale)
+        _, rate = best_shares_on_grid(np.maximum(first, second), np.minimum(first, second),
+                                      either_share(alphas), scenario, snr_scale)
         bound = rate.sum(axis=1) * (1 + BOUND_SLACK)
 
     def values(points: FloatArray) -> tuple[FloatArray, FloatArray]:
         value, alpha = search.values(search.step_gains(points), alphas)
-        return search._outside(points, value), alpha
+        return search.outside(points, value), alpha
 
-    return best_in_boxes(boxes, bound, boxes.ranked(bound, previous_m), values,
-                         start_configuration(scenario), first_alone=True)
+    found, valued = branch_and_bound(bound, boxes.ranked(bound, previous_m), boxes.points,
+                                     every_point(values), start_configuration(scenario),
+                                     first_alone=True)
+    return (*found, valued)
 
 
 def per_step_fading_oracle(scenario: Scenario, users_m: FloatArray, steps: int,

@@ -22,8 +22,10 @@ residual only lowers it), so
 
 B_1 needs only each link's mean |h|^2, linear in the means of Re s and |s|^2 over the draws,
 and is computed for the whole lattice as the deterministic oracle's search is; the points are
-then visited from the largest B_1 down, B_2 and V computed for batches of them, until B_1
-falls to the best V found. No point that could be better is left out.
+then visited from the largest B_1 down by the kernel's branch and bound
+(:func:`~adaptsky.rollouts.search.branch_and_bound`, each point its own box), B_2 and V
+computed for batches of them, until B_1 falls to the best V found. No point that could be
+better is left out.
 """
 
 from __future__ import annotations
@@ -35,17 +37,25 @@ import numpy as np
 from numpy.typing import NDArray
 
 from adaptsky.errors import AdaptskyError
-from adaptsky.rollouts.oracle import lattice
+from adaptsky.rollouts.search import (
+    Best,
+    best_on_grid,
+    branch_and_bound,
+    from_largest,
+    grid_points,
+    lattice,
+    lattice_chunks,
+    outside_buildings,
+    point_geometry,
+    snr_scale,
+)
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim import noma
-from adaptsky.sim.blockage import inside_buildings
 from adaptsky.sim.fading import power_gain, root_k_factor
 from adaptsky.sim.links import deterministic_gain
 from adaptsky.sim.network import NetworkBatch
 
 FloatArray = NDArray[np.float64]
-POINTS_PER_CHUNK = 200_000
-"""Lattice points whose bound B_1 is computed at once."""
 POINTS_PER_BATCH = 64
 """Points whose B_2 and value are computed at once (T x 64 x N gains)."""
 
@@ -104,15 +114,14 @@ class FadingLayoutSearch:
         self.rician = fading.model == "rician"
         self.k0_db, self.k90_db = fading.k_db
         radio = scenario.radio
-        self.snr_scale = radio.tx_power_w * radio.antenna_gain / radio.noise_w
+        self.snr_scale = snr_scale(scenario)
         self.bandwidth_hz = radio.bandwidth_hz
         self.residual = radio.sic_residual
 
     def gains(self, points_m: FloatArray) -> tuple[FloatArray, FloatArray | None]:
         """Large-scale gains (P, N) at ``points_m`` (P, 3) and sqrt(K) (P, N) (None:
         Rayleigh on every link)."""
-        users = np.broadcast_to(self.users_m, (len(points_m), *self.users_m.shape))
-        geometry = self.env.geometry(points_m, users, layout=self.layout)
+        geometry = point_geometry(self.env, self.layout, points_m, self.users_m)
         gain = deterministic_gain(self.env.channel, self.scenario.channel.los, geometry)
         if not self.rician:
             return gain, None
@@ -132,13 +141,11 @@ class FadingLayoutSearch:
         mean_gain = gain * mean_power
         pair = mean_gain[:, self.first] + mean_gain[:, self.second]
         bound = noma.rate_bps(self.snr_scale * pair, self.bandwidth_hz).sum(axis=1)
-        return self._outside(points_m, bound)
+        return self.outside(points_m, bound)
 
-    def _outside(self, points_m: FloatArray, values: FloatArray) -> FloatArray:
-        if self.env.city is None:
-            return values
-        inside = inside_buildings(points_m[None], self.env.city.environment(self.layout))[0]
-        return np.where(inside, -np.inf, values)
+    def outside(self, points_m: FloatArray, values: FloatArray) -> FloatArray:
+        """``values`` (P,) at ``points_m`` (P, 3), -inf inside a building."""
+        return outside_buildings(self.env, self.layout, points_m, values)
 
     def step_gains(self, points_m: FloatArray) -> FloatArray:
         """Every user's gain at every step (T, P, N) at ``points_m`` (P, 3): L |h_t|^2, as
@@ -161,16 +168,15 @@ class FadingLayoutSearch:
         """V (P,) and each cluster's best grid share (P, K) from the steps' gains (T, P, N):
         every grid share tried, the smallest of equal ones kept."""
         gain_first, gain_second = gains[..., self.first], gains[..., self.second]
-        best = np.full(gain_first.shape[1:], -np.inf)
-        best_alpha = np.full(gain_first.shape[1:], np.nan)
-        for alpha in alphas:
+
+        def mean_sum_rate(alpha: float) -> FloatArray:
             sinr_first, sinr_second = noma.cluster_sinr(alpha, gain_first, gain_second,
                                                         self.snr_scale, self.residual)
-            mean_bps = (noma.rate_bps(sinr_first, self.bandwidth_hz)
-                        + noma.rate_bps(sinr_second, self.bandwidth_hz)).mean(axis=0)
-            better = mean_bps > best
-            best = np.where(better, mean_bps, best)
-            best_alpha = np.where(better, alpha, best_alpha)
+            return (noma.rate_bps(sinr_first, self.bandwidth_hz)
+                    + noma.rate_bps(sinr_second, self.bandwidth_hz)).mean(axis=0)
+
+        best, best_alpha = best_on_grid(alphas, mean_sum_rate,
+                                        np.full(gain_first.shape[1:], np.nan))
         return best.sum(axis=-1), best_alpha
 
 
@@ -187,7 +193,7 @@ def fading_oracle(scenario: Scenario, users_m: FloatArray, steps: int, seed: int
     env.reset()
     scattered = env.next_scattered(steps)[:, :, :, 0]             # (T, 2, L, N)
     xs, ys, hs, alphas = lattice(scenario)
-    grid = np.stack(np.meshgrid(xs, ys, hs, indexing="ij"), axis=-1).reshape(-1, 3)
+    grid = grid_points(xs, ys, hs)
     objective = np.zeros(num_layouts)
     best_uav = np.broadcast_to(np.array(scenario.uav.start_m), (num_layouts, 3)).copy()
     best_alpha = np.full((num_layouts, scenario.num_clusters), scenario.uav.start_alpha)
@@ -195,31 +201,29 @@ def fading_oracle(scenario: Scenario, users_m: FloatArray, steps: int, seed: int
     for layout in range(num_layouts):
         search = FadingLayoutSearch(env, scenario, layout, users_m[layout],
                                     scattered[:, :, layout])
-        bound = np.concatenate([search.jensen_bound(grid[start:start + POINTS_PER_CHUNK])
-                                for start in range(0, len(grid), POINTS_PER_CHUNK)])
-        # from the largest bound down; equal bounds in lattice order (a stable sort)
-        order = np.argsort(-bound, kind="stable")
-        best = -np.inf
-        for start in range(0, len(order), POINTS_PER_BATCH):
-            batch = order[start:start + POINTS_PER_BATCH]
-            batch = batch[bound[batch] > best]
-            if not len(batch):
-                break                                   # every later bound is lower still
-            gains = search.step_gains(grid[batch])
-            hopeful = search.step_bound(gains) > best
-            if not hopeful.any():
-                continue
-            value, alpha = search.values(gains[:, hopeful], alphas)
-            valued[layout] += int(hopeful.sum())
-            top = int(np.argmax(value))
-            if value[top] > best:
-                best = value[top]
-                best_uav[layout] = grid[batch[hopeful][top]]
-                best_alpha[layout] = alpha[top]
+        bound = np.concatenate([search.jensen_bound(chunk) for chunk, _ in lattice_chunks(grid)])
+
+        def values(points: FloatArray, best: float, search: FadingLayoutSearch = search
+                   ) -> tuple[FloatArray, FloatArray, int]:
+            gains = search.step_gains(points)
+            hopeful = search.step_bound(gains) > best             # B_2 beats the best
+            total = np.full(len(points), -np.inf)
+            shares = np.zeros((len(points), scenario.num_clusters))
+            if hopeful.any():
+                total[hopeful], shares[hopeful] = search.values(gains[:, hopeful], alphas)
+            return total, shares, int(hopeful.sum())
+
+        def heard(begin: int, count: int, layout: int = layout) -> None:
             if on_search is not None:
-                on_search(layout + min(start / len(order), 0.99),
-                          f"{valued[layout]} points valued")
-        objective[layout] = max(best, 0.0)
+                on_search(layout + min(begin / len(grid), 0.99), f"{count} points valued")
+
+        # from the largest B_1 down, equal bounds in lattice order; each point its own box
+        found, valued[layout] = branch_and_bound(
+            bound, from_largest(bound), lambda items: grid[items], values,
+            Best(-np.inf, best_uav[layout], best_alpha[layout]),
+            per_batch=POINTS_PER_BATCH, on_batch=heard)
+        objective[layout] = max(found.value, 0.0)
+        best_uav[layout], best_alpha[layout] = found.point_m, found.shares
         if on_layout is not None:
             on_layout(layout + 1)
     return FadingOracleResult(objective, best_uav, best_alpha, valued)

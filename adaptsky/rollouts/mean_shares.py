@@ -5,8 +5,9 @@ over the draws a policy with the same seed sees (common random numbers).
 Where no minimum rate binds (``reward.min_se = 0``) the objective, the sum rate, is a sum over
 clusters, and at fixed positions a cluster's rates depend on its own share alone (a user's
 interference is the other UAVs' whole cluster power, however it is split; docs/model.md §9).
-So every cluster's best share is found on its own, exactly over the lattice: one held rollout
-per share, every cluster of every layout at that share, ``steps`` steps each.
+So every cluster's best share is found on its own, exactly over the lattice
+(:func:`~adaptsky.rollouts.search.best_on_grid`): one held rollout per share, every cluster
+of every layout at that share, ``steps`` steps each.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from adaptsky.rollouts.rollout import hold
+from adaptsky.rollouts.search import best_on_grid
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.lattice import share_lattice
 from adaptsky.sim.network import NetworkBatch
@@ -44,13 +46,13 @@ def mean_best_shares(scenario: Scenario, uav_m: FloatArray, alpha_first: FloatAr
     slot = (np.arange(num_layouts)[:, None] * env.num_uavs + serving) * num_clusters + cluster
     has_cluster = np.zeros(alpha.size, dtype=bool)
     has_cluster[slot.ravel()] = True
-    best_bps = np.full(alpha.size, -np.inf)
-    chosen = alpha.reshape(-1).copy()
-    for share in share_lattice(scenario):
-        held = np.full(np.shape(alpha_first), share)
-        trace = hold(scenario, uav_m, held, steps, users_m, seed)
+
+    def mean_sum_rate(share: float) -> FloatArray:
+        trace = hold(scenario, uav_m, np.full(np.shape(alpha_first), share), steps, users_m,
+                     seed)
         mean_bps = np.zeros(alpha.size)
         np.add.at(mean_bps, slot.ravel(), trace.rate_bps.mean(axis=0).ravel())
-        better = has_cluster & (mean_bps > best_bps)
-        chosen[better], best_bps[better] = share, mean_bps[better]
+        return np.where(has_cluster, mean_bps, -np.inf)     # a slot without a cluster stays
+
+    _, chosen = best_on_grid(share_lattice(scenario), mean_sum_rate, alpha.reshape(-1))
     return chosen.reshape(np.shape(alpha_first))

@@ -30,16 +30,25 @@ import numpy as np
 from numpy.typing import NDArray
 
 from adaptsky.errors import AdaptskyError
+from adaptsky.rollouts.search import (
+    Best,
+    best_in_chunks,
+    best_shares,
+    grid_points,
+    lattice,
+    lattice_chunks,
+    outside_buildings,
+    point_geometry,
+    snr_scale,
+)
 from adaptsky.scenario.models import Scenario
-from adaptsky.sim import noma
-from adaptsky.sim.blockage import inside_buildings
-from adaptsky.sim.lattice import axis_lattice, share_lattice
 from adaptsky.sim.links import build_channel, deterministic_gain, fading_active
 from adaptsky.sim.network import NetworkBatch
 from adaptsky.sim.state import users_move
 
 FloatArray = NDArray[np.float64]
-POINTS_PER_CHUNK = 200_000
+__all__ = ["OracleResult", "has_oracle", "lattice", "oracle", "point_values",
+           "require_deterministic_gains", "require_static_users"]
 
 
 @dataclass(frozen=True)
@@ -53,89 +62,19 @@ class OracleResult:
     rate_bps: FloatArray
 
 
-def lattice(scenario: Scenario) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """The reachable x, y, h values and the alpha_first grid."""
-    uav, half_m = scenario.uav, scenario.area.side_m / 2
-    xs = axis_lattice(uav.start_m[0], uav.step_m[0], -half_m, half_m)
-    ys = axis_lattice(uav.start_m[1], uav.step_m[1], -half_m, half_m)
-    hs = axis_lattice(uav.start_m[2], uav.step_m[2], uav.min_height_m, uav.max_height_m)
-    alphas = share_lattice(scenario)
-    return xs, ys, hs, alphas
-
-
-def best_alpha_first(gain_first: FloatArray, gain_second: FloatArray, alphas: FloatArray,
-                     scenario: Scenario, snr_scale: float) -> tuple[FloatArray, FloatArray]:
-    """Per point and cluster: the grid alpha_first maximising the cluster's sum rate under
-    R_min, and that sum rate (-inf where no grid alpha meets R_min): the closed form of the
-    module doc under perfect SIC, every grid alpha under imperfect SIC (docs/model.md §13),
-    where the sum rate need not rise with the strong user's share."""
-    if scenario.radio.sic_residual:
-        return best_alpha_on_grid(gain_first, gain_second, alphas, scenario, snr_scale)
-    first_strong = noma.is_strong(gain_first, gain_second, gain_first, gain_second, True)
-    weak_snr = snr_scale * np.minimum(gain_first, gain_second)
-    threshold = 2.0 ** scenario.reward.min_se
-    strong_share_max = ((1 + weak_snr) / threshold - 1) / weak_snr
-    # largest strong share on the grid: alpha_first itself, or 1 - alpha_first
-    index_first = np.searchsorted(alphas, strong_share_max * (1 + 1e-12), side="right") - 1
-    index_second = np.searchsorted(alphas, (1 - strong_share_max) * (1 - 1e-12), side="left")
-    index = np.where(first_strong, index_first, index_second)
-    best_rate = np.full(gain_first.shape, -np.inf)
-    best_alpha = np.full(gain_first.shape, np.nan)
-    # the closed form's neighbour guards against rounding at the constraint's edge
-    for shift in (0, -1, 1):
-        candidate = np.where(first_strong, index + shift, index - shift)
-        valid = (candidate >= 0) & (candidate < len(alphas))
-        alpha = alphas[np.clip(candidate, 0, len(alphas) - 1)]
-        sinr_first, sinr_second = noma.cluster_sinr(alpha, gain_first, gain_second, snr_scale)
-        rate_first = noma.rate_bps(sinr_first, scenario.radio.bandwidth_hz)
-        rate_second = noma.rate_bps(sinr_second, scenario.radio.bandwidth_hz)
-        feasible = valid & (rate_first >= scenario.min_rate_bps) & (
-            rate_second >= scenario.min_rate_bps)
-        total = np.where(feasible, rate_first + rate_second, -np.inf)
-        better = total > best_rate
-        best_rate = np.where(better, total, best_rate)
-        best_alpha = np.where(better, alpha, best_alpha)
-    return best_alpha, best_rate
-
-
-def best_alpha_on_grid(gain_first: FloatArray, gain_second: FloatArray, alphas: FloatArray,
-                       scenario: Scenario, snr_scale: float) -> tuple[FloatArray, FloatArray]:
-    """:func:`best_alpha_first` by trying every grid alpha of every cluster (exact for any
-    SIC residual; ties to the smallest alpha)."""
-    best_rate = np.full(gain_first.shape, -np.inf)
-    best_alpha = np.full(gain_first.shape, np.nan)
-    residual, bandwidth_hz = scenario.radio.sic_residual, scenario.radio.bandwidth_hz
-    for alpha in alphas:
-        sinr_first, sinr_second = noma.cluster_sinr(alpha, gain_first, gain_second, snr_scale,
-                                                    residual)
-        rate_first = noma.rate_bps(sinr_first, bandwidth_hz)
-        rate_second = noma.rate_bps(sinr_second, bandwidth_hz)
-        feasible = (rate_first >= scenario.min_rate_bps) & (rate_second >= scenario.min_rate_bps)
-        total = np.where(feasible, rate_first + rate_second, -np.inf)
-        better = total > best_rate
-        best_rate = np.where(better, total, best_rate)
-        best_alpha = np.where(better, alpha, best_alpha)
-    return best_alpha, best_rate
-
-
 def point_values(env: NetworkBatch, layout: int, points_m: FloatArray, users_m: FloatArray,
-                 alphas: FloatArray, snr_scale: float) -> tuple[FloatArray, FloatArray]:
+                 alphas: FloatArray, snr: float) -> tuple[FloatArray, FloatArray]:
     """The objective (P,) at every lattice point ``points_m`` (P, 3) for the users at
     ``users_m`` (N, 2), clustered as environment ``layout`` of ``env`` clusters them now, with
-    each cluster's best grid share (P, K); -inf where no share meets R_min and inside a
-    building (a UAV never stands there)."""
-    scenario = env.scenario
-    users = np.broadcast_to(users_m, (len(points_m), *users_m.shape))
-    geometry = env.geometry(points_m, users, layout=layout)
-    gain = deterministic_gain(env.channel, scenario.channel.los, geometry)
-    gain_first = gain[:, env.first_user[layout]]
-    gain_second = gain[:, env.second_user[layout]]
-    alpha, rate = best_alpha_first(gain_first, gain_second, alphas, scenario, snr_scale)
-    total = rate.sum(axis=1)
-    if env.city is not None:     # a UAV never stands inside a building
-        total = np.where(inside_buildings(points_m[None], env.city.environment(layout))[0],
-                         -np.inf, total)
-    return total, alpha
+    each cluster's best grid share (P, K) (:func:`~adaptsky.rollouts.search.best_shares`);
+    -inf where no share meets R_min and inside a building."""
+    # the links' arrays held until the shares are found: freed before, they cost 10% more
+    # time (the allocator hands their memory back and maps it again)
+    geometry = point_geometry(env, layout, points_m, users_m)
+    gain = deterministic_gain(env.channel, env.scenario.channel.los, geometry)
+    alpha, rate = best_shares(gain[:, env.first_user[layout]], gain[:, env.second_user[layout]],
+                              alphas, env.scenario, snr)
+    return outside_buildings(env, layout, points_m, rate.sum(axis=1)), alpha
 
 
 def has_oracle(scenario: Scenario) -> bool:
@@ -191,27 +130,23 @@ def oracle(scenario: Scenario, users_m: FloatArray,
     require_deterministic_gains(scenario)
     num_layouts = len(users_m)
     env = NetworkBatch(scenario, num_envs=num_layouts, users_m=users_m)
-    radio = scenario.radio
-    snr_scale = radio.tx_power_w * radio.antenna_gain / radio.noise_w   # P_T G / sigma^2
+    snr = snr_scale(scenario)                               # P_T G / sigma^2
     xs, ys, hs, alphas = lattice(scenario)
-    grid = np.stack(np.meshgrid(xs, ys, hs, indexing="ij"), axis=-1).reshape(-1, 3)
-    k = scenario.num_clusters
+    grid = grid_points(xs, ys, hs)
     objective = np.zeros(num_layouts)
     best_uav = np.broadcast_to(np.array(scenario.uav.start_m), (num_layouts, 3)).copy()
-    best_alpha = np.full((num_layouts, k), scenario.uav.start_alpha)
+    best_alpha = np.full((num_layouts, scenario.num_clusters), scenario.uav.start_alpha)
     for layout in range(num_layouts):
-        for start in range(0, len(grid), POINTS_PER_CHUNK):
-            points = grid[start:start + POINTS_PER_CHUNK]
-            total, alpha = point_values(env, layout, points, users_m[layout], alphas,
-                                        snr_scale)
-            best = int(np.argmax(total))
-            if total[best] > objective[layout]:
-                objective[layout] = total[best]
-                best_uav[layout] = points[best]
-                best_alpha[layout] = alpha[best]
-            searched = (start + len(points)) / len(grid)
+        def values(points: FloatArray, layout: int = layout) -> tuple[FloatArray, FloatArray]:
+            return point_values(env, layout, points, users_m[layout], alphas, snr)
+
+        def heard(searched: float, layout: int = layout) -> None:
             if on_search is not None and searched < 1:
                 on_search(layout + searched, f"{searched:.0%} of the lattice")
+
+        found = best_in_chunks(lattice_chunks(grid), values,
+                               Best(0.0, best_uav[layout], best_alpha[layout]), heard)
+        objective[layout], best_uav[layout], best_alpha[layout] = found
         if on_layout is not None:
             on_layout(layout + 1)
     state = env.evaluate_at(best_uav, best_alpha)

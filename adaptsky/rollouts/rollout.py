@@ -13,6 +13,7 @@ from numpy.typing import NDArray
 from adaptsky.algos.protocol import Policy
 from adaptsky.algos.registry import algorithm_of
 from adaptsky.arrays import Tree
+from adaptsky.envs.observations import AgentView
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.controls import BOX_HIGH, BOX_LOW, Controls, DenseControls
 from adaptsky.sim.interference import oma_rates_bps
@@ -53,15 +54,16 @@ class Trace:
                    None if users_m is None else np.array(users_m))
 
 
-def _env(scenario: Scenario, users_m: FloatArray, seed: int) -> NetworkBatch:
-    return NetworkBatch(scenario, num_envs=len(users_m), seed=seed, users_m=users_m)
+def _env(scenario: Scenario, users_m: FloatArray, seed: int, view: AgentView | None = None
+         ) -> NetworkBatch:
+    return NetworkBatch(scenario, num_envs=len(users_m), seed=seed, users_m=users_m, view=view)
 
 
 def rollout(scenario: Scenario, policy: Policy, steps: int, users_m: FloatArray,
             seed: int = 0, on_step: Tick | None = None) -> Trace:
     """Run ``policy`` for ``steps`` steps from the episode start, with no time limit;
     ``on_step`` hears the number of steps done after each."""
-    env = _env(scenario, users_m, seed)
+    env = _env(scenario, users_m, seed, AgentView.of(scenario))   # what the agent observes
     obs, _ = env.reset()
     states = []
     walked: list[FloatArray] | None = [] if users_move(scenario) else None

@@ -15,30 +15,32 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from adaptsky.rollouts.objective import constrained_sum_rate
-from adaptsky.rollouts.oracle import (
+from adaptsky.rollouts.oracle import oracle, require_deterministic_gains
+from adaptsky.rollouts.search import (
     POINTS_PER_CHUNK,
-    best_alpha_first,
-    oracle,
-    require_deterministic_gains,
+    Best,
+    best_in_chunks,
+    best_shares,
+    grid_points,
+    outside_buildings,
+    point_gains,
+    response_rounds,
 )
 from adaptsky.rollouts.soa import soa_per_uav_configuration
 from adaptsky.scenario.models import Scenario
-from adaptsky.sim.blockage import inside_buildings
 from adaptsky.sim.interference import interference_sum_w, interferers, oma_rates_bps, sic_rates
 from adaptsky.sim.lattice import axis_lattice, share_lattice
-from adaptsky.sim.links import deterministic_gain, scenario_geometry
 from adaptsky.sim.network import NetworkBatch
 
 FloatArray = NDArray[np.float64]
 DEFAULT_ROUNDS = 10
-RELATIVE_TOLERANCE = 1e-9
 EXPECTED_ROUNDS = 3.0
 """Rounds a layout is taken to need until some layout is done (then their mean), for the
 share of a layout done that progress reports: a round's end is known only when it gains."""
@@ -85,7 +87,6 @@ class BestResponseSearch:
         self.association = a = env.association
         self.users_m = env.layouts_m[layout]
         self.layout = layout
-        self.city = None if env.city is None else env.city.environment(layout)
         self.serving = a.serving_uav[layout]
         self.cluster = a.cluster[layout]
         self.first = a.first_user[layout]       # (U, K_max), -1 in unused slots
@@ -109,17 +110,13 @@ class BestResponseSearch:
         for x0, y0, _ in env.start_m:
             xs = axis_lattice(x0, uav.step_m[0], -half_m, half_m)
             ys = axis_lattice(y0, uav.step_m[1], -half_m, half_m)
-            self.planes.append(np.stack(np.meshgrid(xs, ys, indexing="ij"), -1).reshape(-1, 2))
+            self.planes.append(grid_points(xs, ys))
         self.min_separation_m = uav.min_separation_m
 
     def gains(self, points_m: FloatArray) -> FloatArray:
         """Deterministic gains (M, N) from UAV positions ``points_m`` (M, 3) to every user
         (through the layout's buildings, docs/model.md §12)."""
-        scenario = self.scenario
-        users = np.broadcast_to(self.users_m, (len(points_m), *self.users_m.shape))
-        geometry = (scenario_geometry(scenario, points_m, users) if self.city is None
-                    else self.env.geometry(points_m, users, layout=self.layout))
-        return deterministic_gain(self.env.channel, scenario.channel.los, geometry)
+        return point_gains(self.env, self.layout, points_m, self.users_m)
 
     def rates(self, gain: FloatArray, alpha_first: FloatArray) -> FloatArray:
         """Every user's rate (..., N) with the gains (..., U, N) of every UAV and the shares
@@ -150,32 +147,32 @@ class BestResponseSearch:
         return float(constrained_sum_rate(self.rates(gain, alpha_first), self.min_rate_bps))
 
     def respond(self, u: int, uav_m: FloatArray, alpha_first: FloatArray,
-                on_chunk: Callable[[float], None] | None = None
-                ) -> tuple[float, FloatArray, FloatArray]:
+                on_chunk: Callable[[float], None] | None = None) -> Best:
         """UAV ``u``'s best lattice point and shares with the others at ``uav_m`` (U, 3),
-        ``alpha_first`` (U, K): (objective, its position, its shares); ties to the first
-        point met. ``on_chunk`` hears the share of the lattice searched after each chunk."""
+        ``alpha_first`` (U, K), by the exhaustive search: (objective, its position, its
+        shares), -inf where no point meets R_min; ties to the first point met. ``on_chunk``
+        hears the share of the lattice searched after each chunk."""
         fixed_gain = self.gains(uav_m)                                      # (U, N)
-        others = np.arange(len(uav_m)) != u
         plane = self.planes[u]
         apart = np.ones(len(plane), dtype=bool)
-        for v in np.flatnonzero(others):   # the separation from every other UAV
+        for v in np.flatnonzero(np.arange(len(uav_m)) != u):   # apart from every other UAV
             apart &= np.hypot(*(plane - uav_m[v, :2]).T) >= self.min_separation_m
         plane = plane[apart]
-        best: tuple[float, FloatArray, FloatArray] = (-np.inf, uav_m[u], alpha_first[u])
-        per_chunk = max(1, POINTS_PER_CHUNK // max(1, len(plane)))
         heights = self.heights[u]
-        for start in range(0, len(heights), per_chunk):
-            chunk_h = heights[start:start + per_chunk]
-            points = np.column_stack([np.tile(plane, (len(chunk_h), 1)),
-                                      np.repeat(chunk_h, len(plane))])
-            total, own_shares = self.totals(u, points, fixed_gain, alpha_first)
-            index = int(np.argmax(total))
-            if total[index] > best[0]:
-                best = (float(total[index]), points[index], own_shares[index])
-            if on_chunk is not None:
-                on_chunk((start + len(chunk_h)) / len(heights))
-        return best
+        per_chunk = max(1, POINTS_PER_CHUNK // max(1, len(plane)))
+
+        def chunks() -> Iterator[tuple[FloatArray, float]]:
+            for start in range(0, len(heights), per_chunk):     # whole heights at once
+                chunk_h = heights[start:start + per_chunk]
+                yield (np.column_stack([np.tile(plane, (len(chunk_h), 1)),
+                                        np.repeat(chunk_h, len(plane))]),
+                       (start + len(chunk_h)) / len(heights))
+
+        def values(points: FloatArray) -> tuple[FloatArray, FloatArray]:
+            return self.totals(u, points, fixed_gain, alpha_first)
+
+        return best_in_chunks(chunks(), values, Best(-np.inf, uav_m[u], alpha_first[u]),
+                              on_chunk)
 
     def totals(self, u: int, points_m: FloatArray, fixed_gain: FloatArray,
                alpha_first: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -190,9 +187,8 @@ class BestResponseSearch:
             shares[:, u] = self._best_shares(u, gain)
         rates = self.rates(gain, shares)
         feasible = (rates >= self.min_rate_bps).all(axis=-1)
-        if self.city is not None:     # a UAV never stands inside a building
-            feasible &= ~inside_buildings(points_m[None], self.city)[0]
-        return np.where(feasible, rates.sum(axis=-1), -np.inf), shares[:, u]
+        total = np.where(feasible, rates.sum(axis=-1), -np.inf)
+        return outside_buildings(self.env, self.layout, points_m, total), shares[:, u]
 
     def _best_shares(self, u: int, gain: FloatArray) -> FloatArray:
         """UAV ``u``'s best first users' shares (M, K) on the grid, cluster by cluster: its
@@ -201,9 +197,9 @@ class BestResponseSearch:
         serving_gain, interference = self._serving(gain)
         effective = self.power / (interference + self.noise_w) * serving_gain
         valid = self.first[u] >= 0           # its own K_u clusters
-        alpha, _ = best_alpha_first(effective[:, self.first[u][valid]],
-                                    effective[:, self.second[u][valid]], self.alphas,
-                                    self.scenario, 1.0)
+        alpha, _ = best_shares(effective[:, self.first[u][valid]],
+                               effective[:, self.second[u][valid]], self.alphas,
+                               self.scenario, 1.0)
         shares = np.full((len(gain), len(valid)), self.alphas[0])
         shares[:, valid] = np.where(np.isnan(alpha), self.alphas[0], alpha)
         return shares
@@ -251,19 +247,14 @@ def _search(scenario: Scenario, users_m: FloatArray, rounds: int, oma: bool,
     for layout in range(num_layouts):
         search = BestResponseSearch(env, layout, oma)
         positions, shares = uav_m[layout], alpha_first[layout]
-        value = search.objective(positions, shares)
-        for round_index in range(rounds):
-            before = value
-            for u in range(num_uavs):
-                found, point, alpha = search.respond(u, positions, shares,
-                                                     chunk_reporter(layout, round_index, u))
-                if found > value:
-                    value = found
-                    positions[u], shares[u] = point, alpha
-            done_rounds[layout] = round_index + 1
-            if value - before <= RELATIVE_TOLERANCE * abs(before):
-                converged[layout] = True
-                break
+
+        def respond(round_index: int, u: int, value: float, layout: int = layout,
+                    search: BestResponseSearch = search, positions: FloatArray = positions,
+                    shares: FloatArray = shares) -> Best:
+            return search.respond(u, positions, shares, chunk_reporter(layout, round_index, u))
+
+        value, done_rounds[layout], converged[layout] = response_rounds(
+            respond, positions, shares, search.objective(positions, shares), rounds)
         objective[layout] = value
         gain = search.gains(positions).reshape(env.num_uavs, env.num_users)
         rates[layout] = search.rates(gain, shares)

@@ -4,20 +4,21 @@ step's configuration (SoA per UAV at the first) and runs best-response rounds on
 user positions and clusters, until a round gains less than 1e-9 relative or ``rounds`` rounds.
 
 Each UAV's response is the exhaustive search of best response
-(:meth:`~adaptsky.rollouts.several_uavs.BestResponseSearch.totals` at every lattice point),
-made fast by branch and bound over boxes of ``BOX`` lattice points where the channel model
-declares ``Supports(monotone_gains=True)`` (the built-in models: the gains fall with the
+(:meth:`~adaptsky.rollouts.several_uavs.BestResponseSearch.totals` at every lattice point), made
+fast by the kernel's branch and bound (:func:`~adaptsky.rollouts.search.branch_and_bound`) over
+boxes of lattice points (:class:`~adaptsky.rollouts.search.LatticeBoxes`) where the channel
+model declares ``Supports(monotone_gains=True)`` (the built-in models: the gains fall with the
 distance, the NLoS gain below the LoS gain). In a box of UAV u's positions: each of u's users'
-gain is at most the LoS gain at the box's nearest point (its interference, from the others,
-is fixed), so its effective gain c = P g / (I + sigma^2)
-is bounded, and each of u's clusters is worth at most its best value over every share either
-user may hold at those gains (R_min relaxed alike); every other user hears at least u's gain
-at the box's farthest point (the LoS gain there for LoS always, else the NLoS gain, the
-smaller), so its effective gain is bounded, and each other cluster, at its fixed share, is
-worth at most the larger of its sum rate in either SIC order at those bounds. A box is
-valued exactly only where that bound exceeds the value the response must beat (the current
-configuration's): the response is the exhaustive search's (among equal values the first
-found). Other channel models (the default, no such declaration) search every point.
+gain is at most the LoS gain at the box's nearest point (its interference, from the others, is
+fixed), so its effective gain c = P g / (I + sigma^2) is bounded, and each of u's clusters is
+worth at most its best value over every share either user may hold at those gains (R_min relaxed
+alike); every other user hears at least u's gain at the box's farthest point (the LoS gain there
+for LoS always, else the NLoS gain, the smaller), so its effective gain is bounded, and each
+other cluster, at its fixed share, is worth at most the larger of its sum rate in either SIC
+order at those bounds. A box is valued exactly only where that bound exceeds the value the
+response must beat (the current configuration's): the response is the exhaustive search's (among
+equal values the first found). Other channel models (the default, no such declaration) search
+every point.
 """
 
 from __future__ import annotations
@@ -30,19 +31,19 @@ import numpy as np
 from numpy.typing import NDArray
 
 from adaptsky.channels.contract import declares_monotone_gains
-from adaptsky.rollouts.genie import (
-    BOX,
-    POINTS_PER_BATCH,
+from adaptsky.rollouts.search import (
+    Best,
     LatticeBoxes,
+    best_shares_on_grid,
+    bound_gains,
+    branch_and_bound,
+    each_step,
     either_share,
-    gains_at,
+    every_point,
+    response_rounds,
+    walking_env,
 )
-from adaptsky.rollouts.oracle import best_alpha_on_grid
-from adaptsky.rollouts.several_uavs import (
-    DEFAULT_ROUNDS,
-    RELATIVE_TOLERANCE,
-    BestResponseSearch,
-)
+from adaptsky.rollouts.several_uavs import DEFAULT_ROUNDS, BestResponseSearch
 from adaptsky.rollouts.soa import soa_per_uav_configuration
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim import noma
@@ -70,7 +71,7 @@ class StepResponseResult:
     seconds_per_step: float
 
 
-class _StepSearch(BestResponseSearch):
+class StepResponseSearch(BestResponseSearch):
     """Best responses of one layout at one step: the env's clusters now, the users at
     ``users_m`` (N, 2)."""
 
@@ -94,8 +95,8 @@ class _StepSearch(BestResponseSearch):
     def bounds(self, u: int, fixed_gain: FloatArray, alpha_first: FloatArray) -> FloatArray:
         """Every box of UAV u's lattice: an upper bound on the objective there (module doc)."""
         boxes = self._boxes[u]
-        most = gains_at(self.env, boxes.nearest(self.users_m), self.users_m)     # (M, N)
-        least = gains_at(self.env, boxes.farthest(self.users_m), self.users_m,
+        most = bound_gains(self.env, boxes.nearest(self.users_m), self.users_m)   # (M, N)
+        least = bound_gains(self.env, boxes.farthest(self.users_m), self.users_m,
                          nlos=self.scenario.channel.los != "always")
         own = self.serving == u
         gain = np.broadcast_to(fixed_gain, (len(boxes.low), *fixed_gain.shape)).copy()
@@ -108,8 +109,8 @@ class _StepSearch(BestResponseSearch):
             valid = first[v] >= 0
             c1, c2 = effective[:, first[v][valid]], effective[:, second[v][valid]]
             if v == u:
-                _, rate = best_alpha_on_grid(np.maximum(c1, c2), np.minimum(c1, c2),
-                                             self.shares, self.scenario, 1.0)
+                _, rate = best_shares_on_grid(np.maximum(c1, c2), np.minimum(c1, c2),
+                                              self.shares, self.scenario, 1.0)
                 bound += rate.sum(axis=1)
                 continue
             alpha = alpha_first[v][valid]
@@ -124,34 +125,26 @@ class _StepSearch(BestResponseSearch):
         return bound
 
     def respond_bounded(self, u: int, uav_m: FloatArray, alpha_first: FloatArray,
-                        beat: float) -> tuple[float, FloatArray, FloatArray, int]:
+                        beat: float) -> tuple[Best, int]:
         """UAV u's best lattice point and shares with the others fixed (as
         :meth:`respond`), searching only boxes whose bound exceeds ``beat`` and the best
-        found so far: (objective, point, shares, points valued); -inf where nothing beats
-        ``beat``."""
-        fixed_gain = self.gains(uav_m)
+        found so far: (objective, point, shares) and the points valued; -inf where nothing
+        beats ``beat``."""
         if not self.bounded:
-            found = self.respond(u, uav_m, alpha_first)
-            return (*found, len(self.planes[u]) * len(self.heights[u]))
+            return (self.respond(u, uav_m, alpha_first),
+                    len(self.planes[u]) * len(self.heights[u]))
+        fixed_gain = self.gains(uav_m)
         bound = self.bounds(u, fixed_gain, alpha_first)
-        ranked = np.argsort(-bound, kind="stable")
-        best: tuple[float, FloatArray, FloatArray] = (-np.inf, uav_m[u], alpha_first[u])
-        valued = 0
-        per_batch = max(1, POINTS_PER_BATCH // int(np.prod(BOX)))
-        for start in range(0, len(ranked), per_batch):
-            batch = ranked[start:start + per_batch]
-            batch = batch[bound[batch] > max(beat, best[0])]
-            if not len(batch):
-                break          # every later box has a lower bound
-            points = np.concatenate([self._box_points(u, box, uav_m) for box in batch])
-            if not len(points):
-                continue
-            total, shares = self.totals(u, points, fixed_gain, alpha_first)
-            valued += len(points)
-            index = int(np.argmax(total))
-            if total[index] > best[0]:
-                best = (float(total[index]), points[index], shares[index])
-        return (*best, valued)
+
+        def points_of(boxes: NDArray[np.intp]) -> FloatArray:
+            return np.concatenate([self._box_points(u, box, uav_m) for box in boxes])
+
+        def values(points: FloatArray) -> tuple[FloatArray, FloatArray]:
+            return self.totals(u, points, fixed_gain, alpha_first)
+
+        return branch_and_bound(bound, self._boxes[u].ranked(bound), points_of,
+                                every_point(values), Best(-np.inf, uav_m[u], alpha_first[u]),
+                                beat=beat)
 
 
 def per_step_response(scenario: Scenario, users_m: FloatArray, steps: int, seed: int = 0,
@@ -160,41 +153,30 @@ def per_step_response(scenario: Scenario, users_m: FloatArray, steps: int, seed:
     """Best response at every step (module doc) over ``steps`` steps of the layouts
     ``users_m`` (L, N, 2), the users moving as under a policy with the same ``seed``."""
     started = time.process_time()
-    num_layouts = len(users_m)
-    env = NetworkBatch(scenario, num_envs=num_layouts, seed=seed, users_m=users_m)
-    env.reset()
+    env = walking_env(scenario, users_m, seed)
     uav_now, alpha_now = soa_per_uav_configuration(env)
     uav_now, alpha_now = uav_now.copy(), alpha_now.copy()
-    shape = (steps, num_layouts)
+    shape = (steps, len(users_m))
     objective, rounds_run = np.zeros(shape), np.zeros(shape, dtype=np.int64)
     valued = np.zeros(shape, dtype=np.int64)
     uav_m = np.zeros((*shape, *uav_now.shape[1:]))
     alpha_first = np.zeros((*shape, *alpha_now.shape[1:]))
-    positions = np.zeros((steps, *users_m.shape))
-    for step in range(steps):
-        env.hold_step(uav_now, alpha_now)      # the users move; the clusters are the step's
-        positions[step] = env.users_m
-        for layout in range(num_layouts):
-            search = _StepSearch(env, layout, positions[step, layout])
-            where, shares = uav_now[layout], alpha_now[layout]
-            value = search.objective(where, shares)
-            for round_index in range(rounds):
-                before = value
-                for u in range(env.num_uavs):
-                    found, point, alpha, count = search.respond_bounded(u, where, shares,
-                                                                        value)
-                    valued[step, layout] += count
-                    if found > value:
-                        value = found
-                        where[u], shares[u] = point, alpha
-                rounds_run[step, layout] = round_index + 1
-                if value - before <= RELATIVE_TOLERANCE * abs(before):
-                    break
-            objective[step, layout] = max(value, 0.0)
-        uav_m[step], alpha_first[step] = uav_now, alpha_now
-        if on_step is not None:
-            on_step(step + 1)
+
+    def search_layout(step: int, layout: int, step_users_m: FloatArray) -> None:
+        search = StepResponseSearch(env, layout, step_users_m)
+        where, shares = uav_now[layout], alpha_now[layout]
+
+        def respond(round_index: int, u: int, value: float) -> Best:
+            found, count = search.respond_bounded(u, where, shares, value)
+            valued[step, layout] += count
+            return found
+
+        value, rounds_run[step, layout], _ = response_rounds(
+            respond, where, shares, search.objective(where, shares), rounds)
+        objective[step, layout] = max(value, 0.0)
+        uav_m[step, layout], alpha_first[step, layout] = where, shares
+
+    positions = each_step(env, steps, lambda: (uav_now, alpha_now), search_layout, on_step)
     seconds = (time.process_time() - started) / max(1, steps)
     return StepResponseResult(objective, uav_m, alpha_first, positions, rounds_run, valued,
                               seconds)
-

@@ -21,7 +21,13 @@ the new state, each a named stage, called in this order (docs/architecture.md):
 7. reward terms (eq. 9 and eq. 13, :mod:`adaptsky.sim.reward`) and energy
    (:mod:`adaptsky.sim.energy`);
 8. observation (:mod:`adaptsky.sim.observation`): the paper's layout for one UAV, the
-   several-UAV layout otherwise.
+   several-UAV layout otherwise, users as listed; what the agent sees of it is the adapter it
+   picks (``view``, :mod:`adaptsky.envs.observations`).
+
+Stages 3-8 are the one evaluation of the network (:meth:`NetworkBatch.evaluate`): a
+configuration, the users' positions and the draws in, a :class:`NetworkState` out. A step
+(stages 1-2, then it), every baseline and reference (a configuration held or flown) and the
+training's greedy evaluations call it.
 
 With U = 1 every public array keeps the paper's shapes: UAV positions (B, 3), shares (B, K),
 energy (B,); with U > 1 they have a UAV axis: (B, U, 3), (B, U, K), (B, U).
@@ -42,7 +48,7 @@ from adaptsky.sim.association import Association, associate, serving_groups
 from adaptsky.sim.blockage import Blockage, kept_out, users_kept_out
 from adaptsky.sim.city import City, city_of, on_footprints
 from adaptsky.sim.energy import EnergyAccount
-from adaptsky.sim.fading import FadingStage
+from adaptsky.sim.fading import FadingStage, Generators
 from adaptsky.sim.gain_bounds import gain_range, reachable_heights
 from adaptsky.sim.interference import (
     interference_sum_w,
@@ -66,10 +72,11 @@ from adaptsky.sim.mobility import MobilityStage
 from adaptsky.sim.observation import (
     FEATURES_PER_USER,
     MultiObserver,
+    ObservationView,
     Observer,
-    local_gather,
-    local_view,
-    observes_locally,
+    flat_gather,
+    gathered,
+    observation_size,
 )
 from adaptsky.sim.reward import RewardFromSums, reward_per_uav, reward_weights, stack_weights
 from adaptsky.sim.separation import separated
@@ -159,7 +166,10 @@ class NetworkBatch:
     LoS states, fading and user moves (or a list of B seeds: every environment then draws from
     a generator of its own, so its numbers do not depend on B or on its neighbours),
     ``users_m`` (B, N, 2) to override the scenario's layouts, ``weights`` per environment
-    (eq. 13).
+    (eq. 13), ``view`` what the agent observes of the network (its adapter,
+    :class:`~adaptsky.sim.observation.ObservationView`: the users' order, every UAV's local
+    part, scaled or raw values; None: the network's observation, scaled, users as listed).
+    The simulator reads no agent setting.
 
     The state between steps is ``sim_state`` (:class:`~adaptsky.sim.state.SimState`); the
     network there is ``state`` (:class:`NetworkState`). The association (serving UAV and NOMA
@@ -172,7 +182,8 @@ class NetworkBatch:
 
     def __init__(self, scenario: Scenario, num_envs: int = 1, seed: Seed = None,
                  users_m: FloatArray | None = None,
-                 weights: list[noma.RewardWeights] | None = None) -> None:
+                 weights: list[noma.RewardWeights] | None = None,
+                 view: ObservationView | None = None) -> None:
         if num_envs < 1:
             raise ValueError(f"num_envs must be >= 1, got {num_envs}")
         self.scenario = scenario
@@ -221,11 +232,13 @@ class NetworkBatch:
         self._num_users = np.array(float(self.num_users))
         self._bandwidth = np.array(self.bandwidth_hz)
         self._paper_observation = self.num_uavs == 1
+        scaled = view is None or view.scaled
         if self._paper_observation:
-            self._observer: Observer | MultiObserver = Observer(scenario,
-                                                                (num_envs, self.num_users))
+            self._observer: Observer | MultiObserver = Observer(
+                scenario, (num_envs, self.num_users), scaled)
         else:
-            self._observer = MultiObserver(scenario)
+            self._observer = MultiObserver(scenario, scaled)
+        self._view = view
         if users_m is None:
             users_m = user_layouts(scenario, num_envs)
         self._associate(users_m)
@@ -268,13 +281,6 @@ class NetworkBatch:
         self._energy = EnergyAccount(scenario, self.weights, energy_shape,
                                      None if self.num_uavs == 1
                                      else self.association.clusters_per_uav)
-        # users in observation order: as listed, or UAV by UAV and cluster by cluster
-        self.observation_order: NDArray[np.intp] | None = None
-        if scenario.agent.user_order == "clusters":
-            pairs = np.stack([self.association.first_user, self.association.second_user],
-                             axis=-1).reshape(self.num_envs, -1)
-            # (-1 marks the unused cluster slots of a UAV with fewer clusters than K_max)
-            self.observation_order = pairs[pairs >= 0].reshape(self.num_envs, self.num_users)
         self._index()
 
     def _index(self) -> None:
@@ -284,9 +290,10 @@ class NetworkBatch:
         ``_partner_flat`` its cluster partner's in a (B, N) array; ``_alpha_source`` its
         alpha_k's in the configuration (B, U, 3 + K); ``_is_first`` whether it is its
         cluster's first user; ``_interferer`` (B, U, N) whether UAV u' interferes with it;
-        and, for the observation, ``_observed`` the users in observation order (positions
-        in a (B, N) array) and ``_observed_uav_xy`` (2, B, N) the positions of their serving
-        UAV's x and y in the configuration.
+        and, for the observation, ``_serving_xy`` (2, B, N) the positions of its serving
+        UAV's x and y in the configuration, and ``_view_flat`` where the agent's view
+        (``view``) takes its components from the network's observation
+        (:func:`~adaptsky.sim.observation.flat_gather`; None: all of it, as it is).
         """
         association = self.association
         num_envs, n, num_uavs = self.num_envs, self.num_users, self.num_uavs
@@ -309,18 +316,10 @@ class NetworkBatch:
         link_base = (np.arange(num_envs * num_uavs) * width)[:, None] + np.zeros(n, np.intp)
         self._link_source = np.stack([link_base, link_base + 1, link_base + 2])
         self._interferer = interferers(association)
-        order = (np.broadcast_to(np.arange(n), (num_envs, n)) if self.observation_order is None
-                 else self.observation_order)
-        self._observed = rows * n + order
-        # for one UAV in listed order the serving links and the observed users are every
-        # link and every user in order: no take needed
-        self._one_in_order = num_uavs == 1 and self.observation_order is None
-        observed_base = np.take_along_axis(uav_base, order, axis=1)
-        self._observed_uav_xy = np.stack([observed_base, observed_base + 1])
-        # every UAV's local observation where the agent acts per UAV (MAPPO, IPPO)
-        self._local_gather = (local_gather(np.take_along_axis(serving, order, axis=1),
-                                           num_uavs, 2 * self.scenario.clusters_per_uav)
-                              if observes_locally(self.scenario) else None)
+        self._serving_xy = np.stack([uav_base, uav_base + 1])
+        gather = None if self._view is None else self._view.gather(association)
+        self._view_flat = (None if gather is None
+                           else flat_gather(gather, observation_size(n, num_uavs)))
         self._repeated_of: FloatArray | None = None    # see _repeated_users
         self._repeated: tuple[FloatArray, FloatArray] | None = None
         self._no_interference = np.zeros((num_envs, n))
@@ -489,20 +488,76 @@ class NetworkBatch:
         moved = step(before, actions, dynamics, self._headings() if self._speed_m else None)
         if self._mobility is not None:
             moved = SimState._new(moved.config, self._moved_users(before.users_m), moved.t)
-        state = self._settled(before, moved)
+        state = self._settled(before, moved, flown=True)
         return self._obs, state.reward, self.sim_state.t >= self._max_steps, state
 
-    def _settled(self, before: SimState, moved: SimState) -> NetworkState:
-        """The network after a move from ``before`` to ``moved``: the controls stage's rules
-        (separation, buildings), the association where it runs again, and stages 3-8 with
-        the energy of the move."""
-        if self.num_uavs > 1 or self.city is not None:
+    # ---- the one evaluation of the network -------------------------------------------------
+
+    def evaluate(self, uav_m: FloatArray, alpha_first: FloatArray,
+                 users_m: FloatArray | None = None, *, t: int | None = None,
+                 flown: bool = False, draws: Generators | None = None) -> NetworkState:
+        """The network (stages 3-8) with the UAVs at ``uav_m`` and first users' shares
+        ``alpha_first`` (shaped as :attr:`uav_m` and :attr:`alpha_first`, or broadcast to
+        them), the users at ``users_m`` (B, N, 2; None: where they are; :meth:`next_users`
+        gives them one step on) at step ``t`` (None: this step), LoS and fading drawn from
+        ``draws`` (a generator per environment or one shared; None: the network's own, as a
+        step draws them). ``flown``: the configuration is reached by flying from the present
+        one, under the controls stage's rules (a move that breaks the separation or ends in
+        a building does not happen, nor a user's step onto a footprint), with the energy of
+        the move (docs/model.md §10); else it is held as given, with a hovering step's
+        energy. At a new step the association runs again where ``users.reassociate_every_s``
+        says (§3). The result is the network's state from then on.
+
+        Every baseline, reference and the training step evaluate the network here: a
+        configuration as given (:meth:`evaluate_at`), held while the users move
+        (:meth:`hold_step`), or flown to (:meth:`fly_step`, and :meth:`step` from an
+        action)."""
+        before = self.sim_state
+        moved = SimState.of(self._per_uav(uav_m, 3), self._per_uav(alpha_first,
+                                                                   self.num_clusters),
+                            before.users_m if users_m is None else users_m,
+                            before.t if t is None else t)
+        return self._settled(before, moved, flown=flown, draws=draws)
+
+    def next_users(self) -> FloatArray:
+        """The users' positions (B, N, 2) one step on: the same draws in the same order as
+        :meth:`step` (headings or the mobility stage's numbers), the footprints of buildings
+        kept; their present positions where they stand."""
+        return self._users_of_step(self.sim_state.users_m)
+
+    def evaluate_at(self, uav_m: FloatArray, alpha_first: FloatArray) -> NetworkState:
+        """:meth:`evaluate` of a configuration as given (no clipping); LoS drawn as in a
+        step; the users stay where they are."""
+        return self.evaluate(uav_m, alpha_first)
+
+    def hold_step(self, uav_m: FloatArray, alpha_first: FloatArray) -> NetworkState:
+        """One step of a held configuration (:meth:`evaluate`): the users move as in
+        :meth:`step` (the same draws in the same order: headings, then LoS), the UAVs are at
+        ``uav_m`` with shares ``alpha_first``, as given; a hovering step's energy. Baselines
+        hold a configuration so while the users walk (docs/evaluation.md)."""
+        return self.evaluate(uav_m, alpha_first, self.next_users(), t=self.t + 1)
+
+    def fly_step(self, uav_m: FloatArray, alpha_first: FloatArray) -> NetworkState:
+        """One step to a configuration reached by flying (:meth:`evaluate`; a heuristic
+        baseline's: tracking, docs/evaluation.md): the users move as in :meth:`hold_step`,
+        the UAVs go to ``uav_m`` with shares ``alpha_first`` under the controls stage's
+        rules, with the energy of the move."""
+        return self.evaluate(uav_m, alpha_first, self.next_users(), t=self.t + 1,
+                             flown=True)
+
+    def _settled(self, before: SimState, moved: SimState, *, flown: bool,
+                 draws: Generators | None = None) -> NetworkState:
+        """The network at ``moved`` after ``before``: flown, the controls stage's rules
+        (separation, buildings) and the energy of the move, else a hovering step's; the
+        association where it runs again at a new step; then stages 3-8."""
+        if flown and (self.num_uavs > 1 or self.city is not None):
             moved = self._kept_apart(before, moved)
         self.sim_state = moved
-        self._reassociated(moved)
-        energy_j = self._energy.of_move(self._squeezed(before.uav_m),
-                                        self._squeezed(moved.uav_m))
-        self.state = self._evaluate(moved, energy_j)
+        if moved.t != before.t:
+            self._reassociated(moved)
+        energy_j = (self._energy.of_move(self._squeezed(before.uav_m),
+                                         self._squeezed(moved.uav_m)) if flown else None)
+        self.state = self._evaluate(moved, energy_j, draws)
         return self.state
 
     def _reassociated(self, state: SimState) -> None:
@@ -530,37 +585,6 @@ class NetworkBatch:
                   else np.concatenate([positions, moved.config[..., 3:]], axis=-1))
         return SimState._new(config, users_m, moved.t)
 
-    def evaluate_at(self, uav_m: FloatArray, alpha_first: FloatArray) -> NetworkState:
-        """The network with the UAVs at ``uav_m`` and first users' shares ``alpha_first``
-        (shaped as :attr:`uav_m` and :attr:`alpha_first`, or broadcast to them), as given (no
-        clipping); LoS drawn as in a step; the users stay where they are."""
-        state = self.sim_state
-        return self._held(uav_m, alpha_first, state.users_m, state.t)
-
-    def hold_step(self, uav_m: FloatArray, alpha_first: FloatArray) -> NetworkState:
-        """One step of a held configuration: the users move as in :meth:`step` (the same
-        draws in the same order: headings, then LoS), the UAVs are at ``uav_m`` with shares
-        ``alpha_first``, as given; a hovering step's energy. Baselines use this to hold a
-        configuration while the users walk (docs/evaluation.md)."""
-        state = self.sim_state
-        users_m = self._users_of_step(state.users_m)
-        if self._reassociate_steps is not None:
-            self._reassociated(SimState._new(state.config, users_m, state.t + 1))
-        return self._held(uav_m, alpha_first, users_m, state.t + 1)
-
-    def fly_step(self, uav_m: FloatArray, alpha_first: FloatArray) -> NetworkState:
-        """One step to a configuration reached by flying (a heuristic baseline's: tracking,
-        docs/evaluation.md): the users move as in :meth:`hold_step`, the UAVs go to ``uav_m``
-        (shaped as :attr:`uav_m`) with shares ``alpha_first`` under the controls stage's
-        rules (a move that breaks the separation or ends in a building does not happen), and
-        the step's energy is that of the move (docs/model.md §10)."""
-        before = self.sim_state
-        users_m = self._users_of_step(before.users_m)
-        moved = SimState.of(self._per_uav(uav_m, 3), self._per_uav(alpha_first,
-                                                                   self.num_clusters),
-                            users_m, before.t + 1)
-        return self._settled(before, moved)
-
     def _users_of_step(self, users_m: FloatArray) -> FloatArray:
         """The users' positions after a step's move from ``users_m`` (the same draws in the
         same order as :meth:`step`: headings or the mobility stage's numbers first)."""
@@ -574,7 +598,7 @@ class NetworkBatch:
         return users_m
 
     @property
-    def _generators(self) -> list[np.random.Generator] | np.random.Generator:
+    def _generators(self) -> Generators:
         return self.rngs if self.rngs is not None else self.rng
 
     def _moved_users(self, users_m: FloatArray) -> FloatArray:
@@ -590,6 +614,8 @@ class NetworkBatch:
                 self._mobility.blocked(blocked)
         return user_positions(moved)
 
+    # ---- the built-in fading's draws -------------------------------------------------------
+
     def next_scattered(self, steps: int) -> FloatArray:
         """The scattered parts s (steps, 2, B, U, N), real and imaginary, of the built-in
         fading (docs/model.md §11) of the next ``steps`` steps, drawn here as those steps
@@ -598,10 +624,9 @@ class NetworkBatch:
         that stand."""
         if self._small_scale is None:
             raise ValueError("the scenario has no built-in fading (channel.fading.model)")
-        rng = self.rngs if self.rngs is not None else self.rng
         shape = (2, self.num_envs, self.num_uavs, self.num_users)
-        return np.stack([np.array(self._small_scale.scattered(rng), dtype=np.float64
-                                    ).reshape(shape) for _ in range(steps)])
+        return np.stack([np.array(self._small_scale.scattered(self._generators),
+                                  dtype=np.float64).reshape(shape) for _ in range(steps)])
 
     def step_scattered(self) -> FloatArray:
         """The scattered parts s (2, B, U, N), real and imaginary, of the built-in fading at
@@ -611,14 +636,6 @@ class NetworkBatch:
             raise ValueError("no step has drawn the built-in fading (channel.fading.model)")
         return np.array(self._small_scale.last, dtype=np.float64).reshape(
             2, self.num_envs, self.num_uavs, self.num_users)
-
-    def _held(self, uav_m: FloatArray, alpha_first: FloatArray, users_m: FloatArray, t: int
-              ) -> NetworkState:
-        """The network in the state of the given configuration, users and step count."""
-        self.sim_state = SimState.of(self._per_uav(uav_m, 3),
-                                     self._per_uav(alpha_first, self.num_clusters), users_m, t)
-        self.state = self._evaluate(self.sim_state)
-        return self.state
 
     # ---- stages 3-8: the network at a state --------------------------------------------------
 
@@ -633,11 +650,13 @@ class NetworkBatch:
         assert self._repeated is not None
         return self._repeated
 
-    def _evaluate(self, state: SimState, energy_j: FloatArray | None = None) -> NetworkState:
-        """Stages 3-8 at ``state`` after a step of energy ``energy_j`` (None: hovering):
-        geometry, channel, interference, SIC order, SINR and rates (eqs. 2-3, docs/model.md
-        §9), eq. 9 over all users and eq. 13 (with its energy term where ``reward.w_energy``
-        is set); also sets ``_obs``."""
+    def _evaluate(self, state: SimState, energy_j: FloatArray | None = None,
+                  draws: Generators | None = None) -> NetworkState:
+        """Stages 3-8 at ``state`` after a step of energy ``energy_j`` (None: hovering), LoS
+        and fading drawn from ``draws`` (None: the network's generators): geometry, channel,
+        interference, SIC order, SINR and rates (eqs. 2-3, docs/model.md §9), eq. 9 over all
+        users and eq. 13 (with its energy term where ``reward.w_energy`` is set); also sets
+        ``_obs``."""
         config, users_m = state.config, state.users_m
         uav_m = config[..., :3]
         # stage 3: every link's UAV x, y, h (3, B*U, N) in one take; the offsets
@@ -645,7 +664,7 @@ class NetworkBatch:
         link_uav_m = config.take(self._link_source)
         repeated_m, repeated_xy = self._repeated_users(users_m)
         features = (np.empty((FEATURES_PER_USER, *link_uav_m.shape[1:]))
-                    if self._one_in_order else None)
+                    if self._paper_observation else None)
         offsets_m = np.subtract(link_uav_m[:2], repeated_xy,
                                 out=None if features is None else features[:2])
         geometry = offsets_geometry(offsets_m, link_uav_m[2], self._link_user_height_m,
@@ -656,8 +675,9 @@ class NetworkBatch:
         if self._blockage is not None:
             geometry = geometry.with_los(self._blockage.los(uav_m, users_m).reshape(
                 geometry.shape))
-        gains, los, p_los = link_gains(self.channel, self._los_mode, geometry,
-                                       self.rngs if self.rngs is not None else self.rng,
+        if draws is None:
+            draws = self.rngs if self.rngs is not None else self.rng
+        gains, los, p_los = link_gains(self.channel, self._los_mode, geometry, draws,
                                        num_uavs=self.num_uavs, fading=self._fading,
                                        small_scale=self._small_scale)
         if self.num_uavs == 1:    # the only link of every user is its serving link
@@ -724,28 +744,18 @@ class NetworkBatch:
     def _observe(self, config: FloatArray, users_m: FloatArray, alpha: FloatArray,
                  gain: FloatArray, interference: FloatArray,
                  features: FloatArray | None = None) -> NDArray[np.float32]:
-        """Stage 8: the observations (B, size), users in observation order; ``features``
-        (4, B, N) the paper's features for one UAV in listed order, whose first three rows
-        the earlier stages filled (offsets and shares)."""
+        """Stage 8: the observations (B, size) the agent's view takes, users as listed;
+        ``features`` (4, B, N) the paper's features for one UAV, whose first three rows the
+        earlier stages filled (offsets and shares)."""
         if features is not None:
             assert isinstance(self._observer, Observer)
-            return self._observer(features, gain, config[:, 0, 2])
-        observed = self._observed
-        uav_xy = config.take(self._observed_uav_xy)              # (2, B, N)
-        users = users_xy(users_m).reshape(2, -1).take(observed, axis=1)
-        alpha, gain = alpha.take(observed), gain.take(observed)
-        if self._paper_observation:
-            features = np.empty((FEATURES_PER_USER, *gain.shape))
-            np.subtract(uav_xy, users, out=features[:2])
-            features[2] = alpha
-            assert isinstance(self._observer, Observer)
-            return self._observer(features, gain, config[:, 0, 2])
-        assert isinstance(self._observer, MultiObserver)
-        network = self._observer.from_offsets(
-            uav_xy[0] - users[0], uav_xy[1] - users[1], config[..., :3], alpha, gain,
-            interference.take(observed))
-        return network if self._local_gather is None else local_view(network,
-                                                                     self._local_gather)
+            network = self._observer(features, gain, config[:, 0, 2])
+        else:
+            assert isinstance(self._observer, MultiObserver)
+            uav_xy, users = config.take(self._serving_xy), users_xy(users_m)   # (2, B, N)
+            network = self._observer.from_offsets(uav_xy[0] - users[0], uav_xy[1] - users[1],
+                                                  config[..., :3], alpha, gain, interference)
+        return network if self._view_flat is None else gathered(network, *self._view_flat)
 
     def observation(self) -> NDArray[np.float32]:
         """The observations of the last evaluated state (B, size), float32."""

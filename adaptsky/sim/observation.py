@@ -1,6 +1,7 @@
 """The observation stage (docs/environment.md). One UAV: the paper's layout (sec. IV-B.1,
-:class:`Observer`), below; several UAVs: :class:`MultiObserver`; every UAV's local part of
-it, for one agent per UAV: :class:`LocalObserver`.
+:class:`Observer`), below; several UAVs: :class:`MultiObserver`; users as the layout lists
+them. What the agent sees of it (the users' order, every UAV's local part, for one agent per
+UAV) is the adapter it picks (:class:`ObservationView`, :mod:`adaptsky.envs.observations`).
 
 Sec. IV-B.1: per user [dx_i, dy_i, alpha_i, g_i], then h (size 4 N + 1).
 
@@ -16,20 +17,21 @@ default they are scaled (``observation = "scaled"``):
 Relative positions make the features mean the same on every layout, so a policy trained on
 one layout can be evaluated on another.
 
-Users come in the order the layout lists them (``agent.user_order = "listed"``, the paper's),
-or cluster by cluster (``"clusters"``: cluster 1's first and second user, then cluster 2's...,
-the order of the actions' power components), so that a user's place in the observation tells
-its cluster and role on every layout (docs/agent.md).
+Users come in the order the layout lists them (the paper's); an agent with
+``agent.user_order = "clusters"`` sees them cluster by cluster through its adapter
+(:mod:`adaptsky.envs.observations`, docs/agent.md).
 """
 
 from __future__ import annotations
 
 import math
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from adaptsky.scenario.models import Scenario
+from adaptsky.sim.association import Association
 
 FloatArray = NDArray[np.float64]
 GAIN_DB_CENTER = -100.0
@@ -67,10 +69,12 @@ def local_observation_size(scenario: Scenario) -> int:
 
 class Observer:
     """Observations (B, 4 N + 1), float32, of one UAV (the paper's layout), for one scenario
-    and B environments of N users, with its constants prepared once."""
+    and B environments of N users, with its constants prepared once; ``scaled`` as below
+    (False: the paper's raw values)."""
 
-    def __init__(self, scenario: Scenario, shape: tuple[int, int]) -> None:
-        self.scaled = scenario.agent.observation == "scaled"
+    def __init__(self, scenario: Scenario, shape: tuple[int, int], scaled: bool = True
+                 ) -> None:
+        self.scaled = scaled
         self._size = observation_size(shape[1])
         # 0-d arrays: numpy combines them with an array faster than Python floats
         self._ten = np.array(10.0)
@@ -82,12 +86,11 @@ class Observer:
             FEATURES_PER_USER, *shape)
 
     def __call__(self, features: NDArray[np.float64], gain: NDArray[np.float64],
-                 height_m: NDArray[np.float64], order_flat: NDArray[np.intp] | None = None
-                 ) -> NDArray[np.float32]:
+                 height_m: NDArray[np.float64]) -> NDArray[np.float32]:
         """Observations (B, 4 N + 1) from ``features`` (4, B, N) whose first three rows hold
         x_UAV - x_i, y_UAV - y_i and alpha_i (the fourth is overwritten with g_i, then every
-        row scaled in place), the gains g_i (B, N) and the UAV heights (B,); ``order_flat``
-        (B N,) puts the users in observation order (flat positions b N + i; None: as listed).
+        row scaled in place), the gains g_i (B, N) and the UAV heights (B,), users as
+        listed.
 
         The features are computed in float64, then rounded to float32 in one copy.
         """
@@ -100,9 +103,6 @@ class Observer:
         else:
             features[3] = gain
         _, num_envs, num_users = features.shape
-        if order_flat is not None:
-            features = features.reshape(FEATURES_PER_USER, -1).take(order_flat, axis=1).reshape(
-                FEATURES_PER_USER, num_envs, num_users)
         obs = np.empty((num_envs, self._size), dtype=np.float32)
         obs[:, :-1].reshape(num_envs, num_users, FEATURES_PER_USER)[...] = features.transpose(
             1, 2, 0)
@@ -176,10 +176,10 @@ class MultiObserver:
     alpha_i, g_{u,i}, I_i], then every UAV's [x_u, y_u, h_u]. Scaled as for one UAV: offsets
     and UAV coordinates over L/2, h over h_max, the serving gain as (10 log10 g + 100) / 20,
     the interference as 10 log10(1 + I_i / sigma^2) / 20 (0 without interference); ``"raw"``
-    gives m, 1, the linear gain and I_i / sigma^2."""
+    gives m, 1, the linear gain and I_i / sigma^2 (``scaled`` False)."""
 
-    def __init__(self, scenario: Scenario) -> None:
-        self.scaled = scenario.agent.observation == "scaled"
+    def __init__(self, scenario: Scenario, scaled: bool = True) -> None:
+        self.scaled = scaled
         self.half_side_m = scenario.area.side_m / 2
         self.max_height_m = scenario.uav.max_height_m
         self.noise_w = scenario.radio.noise_w
@@ -260,78 +260,36 @@ def multi_observation_bounds(scenario: Scenario, gains: tuple[float, float] | No
     return _float32_outward(low, -np.inf), _float32_outward(high, np.inf)
 
 
-class LocalObserver:
-    """Every UAV's local observation (B, U, 5 S + 3 U), float32 (docs/environment.md, "Local
-    observations"; docs/model.md §9): the part of the several-UAV observation
-    (:class:`MultiObserver`, with its scaling) that UAV u sees.
+class ObservationView(Protocol):
+    """What an agent sees of the network's observation (B, size), users as listed: the
+    adapter its settings pick (:class:`adaptsky.envs.observations.AgentView`: scaled or raw
+    values, the users' order, every UAV's local part), given to the simulator, which reads
+    no agent setting. ``gather`` is called once per association: where every component of
+    the agent's observation (B, W) comes from in the network's with a zero appended
+    (position ``size``), or None where the agent sees the network's as it is."""
 
-    First S = 2 K_max user slots, its own users in observation order (``agent.user_order``),
-    each [x_u - x_i, y_u - y_i, alpha_i, g_{u,i}, I_i]; a UAV with fewer users (K_u < K_max)
-    has its last slots padded with zeros, so that every agent's observation has one size (one
-    actor shared by the UAVs); a padded slot has alpha = 0, which no user has. Then its own
-    [x_u, y_u, h_u] and the other UAVs' in UAV order.
-    """
+    scaled: bool
 
-    def __init__(self, scenario: Scenario) -> None:
-        self._observer = MultiObserver(scenario)
-        self.num_slots = 2 * scenario.clusters_per_uav
-        self.num_uavs = scenario.uav.count
-
-    def __call__(self, uav_m: FloatArray, users_m: FloatArray, serving_uav: NDArray[np.intp],
-                 alpha: FloatArray, gain: FloatArray, interference_w: FloatArray,
-                 order: NDArray[np.intp] | None = None) -> NDArray[np.float32]:
-        """From the arrays :class:`MultiObserver` takes (users as listed, ``order`` (B, N)
-        the observation order, None: as listed)."""
-        network = self._observer(uav_m, users_m, serving_uav, alpha, gain, interference_w,
-                                 order)
-        if order is not None:
-            serving_uav = np.take_along_axis(serving_uav, order, axis=1)
-        gather = local_gather(serving_uav, self.num_uavs, self.num_slots)
-        return local_view(network, gather).reshape(len(network), self.num_uavs, -1)
+    def gather(self, association: Association) -> NDArray[np.intp] | None: ...
 
 
-def local_gather(serving_uav: NDArray[np.intp], num_uavs: int, num_slots: int
-                 ) -> NDArray[np.intp]:
-    """Where every component of every UAV's local observation (B, U L) comes from in the
-    network's observation (:class:`MultiObserver`, B, 5 N + 3 U) with a zero appended
-    (position 5 N + 3 U: the padded slots), from every user's serving UAV (B, N) in
-    observation order (:class:`LocalObserver`'s layout)."""
-    num_envs, num_users = serving_uav.shape
-    width = MULTI_FEATURES_PER_USER * num_users
-    zero = width + FEATURES_PER_UAV * num_uavs
-    slots = _user_slots(serving_uav, num_uavs, num_slots)                  # (B, U, S)
-    feature = np.arange(MULTI_FEATURES_PER_USER)
-    users = np.where(slots[..., None] < num_users,
-                     MULTI_FEATURES_PER_USER * slots[..., None] + feature, zero)   # (B, U, S, 5)
-    rows = np.array([[u, *(v for v in range(num_uavs) if v != u)] for u in range(num_uavs)],
-                    dtype=np.intp)          # row u: UAV u, then the others in UAV order
-    uavs = width + FEATURES_PER_UAV * rows[..., None] + np.arange(FEATURES_PER_UAV)  # (U, U, 3)
-    uavs = np.broadcast_to(uavs.reshape(num_uavs, -1), (num_envs, num_uavs, uavs[0].size))
-    return np.concatenate([users.reshape(num_envs, num_uavs, -1), uavs],
-                          axis=-1).reshape(num_envs, -1)
+def flat_gather(gather: NDArray[np.intp], size: int) -> tuple[NDArray[np.intp], bool]:
+    """:meth:`ObservationView.gather`'s positions (B, W) as flat positions for one ``take``
+    from the network's observations (B, size), and whether they need the zero appended
+    (then flat positions in (B, size + 1))."""
+    padded = bool((gather == size).any())
+    return gather + (size + padded) * np.arange(len(gather))[:, None], padded
 
 
-def local_view(network: NDArray[np.float32], gather: NDArray[np.intp]) -> NDArray[np.float32]:
-    """Every UAV's local observation (B, U L) from the network's (B, 5 N + 3 U) and
-    :func:`local_gather`'s positions: the same float32 values, copied."""
-    padded = np.zeros((len(network), network.shape[1] + 1), dtype=np.float32)
-    padded[:, :-1] = network
-    return np.take_along_axis(padded, gather, axis=1)
-
-
-def _user_slots(serving_uav: NDArray[np.intp], num_uavs: int, num_slots: int
-                ) -> NDArray[np.intp]:
-    """The users (B, U, S) of every UAV's slots: positions in ``serving_uav`` (B, N), in its
-    order, N for a padded slot."""
-    num_users = serving_uav.shape[1]
-    by_uav = np.argsort(serving_uav, axis=1, kind="stable")      # UAV 0's users, then 1's...
-    counts = np.stack([np.count_nonzero(serving_uav == u, axis=1) for u in range(num_uavs)],
-                      axis=1)                                     # (B, U)
-    slot = np.arange(num_slots)
-    first = np.cumsum(counts, axis=1) - counts
-    position = np.minimum(first[..., None] + slot, num_users - 1)
-    users = np.take_along_axis(by_uav, position.reshape(len(by_uav), -1), axis=1)
-    return np.where(slot < counts[..., None], users.reshape(position.shape), num_users)
+def gathered(network: NDArray[np.float32], flat: NDArray[np.intp], padded: bool
+             ) -> NDArray[np.float32]:
+    """The agent's observations (B, W) from the network's (B, size) and
+    :func:`flat_gather`'s positions: the same float32 values, copied."""
+    if padded:
+        zero = np.zeros((len(network), network.shape[1] + 1), dtype=np.float32)
+        zero[:, :-1] = network
+        network = zero
+    return network.take(flat)
 
 
 def local_observation_bounds(scenario: Scenario, gains: tuple[float, float] | None = None

@@ -20,8 +20,8 @@ eval`` on one layout. Two evaluations then differ only by their policies, and no
 an evaluation needs a checkpoint.
 
 Where the users move (docs/model.md §3) there is no oracle of a layout; each evaluation then
-also flies the tracking baseline (docs/evaluation.md) through the same draws (a twin of each
-environment, seeded alike: the same user moves, LoS draws and fading), and stores its steady
+also flies the tracking baseline (docs/evaluation.md) through the same draws (on the same
+environments, re-seeded alike: the same user moves, LoS draws and fading), and stores its steady
 sum rate beside the policy's (the same at every evaluation). The per-step oracle, 100
 searches a layout per evaluation, is left to ``adaptsky eval`` and ``baseline``.
 
@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from adaptsky.envs.observations import AgentView
 from adaptsky.errors import AdaptskyError
 from adaptsky.progress import Reporter, Silent, Tick, WorkProgress
 from adaptsky.references.reference import Reference
@@ -246,8 +247,8 @@ class GreedyEvaluator:
     """Greedy rollouts of a stack on the members' :class:`EvaluationSet` s, which share their
     layouts (a stack's members share everything but ``reward`` and ``train``) and may differ
     in their oracles (``reward.min_se``); ``greedy`` maps observations (S, n, obs) to
-    actions (S, n). Where the users move, each environment has a twin that flies the
-    tracking baseline through the same draws (module docstring)."""
+    actions (S, n). Where the users move, each environment also flies the tracking
+    baseline, re-seeded alike: the same draws (module docstring)."""
 
     def __init__(self, evaluations: list[EvaluationSet], steps: int) -> None:
         self.evaluations, self.members, self.steps = evaluations, len(evaluations), steps
@@ -256,23 +257,24 @@ class GreedyEvaluator:
         self.seeds = [evaluation_seeds(len(group.layouts_m)) * self.members for group in groups]
         self.envs = [self._env(group, seeds) for group, seeds in zip(groups, self.seeds,
                                                                      strict=True)]
-        self.twins = [self._env(group, seeds) if users_move(group.scenario) else None
-                      for group, seeds in zip(groups, self.seeds, strict=True)]
+        # which groups also fly the tracking baseline: where the users move
+        self.tracks = [users_move(group.scenario) for group in groups]
 
     def _env(self, group: LayoutGroup, seeds: list[np.random.SeedSequence]) -> NetworkBatch:
         return NetworkBatch(group.scenario, num_envs=self.members * len(group.layouts_m),
-                            seed=seeds, users_m=np.concatenate([group.layouts_m] * self.members))
+                            seed=seeds, users_m=np.concatenate([group.layouts_m] * self.members),
+                            view=AgentView.of(group.scenario))
 
     def run(self, greedy: object) -> list[dict[str, float]]:
         """One evaluation: per member its row of :data:`COLUMNS` (without ``episode``)."""
         results: list[dict[str, float]] = [{} for _ in range(self.members)]
-        for index, (env, twin, seeds) in enumerate(zip(self.envs, self.twins, self.seeds,
-                                                       strict=True)):
+        for index, (env, seeds, tracks) in enumerate(zip(self.envs, self.seeds, self.tracks,
+                                                         strict=True)):
             rates = self._rollout(env, seeds, greedy)  # (steady steps, S, L, N)
             steady = _per_member(rates, _steady_sum_bps)  # (S, L)
             fairness = _per_member(rates, lambda each: jain_fairness(each).mean(axis=0))
-            tracking = (np.full_like(steady, np.nan) if twin is None
-                        else _per_member(self._tracking(twin, seeds), _steady_sum_bps))
+            tracking = (_per_member(self._tracking(env, seeds), _steady_sum_bps) if tracks
+                        else np.full_like(steady, np.nan))
             for member, (row, evaluation) in enumerate(zip(results, self.evaluations,
                                                            strict=True)):
                 group = evaluation.groups[index]
@@ -304,11 +306,12 @@ class GreedyEvaluator:
             return env.step(actions.reshape(env.num_envs, *actions.shape[2:]))
         return self._steady(env, seeds, step)
 
-    def _tracking(self, twin: NetworkBatch, seeds: list[np.random.SeedSequence]
+    def _tracking(self, env: NetworkBatch, seeds: list[np.random.SeedSequence]
                   ) -> FloatArray:
-        """Rates (K, S, L, N) of the tracking baseline's last K steps on ``twin``."""
-        return self._steady(twin, seeds, lambda _: (None, None, None,
-                                                    twin.fly_step(*tracking_target(twin))))
+        """Rates (K, S, L, N) of the tracking baseline's last K steps on ``env``, re-seeded
+        from ``seeds`` as the policy's rollout was: the same draws."""
+        return self._steady(env, seeds, lambda _: (None, None, None,
+                                                   env.fly_step(*tracking_target(env))))
 
     def _steady(self, env: NetworkBatch, seeds: list[np.random.SeedSequence], step: object
                 ) -> FloatArray:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import functools
 import json
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -26,11 +27,12 @@ from typing import Any
 import numpy as np
 import torch
 
+from adaptsky.algos.protocol import EpsilonGreedy
 from adaptsky.algos.registry import algorithm_of
 from adaptsky.arrays import Tree
+from adaptsky.envs.observations import AgentView
 from adaptsky.errors import NonFiniteError
 from adaptsky.rollouts.metrics import service_metrics
-from adaptsky.scenario.agents import BdqAgent, MappoAgent
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.energy import episode_energy
 from adaptsky.sim.lattice import exploring_positions, exploring_shares
@@ -126,7 +128,8 @@ class StackRun:
                                  weights=[reward_weights(m.scenario) for m in members
                                           for _ in range(envs)],
                                  users_m=np.tile(user_layouts(scenario, envs),
-                                                 (len(members), 1, 1)))
+                                                 (len(members), 1, 1)),
+                                 view=AgentView.of(scenario))
         self.rngs = [np.random.default_rng([s, 1]) for s in seeds]
         controls = self.env.controls
         self.algorithm = spec.build(
@@ -150,9 +153,7 @@ class StackRun:
         # of the BDQ, MAPPO and IPPO with several UAVs)
         split = None
         if algorithm.reward_parts > 1:
-            agent = self.scenario.agent
-            assert isinstance(agent, BdqAgent | MappoAgent)
-            split = functools.partial(self.env.reward_parts, split=agent.reward_split)
+            split = functools.partial(self.env.reward_parts, split=algorithm.reward_split)
         algorithm.begin_episode(start)
         if self.scenario.users.placement == "fresh":
             self.env.set_layouts(np.repeat(episode_layouts(
@@ -164,8 +165,7 @@ class StackRun:
                 actions = algorithm.act(obs, start + tau)
                 next_obs, reward, _, state = self.env.step(actions)
                 algorithm.observe(obs, actions, reward if split is None else split(state),
-                                  next_obs)
-                algorithm.update()
+                                  next_obs)  # off-policy: stored, and learnt from
                 states.append(state)
                 users.append(self.env.users_m)
                 rewards.append(reward)
@@ -184,11 +184,12 @@ class StackRun:
         stats = algorithm.take_stats()
         entropy = stats.get("entropy", np.full(len(self.members), np.nan))
         evaluations = self._evaluate()
+        eps = algorithm.epsilon if isinstance(algorithm, EpsilonGreedy) else math.nan
         envs = self.envs
         return [replace(self._result([{name: values[:, index * envs + e]
                                        for name, values in trajectory.items()}
                                       for e in range(envs)],
-                                     algorithm.epsilon, losses[index], float(entropy[index]),
+                                     eps, losses[index], float(entropy[index]),
                                      evaluations[index]),
                         stats={name: float(values[index]) for name, values in stats.items()})
                 for index in range(len(self.members))]

@@ -1,12 +1,9 @@
-"""Run files compared array by array, a run killed after a checkpoint and resumed, and a small
-PPO scenario: the learners' bit-for-bit tests (tests/unit/algos) and the logs' tests."""
+"""A small PPO scenario, a run killed after a checkpoint, and run files compared dataset by
+dataset and attribute by attribute: the learners' contract (tests/contract/test_learners.py),
+their own tests (tests/unit/algos) and the logs' tests."""
 
 from __future__ import annotations
 
-import signal
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import h5py
@@ -14,11 +11,7 @@ import numpy as np
 
 from adaptsky.scenario import load_scenario
 from adaptsky.scenario.toml_writer import dumps
-from adaptsky.store.run_file import RunReader
-from adaptsky_cli.cli.main import main
 from tests.conftest import SCENARIOS
-
-ADAPTSKY = Path(sys.executable).with_name("adaptsky")
 
 PPO = {"algorithm": "ppo", "hidden_sizes": [16, 16], "envs_per_seed": 2, "minibatches": 2,
        "epochs": 2}
@@ -39,44 +32,54 @@ def ppo_scenario(tmp_path: Path, name: str = "ppo", episodes: int = 12, **change
     return path
 
 
-def _arrays(path: Path) -> dict[str, np.ndarray]:
-    """Every array of every seed of a run file (curves, evaluations, trajectory, checkpoint
-    with its best policy), by path."""
-    found: dict[str, np.ndarray] = {}
+# trains as `adaptsky train` does in one process, and kills that process with SIGKILL as soon
+# as the checkpoint of episode argv[1] is in the run file
+KILL_AFTER_CHECKPOINT = """
+import os, signal, sys
+from adaptsky.store import run_file
+write = run_file.append_checkpoints
+def write_then_die(path, items):
+    write(path, items)
+    if min(item.episode for item in items) >= int(sys.argv[1]):
+        os.kill(os.getpid(), signal.SIGKILL)
+run_file.append_checkpoints = write_then_die
+from adaptsky_cli.cli.main import main
+sys.exit(main(sys.argv[2:]))
+"""
+# what differs between any two runs, by design: the command that made the file, when, and the
+# log of the commands that wrote it (times, command lines, episodes before and after)
+VARYING = {"/@command_line", "/@created_utc", "sessions"}
+
+
+def file_contents(path: Path) -> dict[str, object]:
+    """Every dataset's value and every attribute (``name@attribute``) of the file at
+    ``path`` but :data:`VARYING`."""
+    found: dict[str, object] = {}
     with h5py.File(path) as f:
-        def visit(name: str, node: object) -> None:
+        def visit(name: str, node: h5py.Group | h5py.Dataset) -> None:
+            if name in VARYING:
+                return
+            found.update({f"{name}@{key}": value for key, value in node.attrs.items()
+                          if f"{name}@{key}" not in VARYING})
             if isinstance(node, h5py.Dataset):
                 found[name] = node[()]
-        f["seeds"].visititems(visit)
+        visit("/", f)
+        f.visititems(visit)
     return found
 
 
-def _assert_same_arrays(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> None:
-    assert a.keys() == b.keys()
-    for name in a:
-        assert np.array_equal(a[name], b[name], equal_nan=True), name
+def assert_same_files(got: dict[str, object], expected: dict[str, object]) -> None:
+    """Two :func:`file_contents` (or parts of them): the same names, each value of the same
+    dtype and shape and equal bit for bit (NaN equal to NaN)."""
+    assert got.keys() == expected.keys(), sorted(got.keys() ^ expected.keys())
+    different = [name for name in got if not _equal(got[name], expected[name])]
+    assert not different, different
 
 
-def _killed_and_resumed(tmp_path: Path, scenario_path: Path, episodes: int = 12) -> Path:
-    out = tmp_path / "killed.h5"
-    process = subprocess.Popen(
-        [str(ADAPTSKY), "train", str(scenario_path), "--seeds", "0,1", "--workers", "1",
-         "--out", str(out), "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    deadline = time.monotonic() + 120
-    while True:
-        try:
-            with RunReader(out) as run:
-                if min(run.seed_attrs(s)["episodes_done"] for s in run.seeds) >= 3:
-                    break
-        except Exception:
-            pass
-        assert process.poll() is None, process.communicate()
-        assert time.monotonic() < deadline
-        time.sleep(0.05)
-    process.send_signal(signal.SIGKILL)
-    process.wait()
-    with RunReader(out) as run:
-        done = run.seed_attrs(0)["episodes_done"]
-    assert 3 <= done < episodes and done % 3 == 0
-    assert main(["train", "--resume", str(out), "--workers", "2", "--quiet"]) == 0
-    return out
+def _equal(a: object, b: object) -> bool:
+    a, b = np.asarray(a), np.asarray(b)
+    if a.dtype != b.dtype or a.shape != b.shape:
+        return False
+    if a.dtype.kind in "fc":
+        return bool(np.array_equal(a, b, equal_nan=True))
+    return bool(np.array_equal(a, b))

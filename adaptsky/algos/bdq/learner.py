@@ -1,4 +1,4 @@
-"""The BDQ as an :class:`~adaptsky.algos.protocol.Algorithm`: the DQN's learner (epsilon-greedy
+"""The BDQ as an off-policy learner: the DQN's learner (epsilon-greedy
 actions, n-step rows into the replay memories, a TD update per step, target copies) over
 branching networks. Exploring draws a dense action uniformly, that is every branch's sub-action
 uniformly; the replay stores the sub-action of every branch."""
@@ -25,6 +25,7 @@ class BdqLearner(DqnLearner):
         self.action_set = action_set
         super().__init__(config, observation_size, action_set.count, seeds, rngs, device,
                          graphs)
+        self.reward_split = config.reward_split
 
     def _networks(self, observation_size: int, seeds: list[int], device: Any) -> StackedBdq:
         config: DqnAgent | BdqAgent = self.config

@@ -9,8 +9,9 @@ from typing import Any, ClassVar
 
 from adaptsky.algos.bdq.groups import value_groups
 from adaptsky.algos.dqn.parameters import network_shapes
-from adaptsky.algos.dqn.spec import ADAM_STATE, REPLAY, DqnSpec, replay_network_parts
+from adaptsky.algos.dqn.spec import ADAM_STATE, DqnSpec
 from adaptsky.algos.protocol import Algorithm, Policy
+from adaptsky.algos.shared.checkpoint import REPLAY, replay_network_parts
 from adaptsky.arrays import Field, Tree
 from adaptsky.scenario.agents import BdqAgent
 from adaptsky.scenario.models import Scenario

@@ -54,7 +54,6 @@ class DeviceStep:
 
     def update(self, index: np.ndarray) -> None:
         """One update of every member on the memory rows at ``index`` (S, B)."""
-        self.agent.updates += 1
         if not self.graphs:
             self.index.copy_(torch.from_numpy(index))
             self._update_body()

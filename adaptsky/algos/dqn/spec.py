@@ -4,26 +4,24 @@ a greedy policy, which import torch only when called."""
 
 from __future__ import annotations
 
-from itertools import pairwise
 from typing import Any, ClassVar
 
 from adaptsky.algos.dqn.parameters import network_shapes
 from adaptsky.algos.protocol import Algorithm, LayoutCheck, Node, Policy
+from adaptsky.algos.shared.checkpoint import (
+    FLOAT32,
+    REPLAY,
+    check_replay,
+    check_weights,
+    replay_network_parts,
+    replay_rows,
+)
 from adaptsky.arrays import Field, Tree
 from adaptsky.scenario.agents import DqnAgent
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.actions import DENSE_MODES, ActionSet, count_estimate
 from adaptsky.sim.observation import observation_size_of
 
-FLOAT32 = 4
-# /seeds/<S>/checkpoint/replay/: R rows in storage order, attr position
-REPLAY = (
-    Field("observations", "float", ("R", "O")),
-    Field("actions", "int", ("R",)),
-    Field("rewards", "float", ("R",)),
-    Field("next_observations", "float", ("R", "O")),
-    Field("terminated", "bool", ("R",)),
-)
 # /seeds/<S>/checkpoint/agent/optimizer/state/<i>/ for the i-th network parameter P_i
 ADAM_STATE = (Field("step", "float", ()), Field("exp_avg", "float", ("P",)),
               Field("exp_avg_sq", "float", ("P",)))
@@ -41,36 +39,6 @@ def network(scenario: Scenario) -> dict[str, tuple[int, ...]]:
     actions = ActionSet.of(scenario).count
     return network_shapes(observation_size_of(scenario), actions, agent.hidden_sizes,
                           agent.dueling)
-
-
-def replay_rows(scenario: Scenario, episodes: int) -> tuple[int, int]:
-    """Rows held and write position after ``episodes`` episodes of T steps (the replay of
-    every algorithm that keeps the DQN's memory)."""
-    agent = scenario.agent  # an n-step run stores T - (n - 1) rows per episode
-    added = episodes * max(0, scenario.train.steps - agent.n_step + 1)
-    capacity = agent.memory_size
-    return min(added, capacity), added % capacity
-
-
-def replay_network_parts(scenario: Scenario, seeds: int, workers: int, head: float,
-                         action_columns: int) -> dict[str, float]:
-    """Bytes of a stacked Q-network learner with ``head`` outputs: replay (M rows of 2 obs + 2
-    + ``action_columns`` float32, and a member's copy at a checkpoint, pickled to the writer
-    when apart); networks and optimizer (policy, target, gradients, two Adam moments, and a
-    checkpoint's copies); every layer's output for a batch, forward and backward."""
-    agent = scenario.agent
-    obs = observation_size_of(scenario)
-    sizes = [obs, *agent.hidden_sizes]
-    params = float(sum((a + 1) * b for a, b in pairwise(sizes)))
-    params += (sizes[-1] + 1) * head
-    replay_row = (2 * obs + 2 + action_columns) * FLOAT32
-    hidden = float(sum(agent.hidden_sizes))
-    return {
-        "replay": (seeds + (3 if workers > 1 else 1)) * agent.memory_size * replay_row,
-        "networks and optimizer": (5 * seeds + 2 * seeds + 8) * params * FLOAT32,
-        "batch activations": seeds * agent.batch_size * (4 * (obs + hidden) + 8 * head)
-        * FLOAT32,
-    }
 
 
 class DqnSpec:
@@ -112,16 +80,9 @@ class DqnSpec:
         """The sizes the replay's fields name, but R."""
         return {"O": observation_size_of(scenario)}
 
-    @staticmethod
-    def _weights(check: LayoutCheck, group: Node, shapes: dict[str, tuple[int, ...]]) -> None:
-        """A group of network weights: every parameter of ``shapes``, nothing else."""
-        check.exact_members(group, shapes)
-        for param, shape in shapes.items():
-            check.dataset(group, Field(param, "float", ()), {}, shape)
-
     def check_policy(self, check: LayoutCheck, group: Node, scenario: Scenario) -> None:
         """A stored policy network: every parameter of :meth:`network`, nothing else."""
-        self._weights(check, group, self.network(scenario))
+        check_weights(check, group, self.network(scenario))
 
     def check_checkpoint(self, check: LayoutCheck, group: Node, scenario: Scenario,
                          episodes_done: int) -> None:
@@ -130,8 +91,8 @@ class DqnSpec:
         check.exact_members(agent, ("policy", "target", "optimizer"), extra_ok=("torch_rng",))
         shapes = self.network(scenario)
         for name in ("policy", "target"):
-            self._weights(check, check.group(agent, name), shapes)
-        rows, position = replay_rows(scenario, episodes_done)
+            check_weights(check, check.group(agent, name), shapes)
+        rows, _ = replay_rows(scenario, episodes_done, scenario.agent.n_step)
         optimizer = check.group(agent, "optimizer")
         check.attr(optimizer, "param_groups_json", "json")
         check.exact_members(optimizer, ("state",))
@@ -144,17 +105,8 @@ class DqnSpec:
                 check.exact_members(moments, [field.name for field in ADAM_STATE])
                 for field in ADAM_STATE:
                     check.dataset(moments, field, {}, shape if field.shape else ())
-        replay = check.group(group, "replay")
-        stored_position = check.attr(replay, "position", "int")
-        if stored_position != position:
-            check.fail(f"{replay.name}/@position", f"is {stored_position}",
-                       f"{position} after {episodes_done} episodes of "
-                       f"{scenario.train.steps} steps")
-        fields = self.replay_fields_of(scenario)
-        check.exact_members(replay, [field.name for field in fields])
-        symbols = {**self.replay_symbols(scenario), "R": rows}
-        for field in fields:
-            check.dataset(replay, field, symbols)
+        check_replay(check, group, scenario, episodes_done, self.replay_fields_of(scenario),
+                     self.replay_symbols(scenario), scenario.agent.n_step)
 
     def policy_of(self, checkpoint: Tree) -> Tree:
         return checkpoint["agent"]["policy"]

@@ -1,12 +1,13 @@
 """The DQN of algorithm 1 for a stack of S independent members (seeds) at once.
 
 Every member has its own weights, target weights and Adam moments; they live in flat buffers
-with a leading member axis, (S, P), so one batched matmul serves every member and Adam
-(elementwise) updates each member exactly as if it were alone. Members are in lockstep, so
-Adam's step count is one number. The TD update of eq. 12 is written out by hand (forward,
-backward, Adam, per-member gradient clipping): no autograd graph per step, a few dozen kernels,
-the same code on a CPU and on a GPU, where :class:`adaptsky.algos.device_step.Graphed`
-records it once and replays it.
+with a leading member axis, (S, P) (:class:`~adaptsky.algos.shared.stacked.StackedParameters`,
+the layers ``layer.<i>`` with the dueling head's V and A as one layer), so one batched matmul
+serves every member and Adam (elementwise, the fused kernel) updates each member exactly as if
+it were alone. The TD update of eq. 12 is written out by hand (forward, backward, per-member
+gradient clipping, Adam): no autograd graph per step, a few dozen kernels, the same code on a
+CPU and on a GPU, where :class:`adaptsky.algos.device_step.Graphed` records it once and
+replays it.
 
 Network (sec. IV-A): ReLU layers ``hidden_sizes``, then a dueling head Q = V + A - mean_a A
 (the mean per sample, docs/model.md §4; computed as [V | A] times a fixed matrix) or a plain
@@ -28,12 +29,8 @@ import torch
 from adaptsky.algos.dqn.forward import head_output
 from adaptsky.algos.dqn.network import QNetwork
 from adaptsky.algos.dqn.parameters import network_shapes
+from adaptsky.algos.shared.stacked import ADAM_BETAS, ADAM_EPS, StackedParameters
 from adaptsky.scenario.agents import BdqAgent, DqnAgent
-
-ADAM_BETAS = (0.9, 0.999)
-ADAM_EPS = 1e-8
-CLIP_EPS = 1e-6  # as torch.nn.utils.clip_grad_norm_
-ROW_MULTIPLE = 64
 
 
 @dataclass(frozen=True)
@@ -83,14 +80,6 @@ def _relu_host(x: np.ndarray) -> np.ndarray:
     return np.maximum(x, 0.0, out=x)
 
 
-def _views(flat: torch.Tensor, layers: list[Layer]) -> list[tuple[torch.Tensor, torch.Tensor]]:
-    """(weight (S, in, out), bias (S, 1, out)) views into a flat (S, P) buffer."""
-    stack = flat.shape[0]
-    return [(flat[:, layer.weight_at:layer.bias_at].view(stack, layer.size_in, layer.size_out),
-             flat[:, layer.bias_at:layer.end].view(stack, 1, layer.size_out))
-            for layer in layers]
-
-
 class StackedDqn:
     """Policy and target networks and Adam for S members on ``device``.
 
@@ -116,27 +105,26 @@ class StackedDqn:
                                  self.dueling, self.values)
         self.names = list(network_shapes(observation_size, num_actions,
                                          config.hidden_sizes, self.dueling, self.values))
-        # rows padded to whole vectors: elementwise kernels then treat every element alike,
-        # whatever the stack size (no scalar tail loop that rounds differently)
-        used = self.layers[-1].end
-        width = -(-used // ROW_MULTIPLE) * ROW_MULTIPLE
-        rows = [self._initial_row(seed, width) for seed in seeds]
-        self.params = torch.from_numpy(np.stack(rows)).to(self.device)
+        shapes = {f"layer.{index}.{kind}": shape for index, layer in enumerate(self.layers)
+                  for kind, shape in (("weight", (layer.size_out, layer.size_in)),
+                                      ("bias", (layer.size_out,)))}
+        self.net = StackedParameters(shapes, [self._initial_layers(seed) for seed in seeds],
+                                     ADAM_EPS, device, fused=True)
+        self.params, self.exp_avg, self.exp_avg_sq = (self.net.params, self.net.exp_avg,
+                                                      self.net.exp_avg_sq)
+        assert isinstance(self.net.step, torch.Tensor)
+        self.step = self.net.step  # Adam's, a device tensor: members are in lockstep
         self.target = self.params.clone()
         self.grads = torch.zeros_like(self.params)
-        self.exp_avg = torch.zeros_like(self.params)
-        self.exp_avg_sq = torch.zeros_like(self.params)
-        self._grad_padding = torch.zeros(self.size, width - used, device=self.device)
-        self.step = torch.zeros((), device=self.device)  # Adam's step: members are in lockstep
-        # a decaying learning rate lives in a tensor (a CUDA graph reads it at every replay)
+        self._grad_padding = torch.zeros(self.size, self.net.width - self.net.used,
+                                         device=self.device)
         self._lr: float | torch.Tensor = (config.lr if config.lr_end is None else
                                           torch.tensor(config.lr, device=self.device))
         self._discount = config.gamma ** config.n_step  # an n-step row bootstraps after n
+        # each member's summed loss, added by every update (learner.RunningMeans takes it)
         self.loss_sum = torch.zeros(self.size, dtype=torch.float64, device=self.device)
-        self.updates = 0  # updates since the last take_mean_loss(), the same for every member
-        assert self.params.shape == (self.size, width)
-        self._policy = _views(self.params, self.layers)
-        self._target = _views(self.target, self.layers)
+        self._policy = self.net.views("layer", self.params)
+        self._target = self.net.views("layer", self.target)
         # Q = [V | A] @ M: M[0, j] = 1, M[1 + k, j] = [k = j] - 1 / A (the dueling head as one
         # small matmul; its transpose carries the gradient back)
         self._dueling = self._head_matrix().to(self.device)
@@ -156,14 +144,12 @@ class StackedDqn:
         count = self.num_actions
         return torch.cat([torch.ones(1, count), torch.eye(count) - 1.0 / count])
 
-    def _initial_row(self, seed: int, width: int) -> np.ndarray:
+    def _initial_layers(self, seed: int) -> dict[str, np.ndarray]:
+        """The layers of ``QNetwork`` under ``torch.manual_seed(seed)``."""
         torch.manual_seed(seed)
         net = QNetwork(self.observation_size, self.num_actions, self.config.hidden_sizes,
                        self.dueling, self.values)
-        row = np.zeros(width, dtype=np.float32)
-        row[:self.layers[-1].end] = self.row_from_state(
-            {k: v.numpy() for k, v in net.state_dict().items()})
-        return row
+        return self._layer_arrays({k: v.numpy() for k, v in net.state_dict().items()})
 
     # ---- forward and greedy action ------------------------------------------------------
 
@@ -277,17 +263,8 @@ class StackedDqn:
         torch.cat([*reversed(pieces), self._grad_padding], dim=1, out=self.grads)
 
     def _adam(self) -> None:
-        """Adam (torch's fused kernel, elementwise: each member's step is its own), after
-        per-member gradient-norm clipping."""
-        config, grads = self.config, self.grads
-        if config.grad_clip_norm > 0:
-            norm = grads.norm(dim=1, keepdim=True)
-            grads.mul_((config.grad_clip_norm / (norm + CLIP_EPS)).clamp_(max=1.0))
-        self.step += 1
-        torch._fused_adam_([self.params], [grads], [self.exp_avg], [self.exp_avg_sq], [],
-                           [self.step], lr=self._lr, beta1=ADAM_BETAS[0],
-                           beta2=ADAM_BETAS[1], weight_decay=0.0, eps=ADAM_EPS,
-                           amsgrad=False, maximize=False)
+        """Per-member gradient-norm clipping, then Adam (the fused kernel)."""
+        self.net.apply_fused(self.grads, self._lr, self.config.grad_clip_norm)
 
     def learning_rate(self) -> float:
         """The learning rate of the next update (Adam's ``lr``)."""
@@ -311,39 +288,26 @@ class StackedDqn:
             index = torch.from_numpy(np.flatnonzero(members)).to(self.device)
             self.target.index_copy_(0, index, self.params.index_select(0, index))
 
-    def take_mean_loss(self) -> np.ndarray:
-        """Each member's mean loss since the last call (NaN without updates), then reset."""
-        updates, self.updates = self.updates, 0
-        if not updates:
-            return np.full(self.size, np.nan)
-        mean = (self.loss_sum / updates).cpu().numpy()
-        self.loss_sum.zero_()
-        return mean
-
     # ---- per-member state as plain arrays ------------------------------------------------
+
+    def _layer_arrays(self, state: dict[str, Any]) -> dict[str, np.ndarray]:
+        """The layers ``layer.<i>`` ((out, in) weights) from QNetwork-named arrays: the dueling
+        head's value and advantage as one layer, V first."""
+        pairs = [(state[w], state[b]) for w, b in zip(self.names[0::2], self.names[1::2],
+                                                      strict=True)]
+        if self.dueling:
+            (value_w, value_b), (adv_w, adv_b) = pairs[-2:]
+            pairs[-2:] = [(np.concatenate([value_w, adv_w]), np.concatenate([value_b, adv_b]))]
+        return {f"layer.{index}.{kind}": array for index, pair in enumerate(pairs)
+                for kind, array in zip(("weight", "bias"), pair, strict=True)}
 
     def row_from_state(self, state: dict[str, Any]) -> np.ndarray:
         """A flat row from QNetwork-named arrays ((out, in) weights)."""
-        row = np.empty(self.layers[-1].end, dtype=np.float32)
-        for layer, (weight, bias) in zip(self.layers, self._named_pairs(state), strict=True):
-            row[layer.weight_at:layer.bias_at] = np.asarray(weight, np.float32).T.ravel()
-            row[layer.bias_at:layer.end] = np.asarray(bias, np.float32)
-        return row
-
-    def _named_pairs(self, state: dict[str, Any]) -> list[tuple[np.ndarray, np.ndarray]]:
-        pairs = [(state[w], state[b]) for w, b in zip(self.names[0::2], self.names[1::2],
-                                                      strict=True)]
-        if self.dueling:  # value and advantage are one head here, V first
-            (value_w, value_b), (adv_w, adv_b) = pairs[-2:]
-            pairs[-2:] = [(np.concatenate([value_w, adv_w]), np.concatenate([value_b, adv_b]))]
-        return pairs
+        return self.net.row_from_named(self._layer_arrays(state))
 
     def state_from_row(self, row: np.ndarray) -> dict[str, np.ndarray]:
         """QNetwork-named arrays from a flat row (inverse of :meth:`row_from_state`)."""
-        arrays = []
-        for layer in self.layers:
-            weight = row[layer.weight_at:layer.bias_at].reshape(layer.size_in, layer.size_out)
-            arrays += [weight.T.copy(), row[layer.bias_at:layer.end].copy()]
+        arrays = list(self.net.named_from_row(row).values())
         if self.dueling:
             head_w, head_b = arrays[-2:]
             v = self.values

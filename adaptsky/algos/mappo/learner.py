@@ -1,4 +1,4 @@
-"""MAPPO and IPPO as an :class:`~adaptsky.algos.protocol.Algorithm`: PPO's learner
+"""MAPPO and IPPO as on-policy learners: PPO's learner
 (:mod:`adaptsky.algos.ppo.learner`, every detail the same) over U rows per environment, one per
 UAV (:mod:`adaptsky.algos.mappo.rows`): the rollout keeps every UAV's actor inputs, action,
 log pi, value and reward; GAE runs per UAV; the minibatches draw from all UAVs' rows, so the
@@ -13,7 +13,7 @@ import numpy as np
 
 from adaptsky.algos.mappo.rows import actor_rows, critic_rows, joint_actions
 from adaptsky.algos.ppo.learner import PpoLearner
-from adaptsky.algos.ppo.parameters import HeadShape
+from adaptsky.algos.shared.shapes import HeadShape
 from adaptsky.scenario.agents import MappoAgent
 
 
@@ -28,6 +28,7 @@ class MappoLearner(PpoLearner):
         self.agents, self.per_uav = num_uavs, per_uav
         self.centralised = config.algorithm == "mappo"
         self.reward_parts = 1 if config.reward_split == "team" else num_uavs
+        self.reward_split = config.reward_split
         super().__init__(config, head, actor_size, seeds, rngs, steps, episodes, device,
                          critic_size)
 

@@ -1,5 +1,5 @@
 """Environments onto agents and back, torch-free: every environment's observation holds the U
-local observations one after the other (B, U L) (``adaptsky.sim.observation.local_gather``);
+local observations one after the other (B, U L) (``adaptsky.envs.observations.local_gather``);
 the shared actor reads one row per UAV, its local observation and a one-hot UAV id (L + U);
 MAPPO's centralised critic reads every local observation and the id (U L + U); the UAVs' own
 actions make the environment's joint one (docs/agent.md, "MAPPO and IPPO")."""

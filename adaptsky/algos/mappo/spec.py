@@ -7,9 +7,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from adaptsky.algos.ppo.parameters import HeadShape
 from adaptsky.algos.ppo.spec import PpoSpec
 from adaptsky.algos.protocol import Algorithm, Policy
+from adaptsky.algos.shared.shapes import HeadShape
 from adaptsky.arrays import Tree
 from adaptsky.errors import ScenarioError
 from adaptsky.scenario.agents import MappoAgent
@@ -99,8 +99,8 @@ class MappoSpec(PpoSpec):
 
     def greedy_policy(self, scenario: Scenario, policy: Tree) -> Policy:
         from adaptsky.algos.mappo.rows import actor_rows, joint_actions
-        from adaptsky.algos.ppo.heads import ActionHead  # torch
         from adaptsky.algos.ppo.stacked import StackedActorCritic
+        from adaptsky.algos.shared.heads import ActionHead  # torch
 
         agent, (head, per_uav) = _config(scenario), uav_head(scenario)
         actor, critic = self.inputs(scenario)

@@ -7,13 +7,10 @@ from __future__ import annotations
 
 from typing import Any, ClassVar
 
-from adaptsky.algos.ppo.parameters import (
-    HeadShape,
-    critic_shapes,
-    parameter_count,
-    policy_shapes,
-)
+from adaptsky.algos.ppo.parameters import critic_shapes, policy_shapes
 from adaptsky.algos.protocol import Algorithm, LayoutCheck, Node, Policy
+from adaptsky.algos.shared.checkpoint import ADAM_STEP, FLOAT32, check_adam, check_weights
+from adaptsky.algos.shared.shapes import HeadShape, parameter_count
 from adaptsky.arrays import Field, Tree
 from adaptsky.errors import ScenarioError
 from adaptsky.scenario.agents import PpoAgent
@@ -21,27 +18,9 @@ from adaptsky.scenario.models import Scenario
 from adaptsky.sim.actions import DENSE_MODES, ActionSet
 from adaptsky.sim.observation import observation_size_of
 
-FLOAT32 = 4
-# /seeds/<S>/checkpoint/agent/optimizer/: Adam's step count and moments of every parameter
-ADAM_STEP = Field("step", "int", ())
 # /seeds/<S>/checkpoint/agent/reward_norm/: the running statistics of the return (norm_reward)
 REWARD_NORM = (Field("mean", "float", ()), Field("var", "float", ()),
                Field("count", "float", ()))
-
-
-def check_weights(check: LayoutCheck, group: Node, shapes: dict[str, tuple[int, ...]]) -> None:
-    """A group of torch-named parameters: every one of ``shapes``, nothing else."""
-    check.exact_members(group, shapes)
-    for param, shape in shapes.items():
-        check.dataset(group, Field(param, "float", ()), {}, shape)
-
-
-def check_adam(check: LayoutCheck, group: Node, shapes: dict[str, tuple[int, ...]]) -> None:
-    """Adam's state of parameters ``shapes``: ``step``, ``exp_avg`` and ``exp_avg_sq``."""
-    check.exact_members(group, ("step", "exp_avg", "exp_avg_sq"))
-    check.dataset(group, ADAM_STEP, {})
-    for name in ("exp_avg", "exp_avg_sq"):
-        check_weights(check, check.group(group, name), shapes)
 
 
 def _config(scenario: Scenario) -> PpoAgent:
@@ -175,8 +154,8 @@ class PpoSpec:
                           rngs, train.steps, train.episodes, device)  # type: ignore[return-value]
 
     def greedy_policy(self, scenario: Scenario, policy: Tree) -> Policy:
-        from adaptsky.algos.ppo.heads import ActionHead  # torch
         from adaptsky.algos.ppo.stacked import StackedActorCritic
+        from adaptsky.algos.shared.heads import ActionHead  # torch
 
         agent, head = _config(scenario), head_of(scenario)
         net = StackedActorCritic(observation_size_of(scenario), agent.hidden_sizes, head,

@@ -1,5 +1,5 @@
 """PPO's actor and critic for a stack of S members, in one flat buffer (S, W)
-(:class:`~adaptsky.algos.stacked_params.StackedParameters`), named and laid out as
+(:class:`~adaptsky.algos.shared.stacked.StackedParameters`), named and laid out as
 :mod:`adaptsky.algos.ppo.parameters` declares them. Initial weights are those of
 ``torch.nn.Linear`` layers under ``torch.manual_seed(seed)``, then orthogonal with gains
 sqrt(2) (hidden layers), 0.01 (the actor's head) and 1 (the critic's head), biases 0
@@ -14,9 +14,10 @@ import numpy as np
 import torch
 from torch import nn
 
-from adaptsky.algos.ppo.parameters import HeadShape, critic_shapes, policy_shapes
-from adaptsky.algos.stacked_params import Shapes, StackedParameters, linear_layers
-from adaptsky.algos.stacked_params import activation as activation_functions
+from adaptsky.algos.ppo.parameters import critic_shapes, policy_shapes
+from adaptsky.algos.shared.shapes import HeadShape
+from adaptsky.algos.shared.stacked import Shapes, StackedParameters, linear_layers
+from adaptsky.algos.shared.stacked import activation as activation_functions
 
 ADAM_EPS = 1e-5  # CleanRL's PPO
 

@@ -1,4 +1,4 @@
-"""SAC as an :class:`~adaptsky.algos.protocol.Algorithm` (docs/agent.md), CleanRL's
+"""SAC as an off-policy learner (:mod:`adaptsky.algos.off_policy`; docs/agent.md), CleanRL's
 ``sac_continuous_action.py`` order stacked over S seeds: uniform random actions for
 ``learning_starts`` steps, then tanh-squashed Gaussian samples; every step stored in the
 member's replay memory (the time limit is a truncation: every row bootstraps); after
@@ -9,7 +9,7 @@ every ``policy_frequency``-th step that many actor and temperature updates, ever
 Every random number of a member comes from its generator ``rngs[s]``: its exploring actions,
 its replay samples and the reparameterisation noise of every update (standard normals drawn
 with numpy, then moved to torch); each member's block of rows is padded to a multiple of
-:data:`~adaptsky.algos.stacked_params.PAD` (a seed then learns the same numbers alone, in a
+:data:`~adaptsky.algos.shared.stacked.PAD` (a seed then learns the same numbers alone, in a
 stack and resumed).
 """
 
@@ -22,12 +22,11 @@ import numpy as np
 import torch
 from numpy.typing import NDArray
 
-from adaptsky.algos.device_step import describe
+from adaptsky.algos.off_policy import OffPolicyLearner
 from adaptsky.algos.replay import Batch, StackedReplay
 from adaptsky.algos.sac.parameters import Q_NETWORKS
 from adaptsky.algos.sac.stacked import StackedSac, host_greedy
-from adaptsky.algos.stacked_params import padded, padded_rows
-from adaptsky.arrays import Tree
+from adaptsky.algos.shared.stacked import padded, padded_rows
 from adaptsky.scenario.agents import SacAgent
 
 STATS = ("q_loss", "actor_loss", "entropy")
@@ -48,30 +47,25 @@ class ControlReplay(StackedReplay):
         return {**super().arrays(member), "actions": actions.cpu().numpy().copy()}
 
 
-class SacLearner:
+class SacLearner(OffPolicyLearner):
     """Networks, their Adam states and the replay memories of S members on ``device``;
     ``rngs[s]`` draws member s's actions, replay samples and noise."""
-
-    reward_parts = 1
 
     def __init__(self, config: SacAgent, observation_size: int, components: int,
                  seeds: list[int], rngs: list[np.random.Generator], device: Any = "cpu"
                  ) -> None:
-        self.config, self.rngs = config, rngs
-        self.size, self.components = len(seeds), components
+        self.config, self.components = config, components
         log_alpha = 0.0 if config.autotune else math.log(config.alpha)
         self.net = StackedSac(observation_size, config.hidden_sizes, components, seeds,
                               log_alpha, device)
         self.device = self.net.device
-        self.memory = ControlReplay(self.size, config.memory_size, observation_size,
-                                    self.device, action_width=components)
-        self.epsilon = math.nan  # no epsilon: progress shows the entropy
+        super().__init__(rngs, self.net, ControlReplay(len(seeds), config.memory_size,
+                                                       observation_size, self.device,
+                                                       action_width=components),
+                         config.reward_scale)
         self.global_step = 0
         self._where, mask = padded_rows(config.batch_size)
         self._mask = mask.to(self.device)
-        self._terminated = np.zeros(self.size, dtype=bool)  # T is a truncation
-        self._sums: dict[str, torch.Tensor] = {}  # on the device, since they were taken
-        self._counts: dict[str, int] = {}
 
     # ---- acting ---------------------------------------------------------------------------
 
@@ -82,9 +76,6 @@ class SacLearner:
         for member, rng in enumerate(self.rngs):
             noise[member, :rows] = rng.standard_normal((rows, self.components))
         return torch.tensor(noise, device=self.device)
-
-    def begin_episode(self, global_step: int) -> None:
-        """Nothing: SAC's schedule is the step count :meth:`act` receives."""
 
     def act(self, observations: NDArray[np.float32], global_step: int) -> NDArray[np.float32]:
         """Actions (S, D) in [-1, 1]^D for observations (S, obs): uniform before
@@ -107,19 +98,15 @@ class SacLearner:
         with torch.no_grad():
             return self.net.greedy(torch.tensor(obs, device=self.device)).cpu().numpy()
 
-    def observe(self, observations: NDArray[np.float32], actions: NDArray[np.float32],
-                rewards: NDArray[np.float64], next_observations: NDArray[np.float32]) -> None:
-        """Store the step (rewards scaled by ``reward_scale``; never terminal)."""
-        self.memory.add(observations, actions, rewards * self.config.reward_scale,
-                        next_observations, self._terminated)
-
     # ---- learning -------------------------------------------------------------------------
 
-    def update(self) -> None:
+    def _due(self) -> bool:
+        """After ``learning_starts`` steps (CleanRL: global_step > learning_starts)."""
+        return self.global_step > self.config.learning_starts
+
+    def _update(self) -> None:
         """The updates due after this step (module docstring)."""
         config, step = self.config, self.global_step
-        if step <= config.learning_starts:  # CleanRL: global_step > learning_starts
-            return
         index = self.memory.sample_index(config.batch_size, self.rngs)[:, self._where]
         batch = self.memory.gather(torch.from_numpy(np.ascontiguousarray(index)).to(self.device))
         self._critic_update(batch)
@@ -132,11 +119,6 @@ class SacLearner:
     def _mean(self, values: torch.Tensor) -> torch.Tensor:
         """Each member's mean (S,) over the real rows of a padded batch (S, B padded)."""
         return (values * self._mask).sum(dim=1) / self.config.batch_size
-
-    def _add(self, name: str, values: torch.Tensor) -> None:
-        values = values.detach().double()
-        self._sums[name] = self._sums[name] + values if name in self._sums else values
-        self._counts[name] = self._counts.get(name, 0) + 1
 
     def _critic_update(self, batch: Batch) -> None:
         """Both Q networks towards r + gamma (min target Q - alpha log pi) of s' (one Adam
@@ -153,8 +135,8 @@ class SacLearner:
         q_loss = self._mean(q1_error * q1_error) + self._mean(q2_error * q2_error)
         q_loss.sum().backward()  # members' gradients are independent
         net.critics.apply_gradients(config.q_lr)
-        self._add("loss", q_loss)  # take_mean_loss's
-        self._add("q_loss", q_loss)  # take_stats'
+        self.losses.add("loss", q_loss)  # take_mean_loss's
+        self.losses.add("q_loss", q_loss)  # take_stats'
 
     def _actor_update(self, observations: torch.Tensor) -> None:
         """The actor towards min Q - alpha log pi of its own samples, then (autotune) the
@@ -166,8 +148,8 @@ class SacLearner:
         actor_loss = self._mean(alpha * log_pi - q)
         actor_loss.sum().backward()
         net.actor.apply_gradients(config.policy_lr)
-        self._add("actor_loss", actor_loss)
-        self._add("entropy", -self._mean(log_pi.detach()))
+        self.losses.add("actor_loss", actor_loss)
+        self.losses.add("entropy", -self._mean(log_pi.detach()))
         if config.autotune:
             with torch.no_grad():
                 _, log_pi = net.sample(observations, self._noise(config.batch_size))
@@ -175,48 +157,16 @@ class SacLearner:
             alpha_loss.sum().backward()
             net.temperature.apply_gradients(config.q_lr)
 
-    def end_episode(self, episodes_before: int) -> None:
-        """Nothing: SAC learns every step."""
-
-    def _take(self, name: str) -> NDArray[np.float64] | None:
-        """The mean (S,) of ``name`` since it was last taken; None without one."""
-        if name not in self._sums:
-            return None
-        return self._sums.pop(name).cpu().numpy() / self._counts.pop(name)
-
-    def take_mean_loss(self) -> NDArray[np.float64] | None:
-        """Each member's mean critic loss (Q1's and Q2's MSE summed) since the last call;
-        None without an update since."""
-        return self._take("loss")
-
     def take_stats(self) -> dict[str, NDArray[np.float64]]:
         """Each member's mean critic loss, actor loss and entropy estimate (-log pi of the
         actor's samples) since the last call (NaN without an update since), alpha now, and the
         (constant) learning rates ``policy_lr`` and ``q_lr``."""
         stats = {}
         for name in STATS:
-            mean = self._take(name)
+            mean = self.losses.take(name)
             stats[name] = np.full(self.size, np.nan) if mean is None else mean
         with torch.no_grad():
             stats["alpha"] = self.net.alpha()[:, 0].double().cpu().numpy()
         config = self.config
         return stats | {"policy_lr": np.full(self.size, config.policy_lr),
                         "q_lr": np.full(self.size, config.q_lr)}
-
-    # ---- checkpoints ----------------------------------------------------------------------
-
-    def device_name(self) -> str:
-        return describe(self.device)
-
-    def checkpoint(self, member: int) -> Tree:
-        return {"agent": self.net.state_arrays(member),
-                "replay": {**self.memory.arrays(member), "position": self.memory.position}}
-
-    def restore(self, member: int, checkpoint: Tree) -> None:
-        self.net.load_state_arrays(member, checkpoint["agent"])
-        replay = dict(checkpoint["replay"])
-        position = int(replay.pop("position"))
-        self.memory.load(member, replay, position)
-
-    def policy(self, member: int) -> Tree:
-        return self.net.policy_arrays(member)

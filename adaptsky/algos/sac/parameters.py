@@ -10,7 +10,7 @@ and output one value. The temperature is ``log_alpha`` (a scalar).
 
 from __future__ import annotations
 
-from adaptsky.algos.ppo.parameters import mlp_shapes
+from adaptsky.algos.shared.shapes import mlp_shapes
 
 LOG_STD_MIN, LOG_STD_MAX = -5.0, 2.0
 """The actor's log standard deviation, squashed into this range (CleanRL)."""

@@ -8,9 +8,6 @@ from __future__ import annotations
 
 from typing import Any, ClassVar
 
-from adaptsky.algos.dqn.spec import REPLAY, replay_network_parts
-from adaptsky.algos.ppo.parameters import parameter_count
-from adaptsky.algos.ppo.spec import ADAM_STEP, check_adam, check_weights
 from adaptsky.algos.protocol import Algorithm, LayoutCheck, Node, Policy
 from adaptsky.algos.sac.parameters import (
     Q_NETWORKS,
@@ -19,13 +16,22 @@ from adaptsky.algos.sac.parameters import (
     critic_shapes,
     q_shapes,
 )
+from adaptsky.algos.shared.checkpoint import (
+    ADAM_STEP,
+    FLOAT32,
+    REPLAY,
+    check_adam,
+    check_replay,
+    check_weights,
+    replay_network_parts,
+)
+from adaptsky.algos.shared.shapes import parameter_count
 from adaptsky.arrays import Field, Tree
 from adaptsky.scenario.agents import SacAgent
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.controls import Components
 from adaptsky.sim.observation import observation_size_of
 
-FLOAT32 = 4
 # /seeds/<S>/checkpoint/replay/actions: the D components of each stored action, in [-1, 1]
 CONTROL_ACTIONS = Field("actions", "float", ("R", "D"))
 OPTIMIZERS = ("actor_optimizer", "q_optimizer", "alpha_optimizer")
@@ -40,13 +46,6 @@ def _config(scenario: Scenario) -> SacAgent:
 def components(scenario: Scenario) -> int:
     """D, the components of a continuous action of ``scenario``."""
     return Components.of(scenario, 1).num_components
-
-
-def replay_rows(scenario: Scenario, episodes: int) -> tuple[int, int]:
-    """Rows held and write position after ``episodes`` episodes of T steps (one row a
-    step)."""
-    added, capacity = episodes * scenario.train.steps, _config(scenario).memory_size
-    return min(added, capacity), added % capacity
 
 
 class SacSpec:
@@ -100,17 +99,8 @@ class SacSpec:
         for name, params in zip(OPTIMIZERS, (shapes["actor"], critics, shapes["alpha"]),
                                 strict=True):
             check_adam(check, check.group(agent, name), params)
-        replay = check.group(group, "replay")
-        rows, position = replay_rows(scenario, episodes_done)
-        stored_position = check.attr(replay, "position", "int")
-        if stored_position != position:
-            check.fail(f"{replay.name}/@position", f"is {stored_position}",
-                       f"{position} after {episodes_done} episodes of "
-                       f"{scenario.train.steps} steps")
-        check.exact_members(replay, [field.name for field in self.replay_fields])
-        symbols = {"O": observation_size_of(scenario), "D": components(scenario), "R": rows}
-        for field in self.replay_fields:
-            check.dataset(replay, field, symbols)
+        check_replay(check, group, scenario, episodes_done, self.replay_fields,
+                     {"O": observation_size_of(scenario), "D": components(scenario)})
 
     def policy_of(self, checkpoint: Tree) -> Tree:
         return checkpoint["agent"]["actor"]
@@ -146,13 +136,13 @@ class SacSpec:
                           device)  # type: ignore[return-value]
 
     def greedy_policy(self, scenario: Scenario, policy: Tree) -> Policy:
-        from adaptsky.algos.sac.stacked import ADAM_EPS, host_greedy  # torch
-        from adaptsky.algos.stacked_params import StackedParameters
+        from adaptsky.algos.sac.stacked import host_greedy  # torch
+        from adaptsky.algos.shared.stacked import StackedParameters
 
         count = components(scenario)
         shapes = actor_shapes(observation_size_of(scenario), _config(scenario).hidden_sizes,
                               count)
-        actor = StackedParameters(shapes, [policy], ADAM_EPS)
+        actor = StackedParameters(shapes, [policy])
         return lambda observations: host_greedy(  # type: ignore[return-value]
             actor, observations[None].astype("float32"), count)[0]
 

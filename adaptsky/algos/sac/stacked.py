@@ -1,8 +1,8 @@
 """SAC's networks for a stack of S members: the actor, the Q networks (``q1`` and ``q2`` in one
 buffer) and the temperature, each a
-:class:`~adaptsky.algos.stacked_params.StackedParameters` with its own Adam (CleanRL's three
-optimizers, eps 1e-8 as ``torch.optim.Adam``'s default), and the Q networks' targets, a buffer
-of the critics' layout. Initial weights are ``torch.nn.Linear``'s own under
+:class:`~adaptsky.algos.shared.stacked.StackedParameters` with its own Adam state (CleanRL's
+three optimizers, eps 1e-8 as ``torch.optim.Adam``'s default), and the Q networks' targets, a
+buffer of the critics' layout. Initial weights are ``torch.nn.Linear``'s own under
 ``torch.manual_seed(seed)`` (the actor, then q1, then q2; CleanRL's networks keep them); the
 targets start as copies; ``log_alpha`` at 0 (alpha 1, autotune) or log(alpha).
 """
@@ -13,8 +13,6 @@ import numpy as np
 import torch
 from torch import nn
 
-from adaptsky.algos.ppo.heads import ActionHead
-from adaptsky.algos.ppo.parameters import HeadShape
 from adaptsky.algos.sac.parameters import (
     LOG_STD_MAX,
     LOG_STD_MIN,
@@ -23,9 +21,10 @@ from adaptsky.algos.sac.parameters import (
     actor_shapes,
     critic_shapes,
 )
-from adaptsky.algos.stacked_params import Shapes, StackedParameters, activation, linear_layers
+from adaptsky.algos.shared.heads import ActionHead
+from adaptsky.algos.shared.shapes import HeadShape
+from adaptsky.algos.shared.stacked import Shapes, StackedParameters, activation, linear_layers
 
-ADAM_EPS = 1e-8
 SQUASH_EPS = 1e-6  # CleanRL's log(1 - tanh(x)^2 + 1e-6)
 _RELU, _HOST_RELU = activation("relu")
 
@@ -75,12 +74,12 @@ class StackedSac:
         actor = actor_shapes(observation_size, hidden_sizes, components)
         critics = critic_shapes(observation_size, hidden_sizes, components)
         named = [initial_named({**actor, **critics}, seed) for seed in seeds]
-        self.actor = StackedParameters(actor, named, ADAM_EPS, device)
-        self.critics = StackedParameters(critics, named, ADAM_EPS, device)
+        self.actor = StackedParameters(actor, named, device=device)
+        self.critics = StackedParameters(critics, named, device=device)
         self.targets = self.critics.params.detach().clone()
         start = {"log_alpha": np.array(log_alpha, dtype=np.float32)}
         self.temperature = StackedParameters(TEMPERATURE_SHAPES, [start] * self.size,
-                                             ADAM_EPS, device)
+                                             device=device)
         self.device = self.actor.device
 
     # ---- forward --------------------------------------------------------------------------

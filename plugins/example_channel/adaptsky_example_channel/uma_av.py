@@ -49,7 +49,13 @@ from __future__ import annotations
 import numpy as np
 from pydantic import Field
 
-from adaptsky.channels import ChannelModel, ChannelParams, LinkGeometry, db_to_linear
+from adaptsky.channels import (
+    ChannelModel,
+    ChannelParams,
+    LinkGeometry,
+    Supports,
+    db_to_linear,
+)
 
 TERRESTRIAL_MAX_HEIGHT_M = 22.5
 """Table B-1: at or below this height the TR 38.901 UMa LoS probability applies, m."""
@@ -104,6 +110,10 @@ class UmaAv(ChannelModel):
     Params = UmaAvParams
     description = "3GPP TR 36.777 UMa-AV aerial channel (Tables B-1, B-2), optional shadowing"
     contract_version = 2
+    # no monotone bound: the NLoS slope 46 - 7 log10(h) falls with the height, so at a fixed
+    # ground distance the NLoS gain can rise with h; the per-step searches then value every
+    # lattice point (docs/plugins.md, "Monotone gains")
+    supports = Supports(monotone_gains=False)
     params: UmaAvParams
 
     @property

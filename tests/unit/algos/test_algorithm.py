@@ -117,7 +117,7 @@ def test_training_validation_and_evaluation_go_through_the_registry(monkeypatch,
     run = StackRun([Member(scenario, 3)])
     for _ in range(2):
         run.run_episode()
-    assert {"build", "begin_episode", "act", "observe", "update", "end_episode",
+    assert {"build", "begin_episode", "act", "observe", "end_episode",
             "take_mean_loss"} <= set(spy.calls)
     checkpoint = run.checkpoint(0)
     assert set(checkpoint) >= {"agent", "replay", "rng", "episode"}

@@ -1,7 +1,8 @@
 """The branching dueling Q-network (BDQ): its forward pass, greedy action and TD update against
-plain loops written from its formulas (docs/agent.md, "BDQ"), stacks of seeds, identical
-numbers for the same seed, resume bit for bit, a damaged checkpoint refused in one line,
-learning on the training layout, and the CUDA path (skipped without CUDA)."""
+plain loops written from its formulas (docs/agent.md, "BDQ"), identical numbers for the same
+seed, resume to more episodes bit for bit, a damaged checkpoint refused in one line,
+learning on the training layout, and the CUDA path (skipped without CUDA). A seed alone and in
+a stack, kill -9 and resume: tests/contract/test_learners.py."""
 
 from __future__ import annotations
 
@@ -25,13 +26,10 @@ from adaptsky.scenario.toml_writer import dumps
 from adaptsky.sim.actions import ActionSet
 from adaptsky.store.run_file import RunReader
 from adaptsky.training import api
-from adaptsky.training.stack_run import Member, StackRun
 from adaptsky_cli.cli.main import main
 from tests.helpers.gpu import assert_graphs_replay_eager
 from tests.helpers.training import (
-    assert_same_checkpoints,
     assert_same_curves,
-    assert_same_results,
     checkpoint_policy,
     curves,
     greedy_over_random,
@@ -251,16 +249,6 @@ def test_a_preset_gives_the_keys_bdq_has_under_the_keys_given():
     with pytest.raises(ScenarioError) as error:
         parse_scenario({"name": "x", "agent": {**BDQ_AGENT, "preset": "fast"}}, "s.toml")
     assert str(error.value) == "s.toml: agent: unknown preset 'fast'; choose from paper, tuned"
-
-
-def test_a_seed_in_a_stack_equals_the_seed_alone():
-    base = stack_scenario(agent=BDQ_AGENT)
-    stack = StackRun([Member(base, seed) for seed in (11, 12, 13)])
-    alone = StackRun([Member(base, 12)])
-    for together, single in zip([stack.run_episode() for _ in range(2)],
-                                [alone.run_episode() for _ in range(2)], strict=True):
-        assert_same_results(together[1], single[0])
-    assert_same_checkpoints(stack.checkpoint(1), alone.checkpoint(0))
 
 
 def _bdq_scenario(tmp_path: Path, name: str = "bdq", train: dict | None = None,

@@ -1,36 +1,27 @@
 """PPO (docs/agent.md): GAE against hand-computed numbers, its distributions against torch's,
-its Adam against torch.optim.Adam, a seed alone equal to the seed in a stack, kill -9 and
-resume bit for bit on every head, greedy = the mode, and the scenario's refusals."""
+its Adam against torch.optim.Adam, its curves, greedy = the mode, and the scenario's refusals
+(what every learner does, on every head: tests/contract/test_learners.py)."""
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
-import h5py
 import numpy as np
 import pytest
 import torch
 
-from adaptsky.algos.ppo.heads import ActionHead
-from adaptsky.algos.ppo.learner import gae
-from adaptsky.algos.ppo.parameters import HeadShape
+from adaptsky.algos.on_policy import gae
 from adaptsky.algos.ppo.stacked import StackedActorCritic
 from adaptsky.algos.registry import check_actions
+from adaptsky.algos.shared.heads import ActionHead
+from adaptsky.algos.shared.shapes import HeadShape
 from adaptsky.errors import ScenarioError
 from adaptsky.store.run_file import RunReader
 from adaptsky.training import api
 from adaptsky_cli.cli.main import main
 from tests.conftest import make_scenario
 from tests.helpers.learners import (
-    PPO,
-    _arrays,
-    _assert_same_arrays,
-    _killed_and_resumed,
     ppo_scenario,
 )
 
-ADAPTSKY = Path(sys.executable).with_name("adaptsky")
 # ---- GAE --------------------------------------------------------------------------------
 
 
@@ -126,59 +117,19 @@ def test_adam_and_the_clip_are_torch_s_for_each_member():
 # ---- training ---------------------------------------------------------------------------
 
 
-def test_a_seed_alone_is_the_seed_in_a_stack(tmp_path):
-    path = ppo_scenario(tmp_path, episodes=4)
-    alone, _ = api.train(scenario_path=path, out=tmp_path / "alone.h5", seeds=[1],
-                         workers=1, quiet=True)
-    stacked, _ = api.train(scenario_path=path, out=tmp_path / "stacked.h5", seeds=[0, 1],
-                           workers=1, quiet=True)
-    # learning alone and in a stack, bit for bit; the greedy evaluations (and so the best
-    # policy) are left out: they reduce over the stack's environments at once, which may round
-    # the last bit of a mean otherwise (measured: a Jain index 1 ulp apart), as for the DQN
-    def learnt(path: Path, prefix: str = "") -> dict[str, np.ndarray]:
-        return {k: v for k, v in _arrays(path).items() if k.startswith(prefix)
-                and "/evaluations/" not in k and "/checkpoint/best/" not in k}
-    one, two = learnt(alone), learnt(stacked, "1/")
-    _assert_same_arrays(one, two)
-    with RunReader(stacked) as run:
-        curves = run.episodes(0)
-        assert np.isnan(curves["epsilon"]).all() and np.isfinite(curves["entropy"]).all()
-        assert np.isfinite(curves["loss"]).all()
-
-
-# the default run resumes the Gaussian head (its float actions and log std); the two
-# discrete heads share its code path and run with -m slow
-@pytest.mark.parametrize("head", [pytest.param("dense", marks=pytest.mark.slow),
-                                  pytest.param("branches", marks=pytest.mark.slow),
-                                  "gaussian"])
-def test_kill_9_and_resume_give_the_uninterrupted_file(tmp_path, head):
-    """Trained as one stack of two, killed after a checkpoint, resumed as two processes of
-    one seed each: every array of the learning (curves, trajectories, checkpoints) is the
-    uninterrupted run's; the greedy evaluations are compared to 1e-12 (their means over
-    the stack's environments round apart between stackings: the DQN's do too)."""
-    changes = ({"uav": {"actions": "continuous"}} if head == "gaussian"
-               else {"agent": {**PPO, "action_head": head}})
-    path = ppo_scenario(tmp_path, **changes)
-    through, _ = api.train(scenario_path=path, out=tmp_path / "through.h5", seeds=[0, 1],
-                           workers=1, quiet=True)
-    resumed, expected = _arrays(_killed_and_resumed(tmp_path, path)), _arrays(through)
-    assert resumed.keys() == expected.keys()
-    for name, values in expected.items():
-        if "/evaluations/" in name or "/checkpoint/best/" in name:
-            assert np.allclose(resumed[name], values, rtol=1e-12, equal_nan=True), name
-        else:
-            assert np.array_equal(resumed[name], values, equal_nan=True), name
-    with h5py.File(through) as f:
-        action = f["seeds/0/trajectory/action"]
-        assert action.shape == ((30, 5) if head == "gaussian" else (30,))
-
-
 def test_greedy_evaluation_takes_the_mode(tmp_path, capsys):
     """eval's greedy policy of a Gaussian PPO is its clipped mean: two evaluations agree, and
-    its actions are the head's mean for the observation."""
+    its actions are the head's mean for the observation. Its curves have no epsilon, and an
+    entropy and a loss every episode; its actions are floats, one per component. (A seed
+    alone and in a stack, and kill -9 and resume: tests/contract/test_learners.py.)"""
     path = ppo_scenario(tmp_path, episodes=3, uav={"actions": "continuous"})
     run, _ = api.train(scenario_path=path, out=tmp_path / "g.h5", seeds=[0], workers=1,
                        quiet=True)
+    with RunReader(run) as reader:
+        curves, action = reader.episodes(0), reader.trajectory(0)["action"]
+    assert np.isnan(curves["epsilon"]).all() and np.isfinite(curves["entropy"]).all()
+    assert np.isfinite(curves["loss"]).all()
+    assert action.shape == (30, 5) and action.dtype.kind == "f"
     from adaptsky.evaluation.api import read_trained
     from adaptsky.rollouts.rollout import greedy_policy
     trained = read_trained(run, 0, "last")
@@ -217,7 +168,7 @@ def test_rewards_are_divided_by_the_running_deviation_of_the_return():
     the running statistics start at mean 0, variance 1, count 1e-4 and take each step's rows
     by the parallel update (a plain scalar version here); a reward beyond 10 deviations is
     clipped."""
-    from adaptsky.algos.ppo.reward_norm import RewardNormaliser
+    from adaptsky.algos.on_policy import RewardNormaliser
 
     norm = RewardNormaliser(1, 2, gamma=0.5)
     mean, var, count = 0.0, 1.0, 1e-4

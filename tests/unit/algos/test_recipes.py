@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 import torch
 
-from adaptsky.algos.dqn.spec import replay_rows
 from adaptsky.algos.dqn.stacked import StackedDqn
 from adaptsky.algos.returns import NStepWindow
+from adaptsky.algos.shared.checkpoint import replay_rows
 from adaptsky.scenario.toml_writer import dumps
 from adaptsky.sim.layout import episode_layouts
 from adaptsky.store.run_file import RunReader
@@ -221,9 +221,9 @@ def test_n_step_run_stores_discounted_sums_and_the_state_n_steps_later():
 
 def test_replay_rows_of_an_n_step_run():
     n_step = scenario(agent={"n_step": 4, "memory_size": 50}, train={"steps": 20})
-    assert replay_rows(n_step, 1) == (17, 17)
-    assert replay_rows(n_step, 2) == (34, 34)
-    assert replay_rows(n_step, 3) == (50, 51 % 50)
+    assert replay_rows(n_step, 1, 4) == (17, 17)
+    assert replay_rows(n_step, 2, 4) == (34, 34)
+    assert replay_rows(n_step, 3, 4) == (50, 51 % 50)
 
 
 def _dqn(**agent) -> StackedDqn:
@@ -249,8 +249,7 @@ def test_td_target_bootstraps_with_gamma_to_the_n(n_step, gamma):
     target = rewards[0].double().numpy() + gamma**n_step * next_q.max(axis=1)
     chosen = q[np.arange(4), actions[0].numpy()]
     dqn.update(obs, actions, rewards, nxt, not_terminal)
-    dqn.updates += 1
-    assert dqn.take_mean_loss()[0] == pytest.approx(np.mean((chosen - target) ** 2), rel=1e-5)
+    assert dqn.loss_sum[0].item() == pytest.approx(np.mean((chosen - target) ** 2), rel=1e-5)
 
 
 def test_soft_target_update_after_every_update():
@@ -272,7 +271,8 @@ def test_a_soft_target_is_never_copied_hard():
     hard = StackRun([Member(scenario(agent={"target_update_episodes": 1}), 2)])
     for run in (soft, hard):
         run.run_episode()
-        assert run.algorithm.agent.updates == 0 and run.algorithm.agent.step.item() > 0
+        # the episode's losses taken, after updates
+        assert run.algorithm.losses.counts["loss"] == 0 and run.algorithm.agent.step.item() > 0
     assert torch.equal(hard.algorithm.agent.target, hard.algorithm.agent.params)  # hard copy
     assert not torch.equal(soft.algorithm.agent.target, soft.algorithm.agent.params)
 
@@ -396,11 +396,15 @@ ORDER_LAYOUT_M = [[20.0, 0.0], [-45.0, 40.0], [0.0, 5.0], [30.0, -30.0]]
 
 
 def test_clusters_order_lists_each_clusters_first_then_second_user():
+    from adaptsky.envs.observations import AgentView
     from adaptsky.sim.network import NetworkBatch
 
+    def batch(scenario):    # what the agent observes: the view its settings pick
+        return NetworkBatch(scenario, view=AgentView.of(scenario))
+
     users = {"positions_m": ORDER_LAYOUT_M, "pairing": "near-far"}
-    listed = NetworkBatch(scenario(users=users))
-    clustered = NetworkBatch(scenario(users=users, agent={"user_order": "clusters"}))
+    listed = batch(scenario(users=users))
+    clustered = batch(scenario(users=users, agent={"user_order": "clusters"}))
     by_user, _ = listed.reset()
     by_cluster, _ = clustered.reset()
     blocks = by_user[0, :-1].reshape(4, 4)  # [dx, dy, alpha, g] per user, as listed
@@ -410,8 +414,8 @@ def test_clusters_order_lists_each_clusters_first_then_second_user():
     assert by_cluster[0, 0] == 0.0 and by_cluster[0, 4] == np.float32(45.0 / 50.0)
     assert np.array_equal(clustered.observation(), by_cluster)
     # with the paper's listed pairing, clusters are (1, 2), (3, 4): the same order as listed
-    paper = NetworkBatch(scenario(agent={"user_order": "clusters"}))
-    plain = NetworkBatch(scenario())
+    paper = batch(scenario(agent={"user_order": "clusters"}))
+    plain = batch(scenario())
     assert np.array_equal(paper.reset()[0], plain.reset()[0])
 
 

@@ -1,11 +1,12 @@
 """SAC (docs/agent.md): its squashed log-probability against a hand-written formula and torch's
-transformed distribution, its Adam against torch.optim.Adam, a seed alone equal to the seed in
-a stack, kill -9 and resume bit for bit, greedy = tanh(mean), a damaged checkpoint refused, and
-the scenario's refusal of dense actions."""
+transformed distribution, its Adam against torch.optim.Adam, its curves and replay, greedy =
+tanh(mean), a damaged checkpoint refused, and the scenario's refusal of dense actions (what
+every learner does: tests/contract/test_learners.py)."""
 
 from __future__ import annotations
 
 import math
+import shutil
 from pathlib import Path
 
 import h5py
@@ -25,7 +26,6 @@ from adaptsky.store.run_file import RunFileError, RunReader
 from adaptsky.training import api
 from adaptsky_cli.cli.main import main
 from tests.conftest import SCENARIOS, make_scenario
-from tests.helpers.learners import _arrays, _assert_same_arrays, _killed_and_resumed
 
 # updates from step 41 of episode 2; the memory of 200 rows wraps in episode 7
 SAC = {"algorithm": "sac", "hidden_sizes": [16, 16], "batch_size": 20, "memory_size": 200,
@@ -118,56 +118,32 @@ def test_the_learner_has_every_method_of_the_protocol():
     assert wanted <= set(dir(SacLearner)) | {"size", "epsilon"}
 
 
-
-def test_a_seed_alone_is_the_seed_in_a_stack(tmp_path):
-    path = sac_scenario(tmp_path, episodes=4)
-    alone, _ = api.train(scenario_path=path, out=tmp_path / "alone.h5", seeds=[1],
-                         workers=1, quiet=True)
-    stacked, _ = api.train(scenario_path=path, out=tmp_path / "stacked.h5", seeds=[0, 1],
-                           workers=1, quiet=True)
-    # learning alone and in a stack, bit for bit; the greedy evaluations (and so the best
-    # policy) are left out, as for PPO (tests/unit/algos/test_ppo.py)
-    def learnt(path: Path, prefix: str = "") -> dict[str, np.ndarray]:
-        return {k: v for k, v in _arrays(path).items() if k.startswith(prefix)
-                and "/evaluations/" not in k and "/checkpoint/best/" not in k}
-    _assert_same_arrays(learnt(alone), learnt(stacked, "1/"))
-    with RunReader(stacked) as run:
-        curves = run.episodes(0)
-        assert np.isnan(curves["epsilon"]).all()
-        # no update in episode 1 (learning starts after step 40); every episode after has
-        assert np.isnan(curves["loss"][0]) and np.isfinite(curves["loss"][1:]).all()
-        assert np.isnan(curves["entropy"][0]) and np.isfinite(curves["entropy"][1:]).all()
-        replay = run.checkpoint(0)["replay"]
-        assert replay["actions"].shape == (120, 5) and replay["actions"].dtype == np.float32
-        assert np.abs(replay["actions"]).max() <= 1 and not replay["terminated"].any()
+@pytest.fixture(scope="module")
+def sac_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Seed 0 of :func:`sac_scenario` trained for 3 episodes (read only: copy to damage)."""
+    folder = tmp_path_factory.mktemp("sac_run")
+    run, _ = api.train(scenario_path=sac_scenario(folder, episodes=3), out=folder / "g.h5",
+                       seeds=[0], workers=1, quiet=True)
+    return run
 
 
-def test_kill_9_and_resume_give_the_uninterrupted_file(tmp_path):
-    """Trained as one stack of two, killed after a checkpoint, resumed as two processes of
-    one seed each: every array of the learning (curves, trajectories, checkpoints with the
-    replay memories, which wrap in episode 7) is the uninterrupted run's; the greedy
-    evaluations are compared to 1e-12 (as PPO's)."""
-    path = sac_scenario(tmp_path)
-    through, _ = api.train(scenario_path=path, out=tmp_path / "through.h5", seeds=[0, 1],
-                           workers=1, quiet=True)
-    resumed, expected = _arrays(_killed_and_resumed(tmp_path, path)), _arrays(through)
-    assert resumed.keys() == expected.keys()
-    for name, values in expected.items():
-        if "/evaluations/" in name or "/checkpoint/best/" in name:
-            assert np.allclose(resumed[name], values, rtol=1e-12, equal_nan=True), name
-        else:
-            assert np.array_equal(resumed[name], values, equal_nan=True), name
-    with h5py.File(through) as f:
-        assert f["seeds/0/trajectory/action"].shape == (30, 5)
-        assert f["seeds/0/checkpoint/replay"].attrs["position"] == 360 % 200
+def test_the_curves_and_the_replay_of_a_run(sac_run):
+    """No update in episode 1 (learning starts after step 40), one every episode after; no
+    epsilon; the replay keeps float actions within [-1, 1], none terminal. (A seed alone and
+    in a stack, a replay that wraps, kill -9 and resume: tests/contract/test_learners.py.)"""
+    with RunReader(sac_run) as run:
+        curves, replay = run.episodes(0), run.checkpoint(0)["replay"]
+    assert np.isnan(curves["epsilon"]).all()
+    assert np.isnan(curves["loss"][0]) and np.isfinite(curves["loss"][1:]).all()
+    assert np.isnan(curves["entropy"][0]) and np.isfinite(curves["entropy"][1:]).all()
+    assert replay["actions"].shape == (90, 5) and replay["actions"].dtype == np.float32
+    assert np.abs(replay["actions"]).max() <= 1 and not replay["terminated"].any()
 
 
-def test_greedy_evaluation_takes_tanh_of_the_mean(tmp_path):
+def test_greedy_evaluation_takes_tanh_of_the_mean(sac_run, tmp_path):
     """eval's greedy policy is tanh of the actor's mean: the stored actor, read into a
     torch.nn.Sequential by its torch names, gives the same actions; eval runs."""
-    path = sac_scenario(tmp_path, episodes=3)
-    run, _ = api.train(scenario_path=path, out=tmp_path / "g.h5", seeds=[0], workers=1,
-                       quiet=True)
+    run = sac_run
     from adaptsky.evaluation.api import read_trained
     from adaptsky.rollouts.rollout import greedy_policy
     trained = read_trained(run, 0, "last")
@@ -185,10 +161,8 @@ def test_greedy_evaluation_takes_tanh_of_the_mean(tmp_path):
                  "--out", str(tmp_path / "e.h5")]) == 0
 
 
-def test_a_damaged_replay_is_refused_naming_it(tmp_path):
-    path = sac_scenario(tmp_path, episodes=3)
-    run, _ = api.train(scenario_path=path, out=tmp_path / "d.h5", seeds=[0], workers=1,
-                       quiet=True)
+def test_a_damaged_replay_is_refused_naming_it(sac_run, tmp_path):
+    run = Path(shutil.copyfile(sac_run, tmp_path / "d.h5"))
     with h5py.File(run, "r+") as f:
         replay = f["seeds/0/checkpoint/replay"]
         del replay["actions"]

@@ -7,29 +7,15 @@ import math
 import numpy as np
 import pytest
 
+from adaptsky.envs.observations import users_in_order
 from adaptsky.envs.parallel_env import NomaUavParallelEnv
 from adaptsky.scenario import load_scenario, parse_scenario
 from adaptsky.sim.observation import local_observation_bounds, multi_observation_bounds
-from tests.conftest import SCENARIOS, make_scenario
+from tests.conftest import SCENARIOS
 from tests.helpers.scalar_models import ANTENNA_GAIN, TX_POWER_W, scalar_gain
-from tests.unit.envs.several_uavs import two_uavs
+from tests.unit.envs.several_uavs import STARTS_M, USERS_M, two_uavs, uneven
 
-USERS_M = [[-30.0, 10.0], [-10.0, -20.0], [-40.0, -35.0], [-5.0, 30.0], [30.0, 20.0],
-           [40.0, -10.0]]
-STARTS_M = [[-20.0, 0.0, 50.0], [25.0, 0.0, 50.0]]
 NOISE_W = 10 ** ((-84.0 - 30) / 10)       # the paper's mmWave noise: -84 dBm, 0 dB figure
-
-
-def uneven(observation="scaled", user_order="listed", steps=10):
-    """UAV 0 serves users 0-3 in clusters (0, 1) and (2, 3), UAV 1 users 4-5 in (4, 5);
-    every link LoS (the paper's mmWave defaults), full reuse; sub-action 0, 1, 2 is -1, 0,
-    +1."""
-    return make_scenario(
-        train={"steps": steps},
-        users={"positions_m": USERS_M, "association": "listed", "uav": [0, 0, 0, 0, 1, 1],
-               "pairing": "listed"},
-        uav={"count": 2, "start_positions_m": STARTS_M, "actions": "with-hover"},
-        agent={"observation": observation, "user_order": user_order})
 
 
 def expected_local(uavs, alpha, scaled, side_m=100.0, max_height_m=200.0):
@@ -110,7 +96,8 @@ def test_local_slots_are_the_global_observations_rows(scenario, user_order):
     n, num_uavs = scenario.num_users, scenario.uav.count
     state = env.state()
     users, uav_rows = state[:5 * n].reshape(n, 5), state[5 * n:].reshape(num_uavs, 3)
-    order = (np.arange(n) if batch.observation_order is None else batch.observation_order[0])
+    order = users_in_order(batch.association, user_order)
+    order = np.arange(n) if order is None else order[0]
     serving = batch.association.serving_uav[0][order]      # in observation order
     slots = 2 * scenario.clusters_per_uav
     for u, agent in enumerate(env.possible_agents):

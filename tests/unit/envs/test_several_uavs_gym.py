@@ -11,6 +11,7 @@ from gymnasium.utils.env_checker import check_env
 import adaptsky  # noqa: F401  (registers adaptsky/NomaUav-v0)
 from adaptsky.envs.action_spaces import to_dense, to_sub_actions
 from adaptsky.envs.gym_env import NomaUavEnv, NomaUavVectorEnv
+from adaptsky.envs.observations import AgentView
 from adaptsky.scenario import parse_scenario
 from adaptsky.sim.actions import ActionSet
 from adaptsky.sim.network import NetworkBatch
@@ -66,7 +67,7 @@ def test_same_seed_same_rollout_bit_for_bit(action_space):
 def test_multi_discrete_and_dense_actions_step_as_the_batch():
     scenario = two_uavs(steps=30, moving=True)
     multi, dense = NomaUavEnv(scenario), NomaUavEnv(scenario, action_space="discrete")
-    batch = NetworkBatch(scenario, num_envs=1)
+    batch = NetworkBatch(scenario, num_envs=1, view=AgentView.of(scenario))  # as the env
     action_set = ActionSet.of(scenario)
     obs = [multi.reset(seed=7)[0], dense.reset(seed=7)[0], batch.reset(seed=7)[0][0]]
     assert all(np.array_equal(o, obs[0]) for o in obs)

@@ -44,8 +44,11 @@ def test_bootstrap_interval_is_the_plain_loops_stratified_percentiles():
 def test_bootstrap_interval_agrees_with_scipy_on_one_task():
     scores = np.random.default_rng(11).normal(80.0, 5.0, size=12)
     ours = bootstrap_interval(scores, reps=20_000, seed=0)
-    theirs = stats.bootstrap((scores,), lambda x: stats.trim_mean(x, 0.25), n_resamples=20_000,
-                             method="percentile", random_state=np.random.default_rng(1))
+    # (a statistic with an ``axis`` scipy takes vectorised: the same resamples and interval
+    # as one call per resample, in a hundredth of a second rather than eight seconds)
+    theirs = stats.bootstrap((scores,), lambda x, axis: stats.trim_mean(x, 0.25, axis=axis),
+                             n_resamples=20_000, method="percentile",
+                             random_state=np.random.default_rng(1))
     # two independent sets of 20,000 resamples: the percentiles agree to their noise
     assert ours.low == pytest.approx(theirs.confidence_interval.low, abs=0.25)
     assert ours.high == pytest.approx(theirs.confidence_interval.high, abs=0.25)

@@ -17,9 +17,8 @@ from adaptsky.rollouts.fading_genie import (
     per_step_fading_oracle,
     step_fading_oracle,
 )
-from adaptsky.rollouts.genie import LatticeBoxes
-from adaptsky.rollouts.oracle import lattice
 from adaptsky.rollouts.rollout import hold
+from adaptsky.rollouts.search import LatticeBoxes, lattice
 from adaptsky.sim.layout import user_layouts
 from adaptsky.sim.network import NetworkBatch
 from tests.conftest import SUB6_RADIO, make_scenario

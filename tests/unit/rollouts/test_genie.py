@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from adaptsky.evaluation.api import run_baseline
-from adaptsky.rollouts.genie import GENIE_NOTE, LatticeBoxes, per_step_oracle, step_oracle
+from adaptsky.rollouts.genie import GENIE_NOTE, per_step_oracle, step_oracle
 from adaptsky.rollouts.objective import constrained_sum_rate
-from adaptsky.rollouts.oracle import lattice
+from adaptsky.rollouts.search import LatticeBoxes, lattice
 from adaptsky.sim.network import NetworkBatch
 from tests.conftest import SUB6_RADIO, make_scenario
 from tests.helpers.genie import assert_at_least_every_policy

@@ -15,9 +15,9 @@ from adaptsky.channels import LinkGeometry, Supports, registry
 from adaptsky.channels.checker import check_channel_model, structural_problems
 from adaptsky.channels.contract import declares_monotone_gains
 from adaptsky.channels.registry import PluginInfo
-from adaptsky.rollouts.genie import LatticeBoxes, per_step_oracle
-from adaptsky.rollouts.oracle import lattice
-from adaptsky.rollouts.step_response import _StepSearch, per_step_response
+from adaptsky.rollouts.genie import per_step_oracle
+from adaptsky.rollouts.search import LatticeBoxes, lattice
+from adaptsky.rollouts.step_response import StepResponseSearch, per_step_response
 from adaptsky.sim.network import NetworkBatch
 from tests.conftest import make_scenario
 
@@ -94,7 +94,7 @@ def test_best_response_at_every_step_bounds_only_a_declaring_model(registered):
     for scenario, bounded in ((declared, True), (undeclared, False)):
         env = NetworkBatch(scenario, 1, seed=0)
         env.reset()
-        assert _StepSearch(env, 0, env.users_m[0]).bounded is bounded
+        assert StepResponseSearch(env, 0, env.users_m[0]).bounded is bounded
     users_m = NetworkBatch(declared, 1, seed=0).users_m
     fast = per_step_response(declared, users_m, 2, seed=0)
     slow = per_step_response(undeclared, users_m, 2, seed=0)

@@ -9,7 +9,7 @@ from adaptsky.evaluation.api import run_baseline
 from adaptsky.rollouts.several_uavs import best_response
 from adaptsky.rollouts.step_response import (
     STEP_RESPONSE_NOTE,
-    _StepSearch,
+    StepResponseSearch,
     per_step_response,
 )
 from adaptsky.sim.network import NetworkBatch
@@ -41,16 +41,16 @@ def test_the_bounded_response_is_the_exhaustive_one(los, model, min_se, residual
     env.reset()
     rng = np.random.default_rng(1)
     for layout in range(2):
-        search = _StepSearch(env, layout, env.users_m[layout])
+        search = StepResponseSearch(env, layout, env.users_m[layout])
         for _ in range(3):
             uav_m = np.column_stack([rng.uniform(-25, 25, (2, 2)), rng.uniform(10, 30, 2)])
             alpha = rng.choice(search.alphas, (2, 2))
             for u in range(2):
                 exhaustive = search.respond(u, uav_m, alpha)
-                bounded = search.respond_bounded(u, uav_m, alpha, -np.inf)
-                assert bounded[0] == pytest.approx(exhaustive[0], rel=1e-12)
+                bounded, valued = search.respond_bounded(u, uav_m, alpha, -np.inf)
+                assert bounded.value == pytest.approx(exhaustive.value, rel=1e-12)
                 total = len(search.planes[u]) * len(search.heights[u])
-                assert bounded[3] <= total
+                assert valued <= total
 
 
 def test_on_static_users_it_reaches_at_least_todays_best_response():

@@ -4,6 +4,7 @@ observation scaling, seeding."""
 import numpy as np
 import pytest
 
+from adaptsky.envs.observations import AgentView
 from adaptsky.sim.layout import pair_users, user_layouts
 from adaptsky.sim.network import NetworkBatch
 from tests.conftest import SUB6_RADIO, TRAINING_LAYOUT_M, make_scenario
@@ -116,7 +117,12 @@ def test_scaled_observation_by_hand(mmwave):
 
 
 def test_raw_observation_is_the_papers_state():
-    env = NetworkBatch(make_scenario(agent={"observation": "raw"}), seed=0)
+    """The raw values, where the agent's view asks for them (the simulator's own are
+    scaled: it reads no agent setting)."""
+    raw = make_scenario(agent={"observation": "raw"})
+    assert NetworkBatch(raw, seed=0).reset()[0][0, -1] == pytest.approx(
+        50.0 / raw.uav.max_height_m, rel=1e-6)
+    env = NetworkBatch(raw, seed=0, view=AgentView.of(raw))
     obs, state = env.reset()
     assert obs[0, 4:8] == pytest.approx([44.0, 49.0, 0.5, state.gain[0, 1]], rel=1e-6)
     assert obs[0, -1] == 50.0

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from adaptsky.channels.contract import LinkGeometry
+from adaptsky.envs.observations import AgentView
 from adaptsky.sim import noma
 from adaptsky.sim.layout import pair_users, user_layouts
 from adaptsky.sim.links import build_channel, deterministic_gain
@@ -199,7 +200,7 @@ def _from_file(name):
 def test_step_equals_the_plain_reference(case, num_envs, seeds):
     scenario = _scenario(case)
     seed = [np.random.SeedSequence([b, 4]) for b in range(num_envs)] if seeds == "list" else 11
-    env = NetworkBatch(scenario, num_envs, seed=seed)
+    env = NetworkBatch(scenario, num_envs, seed=seed, view=AgentView.of(scenario))
     ref = Reference(scenario, num_envs, seed)
     actions = np.random.default_rng(num_envs).integers(0, env.actions.count,
                                                        size=(60, num_envs))

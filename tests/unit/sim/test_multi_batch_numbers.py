@@ -11,6 +11,7 @@ import pytest
 from numpy.typing import NDArray
 
 from adaptsky.channels.contract import ChannelModel, LinkGeometry
+from adaptsky.envs.observations import AgentView, user_order_of, users_in_order
 from adaptsky.scenario import Scenario, load_scenario
 from adaptsky.sim import noma
 from adaptsky.sim.links import build_channel, carrier_hz, link_gains, links_geometry
@@ -143,8 +144,9 @@ class Reference:
             "sum_rate_bps": rates.rate_bps.sum(axis=-1), "fairness": fairness,
             "reward": noma.reward(rates.rate_bps, rates.gain, fairness, radio.bandwidth_hz,
                                   reward_weights(scenario))}
+        order = users_in_order(association, user_order_of(scenario))
         obs = reference_observation(scenario, state.uav_m, state.users_m, serving, alpha,
-                                    rates.gain, rates.interference_w, env.observation_order)
+                                    rates.gain, rates.interference_w, order)
         return obs, numbers
 
 
@@ -181,7 +183,7 @@ def same(a: np.ndarray, b: np.ndarray) -> bool:
 def test_step_equals_the_plain_computation(name: str, kind: str) -> None:
     scenario = variant(name, kind)
     seeds = [np.random.SeedSequence([s, 0]) for s in range(NUM_ENVS)]
-    env = NetworkBatch(scenario, NUM_ENVS, seed=seeds)
+    env = NetworkBatch(scenario, NUM_ENVS, seed=seeds, view=AgentView.of(scenario))
     reference = Reference(env, seeds)
     obs, state = env.reset()
     expected_obs, expected = reference.evaluate()

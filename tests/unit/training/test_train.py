@@ -24,6 +24,9 @@ from tests.conftest import SCENARIOS
 from tests.helpers.training import assert_same_curves, curves, greedy_over_random, small_scenario
 
 ADAPTSKY = Path(sys.executable).with_name("adaptsky")
+# episodes of 40 steps (small_scenario's have 100) where the test is not about learning: the
+# replay holds a batch (32) before the first episode ends, so every run below learns
+STEPS = 40
 
 
 def test_paper_scenario_run_file_layout(tmp_path, capsys):
@@ -83,21 +86,21 @@ def test_learning_beats_random_by_a_clear_margin(tmp_path):
 def test_same_scenario_and_seed_give_identical_metrics(tmp_path):
     scenario_path = small_scenario(tmp_path)
     first, _ = api.train(scenario_path=scenario_path, out=tmp_path / "a.h5", episodes=4,
-                         seeds=[3], workers=1, quiet=True)
+                         steps=STEPS, seeds=[3], workers=1, quiet=True)
     second, _ = api.train(scenario_path=scenario_path, out=tmp_path / "b.h5", episodes=4,
-                          seeds=[3], workers=1, quiet=True)
+                          steps=STEPS, seeds=[3], workers=1, quiet=True)
     assert_same_curves(curves(first), curves(second))
     other, _ = api.train(scenario_path=scenario_path, out=tmp_path / "c.h5", episodes=4,
-                         seeds=[4], workers=1, quiet=True)
+                         steps=STEPS, seeds=[4], workers=1, quiet=True)
     assert not np.array_equal(curves(first)[3]["sum_rate_bps"], curves(other)[4]["sum_rate_bps"])
 
 
 def test_parallel_seeds_equal_sequential_seeds(tmp_path):
     scenario_path = small_scenario(tmp_path)
     parallel, _ = api.train(scenario_path=scenario_path, out=tmp_path / "p.h5", episodes=3,
-                            seeds=[0, 1], workers=2, quiet=True)
+                            steps=STEPS, seeds=[0, 1], workers=2, quiet=True)
     sequential, _ = api.train(scenario_path=scenario_path, out=tmp_path / "s.h5", episodes=3,
-                              seeds=[0, 1], workers=1, quiet=True)
+                              steps=STEPS, seeds=[0, 1], workers=1, quiet=True)
     assert_same_curves(curves(parallel), curves(sequential))
 
 
@@ -113,7 +116,8 @@ def _start_and_wait(tmp_path: Path, scenario_path: Path, out: Path, episodes: in
                     at_least: int) -> subprocess.Popen:
     process = subprocess.Popen(
         [str(ADAPTSKY), "train", str(scenario_path), "--episodes", str(episodes),
-         "--seeds", "0,1", "--workers", "2", "--out", str(out), "--quiet"],
+         "--steps", str(STEPS), "--seeds", "0,1", "--workers", "2", "--out", str(out),
+         "--quiet"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
     while _episodes_done(out) < at_least:
@@ -125,11 +129,12 @@ def _start_and_wait(tmp_path: Path, scenario_path: Path, out: Path, episodes: in
 
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory):
-    """An uninterrupted run of 12 episodes, seeds 0 and 1."""
+    """An uninterrupted run of 12 episodes of 40 steps, seeds 0 and 1, in this process (as in
+    two: test_parallel_seeds_equal_sequential_seeds)."""
     tmp_path = tmp_path_factory.mktemp("reference")
     scenario_path = small_scenario(tmp_path)
     path, _ = api.train(scenario_path=scenario_path, out=tmp_path / "ref.h5", seeds=[0, 1],
-                        workers=2, quiet=True)
+                        steps=STEPS, workers=1, quiet=True)
     return scenario_path, curves(path)
 
 
@@ -141,7 +146,7 @@ def test_kill_9_then_resume_equals_uninterrupted_run(tmp_path, reference):
     process.wait()
     done = _episodes_done(out)
     assert 3 <= done < 12 and done % 3 == 0          # exactly the last checkpoint
-    assert main(["train", "--resume", str(out), "--quiet"]) == 0
+    assert main(["train", "--resume", str(out), "--workers", "1", "--quiet"]) == 0
     assert_same_curves(curves(out), expected)
     assert not list(tmp_path.glob(".killed.h5.tmp-*"))
 
@@ -155,7 +160,7 @@ def test_ctrl_c_checkpoints_and_resume_equals_uninterrupted_run(tmp_path, refere
     assert process.returncode == 130, stderr
     assert f"adaptsky train --resume {out}" in stderr and "Traceback" not in stderr
     assert 3 <= _episodes_done(out) < 12
-    assert main(["train", "--resume", str(out), "--quiet"]) == 0
+    assert main(["train", "--resume", str(out), "--workers", "1", "--quiet"]) == 0
     assert_same_curves(curves(out), expected)
 
 

@@ -176,10 +176,10 @@ def _tracking_steady(scenario, layouts_m: np.ndarray, steps: int) -> np.ndarray:
 
 
 def test_moving_users_evaluations_fly_tracking_through_the_same_draws():
-    """Where users move, each evaluation flies tracking on a twin with the greedy rollout's
-    draws: every evaluation of one member equals tracking run alone from seed 0 (the same
-    user moves: every evaluation draws alike), and the policy's numbers are those of an
-    evaluator without the twin."""
+    """Where users move, each evaluation also flies tracking on its environments re-seeded
+    alike, with the greedy rollout's draws: every evaluation of one member equals tracking
+    run alone from seed 0 (the same user moves: every evaluation draws alike), and the
+    policy's numbers are those of an evaluator that does not fly tracking."""
     steps, action = 130, 5
     scenario = make_scenario(**sections(users=MOVING, train={"eval_steps": steps}))
     evaluation = evaluation_set(scenario)
@@ -189,7 +189,7 @@ def test_moving_users_evaluations_fly_tracking_through_the_same_draws():
     assert first["tracking_bps"] == pytest.approx(alone[0], rel=1e-12)
     np.testing.assert_equal(second, first)  # each evaluation: the same draws (NaN = NaN)
     plain = GreedyEvaluator([evaluation], steps)
-    plain.twins = [None]
+    plain.tracks = [False]
     rows = [plain.run(_constant(action))[0] for _ in range(2)]
     assert [r["sum_rate_bps"] for r in rows] == [first["sum_rate_bps"], second["sum_rate_bps"]]
     assert all(np.isnan(r["tracking_bps"]) for r in rows)

@@ -1,6 +1,7 @@
-"""PPO's action distributions over the actor's head (docs/agent.md): a Categorical over the
-dense action set, one Categorical per branch (the components' directions, MultiDiscrete), or a
-diagonal Gaussian with a state-independent log standard deviation (continuous controls).
+"""Action distributions over an actor's head (docs/agent.md; PPO's and MAPPO's, and SAC's
+Gaussian): a Categorical over the dense action set, one Categorical per branch (the
+components' directions, MultiDiscrete), or a diagonal Gaussian with a state-independent log
+standard deviation (continuous controls).
 
 Sampling draws from each member's numpy generator (the same numbers alone, in a stack and
 resumed); log-probabilities and entropies are torch (they carry the gradient). The greedy
@@ -16,7 +17,7 @@ import numpy as np
 import torch
 from numpy.typing import NDArray
 
-from adaptsky.algos.ppo.parameters import HeadShape
+from adaptsky.algos.shared.shapes import HeadShape
 
 LOG_SQRT_2PI = 0.5 * math.log(2 * math.pi)
 

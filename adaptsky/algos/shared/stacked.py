@@ -1,12 +1,15 @@
-"""Named parameters of a stack of S members in one flat buffer (S, W), their MLPs and Adam:
-the machinery PPO's and SAC's stacked networks share.
+"""Named parameters of a stack of S members in one flat buffer (S, W), their MLPs and the one
+Adam: the machinery every stacked learner (the DQN, the BDQ, PPO, MAPPO, SAC) shares.
 
-Each member's parameters are one row of ``params``, named as ``torch.nn.Sequential`` names
-them (``actor.0.weight`` (out, in) ...; weights stored transposed, (in, out), for a batched
-matmul); rows are padded to a multiple of :data:`ROW_MULTIPLE` floats so that elementwise
-kernels treat every member alike, whatever S. Autograd runs through views of the buffer; Adam
-and the per-member gradient-norm clip are written out (as ``torch.optim.Adam`` and
-``clip_grad_norm_`` compute them, each member alone).
+Each member's parameters are one row of ``params``, named (``actor.0.weight`` (out, in) ...;
+weights stored transposed, (in, out), for a batched matmul); rows are padded to a multiple of
+:data:`ROW_MULTIPLE` floats so that elementwise kernels treat every member alike, whatever S.
+Adam's moments have the rows' layout; members are in lockstep, so its step count is one number.
+The per-member gradient-norm clip is ``clip_grad_norm_``'s, each member alone. Adam's step is
+one of two kernels, chosen when the parameters are built: torch's fused kernel (``fused``: a
+fixed-shape step with its count in a device tensor, recorded in the DQN's CUDA graph) or
+``torch.optim.Adam``'s arithmetic written out (autograd learners: PPO, SAC); the two round
+apart, and each learner keeps the one its numbers were made with.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ import torch
 
 ROW_MULTIPLE = 64
 ADAM_BETAS = (0.9, 0.999)
+ADAM_EPS = 1e-8  # torch.optim.Adam's default (the DQN's and SAC's; PPO takes CleanRL's 1e-5)
 CLIP_EPS = 1e-6  # as torch.nn.utils.clip_grad_norm_
 PAD = 32
 """Per-member row counts are padded to a multiple of this (the float32 lanes torch's unrolled
@@ -83,13 +87,24 @@ class Slot:
         return len(self.shape) == 2
 
 
+def clip_per_member_(grad: torch.Tensor, max_norm: float) -> None:
+    """Scale each member's gradient row (S, W) to a global norm of at most ``max_norm``
+    (``clip_grad_norm_``'s arithmetic, each member alone), in place."""
+    norms = torch.linalg.vector_norm(grad, dim=1, keepdim=True)
+    grad.mul_(torch.clamp(max_norm / (norms + CLIP_EPS), max=1.0))
+
+
 class StackedParameters:
     """Parameters ``shapes`` of S members on ``device``, member s starting from ``rows[s]``
-    (torch-named arrays), with Adam's state (module docstring)."""
+    (torch-named arrays), with Adam's state (module docstring). ``fused``: Adam is torch's
+    fused kernel and the parameters carry no autograd (a hand-written backward fills a
+    gradient buffer); else autograd runs through views of the buffer and Adam is written
+    out."""
 
-    def __init__(self, shapes: Shapes, rows: list[dict[str, np.ndarray]], adam_eps: float,
-                 device: str | torch.device = "cpu") -> None:
-        self.size, self.adam_eps = len(rows), adam_eps
+    def __init__(self, shapes: Shapes, rows: list[dict[str, np.ndarray]],
+                 adam_eps: float = ADAM_EPS, device: str | torch.device = "cpu",
+                 fused: bool = False) -> None:
+        self.size, self.adam_eps, self.fused = len(rows), adam_eps, fused
         self.device = torch.device(device)
         self.shapes = dict(shapes)
         self.slots: dict[str, Slot] = {}
@@ -105,10 +120,11 @@ class StackedParameters:
         # torch's own (aligned) memory: numpy's may start anywhere within a vector, and which
         # elements an elementwise kernel takes in its vector loop or its tail (fused or not)
         # would then differ from one process to the next
-        self.params = torch.tensor(initial, device=self.device).requires_grad_(True)
+        self.params = torch.tensor(initial, device=self.device).requires_grad_(not fused)
         self.exp_avg = torch.zeros_like(self.params, requires_grad=False)
         self.exp_avg_sq = torch.zeros_like(self.params, requires_grad=False)
-        self.step = 0  # Adam's step count: members update in lockstep
+        # Adam's step count (members in lockstep): the fused kernel's is a device tensor
+        self.step: int | torch.Tensor = (torch.zeros((), device=self.device) if fused else 0)
 
     # ---- rows and names -----------------------------------------------------------------
 
@@ -186,14 +202,13 @@ class StackedParameters:
     # ---- learning -------------------------------------------------------------------------
 
     def apply_gradients(self, lr: float, max_grad_norm: float = 0.0) -> None:
-        """Clip each member's gradient to ``max_grad_norm`` (its global norm; 0: no clip),
-        then one Adam step of every member (``torch.optim.Adam``'s arithmetic)."""
+        """Clip each member's autograd gradient to ``max_grad_norm`` (0: no clip), then one
+        Adam step of every member (``torch.optim.Adam``'s arithmetic, written out)."""
         grad = self.params.grad
-        assert grad is not None
+        assert grad is not None and not self.fused
         with torch.no_grad():
             if max_grad_norm > 0:
-                norms = torch.linalg.vector_norm(grad, dim=1, keepdim=True)
-                grad.mul_(torch.clamp(max_grad_norm / (norms + CLIP_EPS), max=1.0))
+                clip_per_member_(grad, max_grad_norm)
             self.step += 1
             beta1, beta2 = ADAM_BETAS
             self.exp_avg.lerp_(grad, 1 - beta1)
@@ -203,6 +218,19 @@ class StackedParameters:
             denom = (self.exp_avg_sq.sqrt() / math.sqrt(correction2)).add_(self.adam_eps)
             self.params.addcdiv_(self.exp_avg, denom, value=-lr / correction1)
         self.params.grad = None
+
+    def apply_fused(self, grad: torch.Tensor, lr: float | torch.Tensor,
+                    max_grad_norm: float = 0.0) -> None:
+        """:meth:`apply_gradients` from a gradient buffer (S, W) with torch's fused kernel
+        (``lr`` a float or a device tensor): fixed shapes, no host synchronisation."""
+        assert self.fused and isinstance(self.step, torch.Tensor)
+        if max_grad_norm > 0:
+            clip_per_member_(grad, max_grad_norm)
+        self.step += 1
+        torch._fused_adam_([self.params], [grad], [self.exp_avg], [self.exp_avg_sq], [],
+                           [self.step], lr=lr, beta1=ADAM_BETAS[0], beta2=ADAM_BETAS[1],
+                           weight_decay=0.0, eps=self.adam_eps, amsgrad=False,
+                           maximize=False)
 
     # ---- checkpoints ----------------------------------------------------------------------
 
@@ -226,7 +254,7 @@ class StackedParameters:
 
     def optimizer_arrays(self, member: int) -> dict[str, object]:
         """Adam's state of one member: ``step``, ``exp_avg`` and ``exp_avg_sq``, torch-named."""
-        return {"step": np.array(self.step, dtype=np.int64),
+        return {"step": np.array(self.steps(), dtype=np.int64),
                 "exp_avg": self.named_from_row(self.row(self.exp_avg, member)),
                 "exp_avg_sq": self.named_from_row(self.row(self.exp_avg_sq, member))}
 
@@ -234,4 +262,14 @@ class StackedParameters:
         """Inverse of :meth:`optimizer_arrays`."""
         for name, buffer in (("exp_avg", self.exp_avg), ("exp_avg_sq", self.exp_avg_sq)):
             self.load_named(member, optimizer[name], buffer=buffer)  # type: ignore[arg-type]
-        self.step = int(np.asarray(optimizer["step"]))
+        self.set_steps(int(np.asarray(optimizer["step"])))
+
+    def steps(self) -> int:
+        """Adam's step count."""
+        return int(self.step.item()) if isinstance(self.step, torch.Tensor) else self.step
+
+    def set_steps(self, steps: int) -> None:
+        if isinstance(self.step, torch.Tensor):
+            self.step.fill_(float(steps))
+        else:
+            self.step = steps

@@ -1,0 +1,44 @@
+"""Network shapes by name, torch-free: the one definition the stacked learners, their
+checkpoints and the run-file validator share (docs/file-format.md).
+
+An MLP's parameters are named as ``torch.nn.Sequential`` of Linear and activation layers names
+them (``<prefix>.0.weight`` (out, in), ``<prefix>.0.bias``, ``<prefix>.2.weight`` ...). An
+actor's head (:class:`HeadShape`) outputs the logits of the dense action set, of every branch
+one after the other, or a Gaussian's mean.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from itertools import pairwise
+from typing import Literal
+
+Head = Literal["dense", "branches", "gaussian"]
+Shapes = dict[str, tuple[int, ...]]
+
+
+@dataclass(frozen=True)
+class HeadShape:
+    """What the actor's head outputs: ``kind``; ``width`` its outputs; ``branches`` the
+    number of choices of each branch (branches only), ``components`` D (gaussian)."""
+
+    kind: Head
+    width: int
+    branches: tuple[int, ...] = ()
+    components: int = 0
+
+
+def mlp_shapes(prefix: str, sizes: list[int]) -> Shapes:
+    """Linear layers ``sizes`` = [in, hidden..., out], named as ``torch.nn.Sequential`` of
+    Linear and activation layers names them (``<prefix>.0``, ``<prefix>.2`` ...)."""
+    shapes: Shapes = {}
+    for index, (size_in, size_out) in enumerate(pairwise(sizes)):
+        shapes[f"{prefix}.{2 * index}.weight"] = (size_out, size_in)
+        shapes[f"{prefix}.{2 * index}.bias"] = (size_out,)
+    return shapes
+
+
+def parameter_count(shapes: Shapes) -> int:
+    """The numbers of every parameter of ``shapes``."""
+    return sum(math.prod(shape) for shape in shapes.values())
