@@ -67,11 +67,17 @@ def title_of(name: str) -> str:
     return candidates(name)[0].title
 
 
+def applying(name: str, scenario: Scenario) -> Reference | None:
+    """The first object that answers to ``name`` and applies to ``scenario``, or None."""
+    return next((entry for entry in candidates(name) if entry.applies(scenario) is None),
+                None)
+
+
 def refusal(name: str, scenario: Scenario) -> str | None:
     """Why ``name`` has nothing to run on ``scenario`` (one line), or None where it runs."""
-    tried = candidates(name)
-    if any(entry.applies(scenario) is None for entry in tried):
+    if applying(name, scenario) is not None:
         return None
+    tried = candidates(name)
     covering = next((entry for entry in tried if entry.covers(scenario)), tried[-1])
     return covering.applies(scenario)
 
@@ -80,10 +86,9 @@ def resolve(name: str, scenario: Scenario, option: str = "") -> Reference:
     """The object that runs ``name`` on ``scenario``; refused in one line where none
     applies (after ``option``, the command's option, where given and the line does not
     name the scenario itself)."""
-    tried = candidates(name)
-    for entry in tried:
-        if entry.applies(scenario) is None:
-            return entry
+    found = applying(name, scenario)
+    if found is not None:
+        return found
     reason = str(refusal(name, scenario))
     named = reason.startswith("scenario '")   # (a refusal naming its scenario stands alone)
     raise AdaptskyError(f"{option}: {reason}" if option and not named else reason)
@@ -92,10 +97,8 @@ def resolve(name: str, scenario: Scenario, option: str = "") -> Reference:
 def reference_for(scenario: Scenario) -> Reference | None:
     """The bound or reference a policy's curve on ``scenario`` is a percentage of (the
     first of :data:`REFERENCE_ORDER` that applies), or None."""
-    for name in REFERENCE_ORDER:
-        if refusal(name, scenario) is None:
-            return resolve(name, scenario)
-    return None
+    return next((found for name in REFERENCE_ORDER
+                 if (found := applying(name, scenario)) is not None), None)
 
 
 def reference_words(scenario: Scenario) -> str:
