@@ -59,14 +59,13 @@ from pydantic import ValidationError
 
 from adaptsky.drawing.episode import EpisodeBuffer
 from adaptsky.envs.action_spaces import action_space_kind, gym_action_space, to_dense
-from adaptsky.envs.observations import AgentView
+from adaptsky.envs.observations import AgentView, observation_bounds_of
 from adaptsky.envs.registration import register_envs
 from adaptsky.scenario import Scenario, load_scenario
 from adaptsky.shipped_files import default_scenario_path
 from adaptsky.sim.controls import CONTROLS
 from adaptsky.sim.layout import uniform_layouts, user_layouts
 from adaptsky.sim.network import NetworkBatch, NetworkState
-from adaptsky.sim.observation import bounds_of
 
 RENDER_MODES = ["ansi", "rgb_array"]
 VECTOR_RENDER_MODES = ["ansi"]
@@ -112,7 +111,7 @@ def with_actions(scenario: Scenario, actions: str | None) -> Scenario:
 
 def observation_space(scenario: Scenario, batch: NetworkBatch) -> spaces.Box:
     """The ``Box`` of one environment's observation: finite bounds from the scenario."""
-    low, high = bounds_of(scenario, batch.gain_bounds())
+    low, high = observation_bounds_of(scenario, batch.gain_bounds())
     return spaces.Box(low, high, dtype=np.float32)
 
 

@@ -29,7 +29,9 @@ from adaptsky.sim.observation import (
     FEATURES_PER_USER,
     MULTI_FEATURES_PER_USER,
     MultiObserver,
-    observes_locally,
+    local_observation_bounds,
+    multi_observation_bounds,
+    observation_bounds,
 )
 
 FloatArray = NDArray[np.float64]
@@ -46,6 +48,28 @@ def scaled_of(scenario: Scenario) -> bool:
     """Whether ``scenario``'s agent observes scaled values (``agent.observation``, docs/
     environment.md), else the paper's raw ones."""
     return getattr(scenario.agent, "observation", "scaled") == "scaled"
+
+
+def observes_locally(scenario: Scenario) -> bool:
+    """Whether ``scenario``'s agent sees every UAV's local observation, one after the other
+    (B, U L) (docs/environment.md, "Local observations"): the agents that act per UAV
+    (``agent.local_view``: "mappo", "ippo"); every other agent sees the network's."""
+    return bool(getattr(scenario.agent, "local_view", False))
+
+
+def observation_bounds_of(scenario: Scenario, gains: tuple[float, float] | None = None
+                          ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """The bounds of what ``scenario``'s agent observes (``gains``: a link's linear gain
+    range, None: every positive float64), scaled or raw as it asks: every UAV's local
+    bounds one after the other where it observes locally, else the network's (one UAV's
+    layout or the several-UAV one)."""
+    scaled = scaled_of(scenario)
+    if observes_locally(scenario):
+        low, high = local_observation_bounds(scenario, gains, scaled=scaled)
+        return np.tile(low, scenario.uav.count), np.tile(high, scenario.uav.count)
+    if scenario.uav.count == 1:
+        return observation_bounds(scenario, gains, scaled=scaled)
+    return multi_observation_bounds(scenario, gains, scaled=scaled)
 
 
 def users_in_order(association: Association, user_order: str) -> IntArray | None:

@@ -48,7 +48,7 @@ from pettingzoo import ParallelEnv
 
 from adaptsky.envs.action_spaces import per_component_kind, uav_action_space
 from adaptsky.envs.gym_env import RENDER_FPS, RENDER_MODES, NomaUavEnv, resolve_scenario
-from adaptsky.envs.observations import LocalObserver, user_order_of, users_in_order
+from adaptsky.envs.observations import LocalObserver, scaled_of, user_order_of, users_in_order
 from adaptsky.scenario import Scenario
 from adaptsky.sim.observation import local_observation_bounds
 
@@ -94,7 +94,8 @@ class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
         self.state_space = spaces.Box(box.low, box.high, dtype=np.float32)
         self._local = LocalObserver(self.scenario) if observation == "local" else None
         low, high = ((box.low, box.high) if self._local is None else
-                     local_observation_bounds(self.scenario, self.env.batch.gain_bounds()))
+                     local_observation_bounds(self.scenario, self.env.batch.gain_bounds(),
+                                              scaled=scaled_of(self.scenario)))
         self.observation_spaces = {agent: spaces.Box(low, high, dtype=np.float32)
                                    for agent in self.possible_agents}
         self.action_spaces = {

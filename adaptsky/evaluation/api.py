@@ -14,6 +14,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from adaptsky.algos.registry import algorithm_of
+from adaptsky.algos.shared.shapes import observation_size_of
 from adaptsky.arrays import Tree
 from adaptsky.errors import AdaptskyError
 from adaptsky.evaluation.labels import distinct_labels
@@ -29,7 +30,6 @@ from adaptsky.scenario.overrides import apply_overrides
 from adaptsky.scenario.toml_writer import dumps
 from adaptsky.scenario.variants import eval_scenario
 from adaptsky.sim.layout import user_layouts
-from adaptsky.sim.observation import observation_size_of
 from adaptsky.store.run_file import RunReader
 
 POLICY = "policy"

@@ -46,21 +46,6 @@ def observation_size(num_users: int, num_uavs: int = 1) -> int:
     return 5 * num_users + 3 * num_uavs
 
 
-def observation_size_of(scenario: Scenario) -> int:
-    """The observation size of ``scenario`` (its users and UAVs): U local observations one
-    after the other where its agent observes locally (:func:`observes_locally`)."""
-    if observes_locally(scenario):
-        return scenario.uav.count * local_observation_size(scenario)
-    return observation_size(scenario.num_users, scenario.uav.count)
-
-
-def observes_locally(scenario: Scenario) -> bool:
-    """Whether the environment's observation is every UAV's local one, one after the other
-    (B, U L) (docs/environment.md, "Local observations"): for the agents that act per UAV
-    (``agent.algorithm`` "mappo" or "ippo"); every other agent sees the network's."""
-    return bool(getattr(scenario.agent, "local_view", False))
-
-
 def local_observation_size(scenario: Scenario) -> int:
     """L = 5 S + 3 U, one UAV's local observation (S = 2 K_max user slots)."""
     return (MULTI_FEATURES_PER_USER * 2 * scenario.clusters_per_uav
@@ -110,32 +95,20 @@ class Observer:
         return obs
 
 
-def bounds_of(scenario: Scenario, gains: tuple[float, float] | None = None
-              ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
-    """The observation's bounds of ``scenario``: :func:`observation_bounds` for one UAV,
-    :func:`multi_observation_bounds` for several."""
-    if observes_locally(scenario):
-        low, high = local_observation_bounds(scenario, gains)
-        return np.tile(low, scenario.uav.count), np.tile(high, scenario.uav.count)
-    if scenario.uav.count == 1:
-        return observation_bounds(scenario, gains)
-    return multi_observation_bounds(scenario, gains)
-
-
 FLOAT64_GAIN_RANGE = (float(np.finfo(np.float64).smallest_subnormal),
                       float(np.finfo(np.float64).max))
 """Where the gains have no bound from the scenario (per-step fading): every positive float64."""
 
 
-def observation_bounds(scenario: Scenario, gains: tuple[float, float] | None = None
-                       ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+def observation_bounds(scenario: Scenario, gains: tuple[float, float] | None = None, *,
+                       scaled: bool) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
     """Lower and upper bounds of every observation component, finite (docs/environment.md,
     "Observation bounds"): dx, dy by the area, alpha in [0, 1], h in [h_min, h_max], and g_i
     between ``gains`` (linear, e.g. ``NetworkBatch.gain_bounds()``; None: every positive
-    float64), scaled as the observation is and rounded outward to float32."""
+    float64), ``scaled`` or raw as the observation is and rounded outward to float32."""
     side_m = scenario.area.side_m
     gain_low, gain_high = gains or FLOAT64_GAIN_RANGE
-    if scenario.agent.observation == "scaled":
+    if scaled:
         delta = 2.0
         gain_low, gain_high = _scaled_gain(gain_low), _scaled_gain(gain_high)
         height = (scenario.uav.min_height_m / scenario.uav.max_height_m, 1.0)
@@ -232,16 +205,16 @@ class MultiObserver:
         return obs
 
 
-def multi_observation_bounds(scenario: Scenario, gains: tuple[float, float] | None = None
-                             ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+def multi_observation_bounds(scenario: Scenario, gains: tuple[float, float] | None = None, *,
+                             scaled: bool) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
     """Finite lower and upper bounds of every component (``gains``: the linear gain range of
-    a link, None: every positive float64). The interference is at most U - 1 UAVs' full
-    power P_T G at the largest gain."""
+    a link, None: every positive float64; ``scaled`` or raw values). The interference is at
+    most U - 1 UAVs' full power P_T G at the largest gain."""
     uav, radio = scenario.uav, scenario.radio
     half_m = scenario.area.side_m / 2
     gain_low, gain_high = gains or FLOAT64_GAIN_RANGE
     inr_high = (uav.count - 1) * radio.tx_power_w * radio.antenna_gain * gain_high / radio.noise_w
-    if scenario.agent.observation == "scaled":
+    if scaled:
         delta, position = 2.0, 1.0
         gain_low, gain_high = _scaled_gain(gain_low), _scaled_gain(gain_high)
         inr_high = 10.0 * math.log10(1.0 + inr_high) / GAIN_DB_SCALE if math.isfinite(
@@ -292,12 +265,12 @@ def gathered(network: NDArray[np.float32], flat: NDArray[np.intp], padded: bool
     return network.take(flat)
 
 
-def local_observation_bounds(scenario: Scenario, gains: tuple[float, float] | None = None
-                             ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+def local_observation_bounds(scenario: Scenario, gains: tuple[float, float] | None = None, *,
+                             scaled: bool) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
     """Bounds of every UAV's local observation (the same for all): those of
     :func:`multi_observation_bounds` for S user slots and the U UAVs, widened to hold 0 in the
     slots a UAV with fewer users pads."""
-    low, high = multi_observation_bounds(scenario, gains)
+    low, high = multi_observation_bounds(scenario, gains, scaled=scaled)
     users = MULTI_FEATURES_PER_USER * scenario.num_users
     width = MULTI_FEATURES_PER_USER * 2 * scenario.clusters_per_uav
     low, high = (np.concatenate([bound[:width], bound[users:]]) for bound in (low, high))

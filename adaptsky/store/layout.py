@@ -24,13 +24,13 @@ import numpy as np
 from adaptsky import __version__
 from adaptsky.algos.protocol import AlgorithmSpec
 from adaptsky.algos.registry import ALGORITHMS, algorithm_of
+from adaptsky.algos.shared.shapes import observation_size_of
 from adaptsky.arrays import Field
 from adaptsky.channels.registry import get_model_class
 from adaptsky.errors import AdaptskyError, PluginError
 from adaptsky.scenario import Scenario, parse_scenario
 from adaptsky.scenario.agents import algorithm_tag
 from adaptsky.sim.controls import controls_of
-from adaptsky.sim.observation import observation_size_of
 
 KIND = "adaptsky-run"
 # what this adaptsky writes (2: greedy evaluations and the best policy; 3: energy; 4: the

@@ -29,6 +29,7 @@ import torch
 
 from adaptsky.algos.protocol import EpsilonGreedy
 from adaptsky.algos.registry import algorithm_of
+from adaptsky.algos.shared.shapes import observation_size_of
 from adaptsky.arrays import Tree
 from adaptsky.envs.observations import AgentView
 from adaptsky.errors import NonFiniteError
@@ -39,7 +40,6 @@ from adaptsky.sim.lattice import exploring_positions, exploring_shares
 from adaptsky.sim.layout import episode_layouts, user_layouts
 from adaptsky.sim.network import NetworkBatch
 from adaptsky.sim.noma import jain_fairness
-from adaptsky.sim.observation import observation_size_of
 from adaptsky.sim.reward import reward_weights
 from adaptsky.training.evaluation import EVALUATION_KEYS, EvaluationSet, GreedyEvaluator
 

@@ -12,11 +12,11 @@ from adaptsky.algos.dqn.parameters import network_shapes
 from adaptsky.algos.dqn.spec import ADAM_STATE, DqnSpec
 from adaptsky.algos.protocol import Algorithm, Policy
 from adaptsky.algos.shared.checkpoint import REPLAY, replay_network_parts
+from adaptsky.algos.shared.shapes import observation_size_of
 from adaptsky.arrays import Field, Tree
 from adaptsky.scenario.agents import BdqAgent
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.actions import ActionSet
-from adaptsky.sim.observation import observation_size_of
 
 # /seeds/<S>/checkpoint/replay/actions: the sub-action of each of the D branches per row
 BRANCH_ACTIONS = Field("actions", "int", ("R", "D"))

@@ -16,11 +16,11 @@ from adaptsky.algos.shared.checkpoint import (
     replay_network_parts,
     replay_rows,
 )
+from adaptsky.algos.shared.shapes import observation_size_of
 from adaptsky.arrays import Field, Tree
 from adaptsky.scenario.agents import DqnAgent
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.actions import DENSE_MODES, ActionSet, count_estimate
-from adaptsky.sim.observation import observation_size_of
 
 # /seeds/<S>/checkpoint/agent/optimizer/state/<i>/ for the i-th network parameter P_i
 ADAM_STATE = (Field("step", "float", ()), Field("exp_avg", "float", ("P",)),

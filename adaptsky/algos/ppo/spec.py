@@ -10,13 +10,12 @@ from typing import Any, ClassVar
 from adaptsky.algos.ppo.parameters import critic_shapes, policy_shapes
 from adaptsky.algos.protocol import Algorithm, LayoutCheck, Node, Policy
 from adaptsky.algos.shared.checkpoint import ADAM_STEP, FLOAT32, check_adam, check_weights
-from adaptsky.algos.shared.shapes import HeadShape, parameter_count
+from adaptsky.algos.shared.shapes import HeadShape, observation_size_of, parameter_count
 from adaptsky.arrays import Field, Tree
 from adaptsky.errors import ScenarioError
 from adaptsky.scenario.agents import PpoAgent
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.actions import DENSE_MODES, ActionSet
-from adaptsky.sim.observation import observation_size_of
 
 # /seeds/<S>/checkpoint/agent/reward_norm/: the running statistics of the return (norm_reward)
 REWARD_NORM = (Field("mean", "float", ()), Field("var", "float", ()),

@@ -25,12 +25,11 @@ from adaptsky.algos.shared.checkpoint import (
     check_weights,
     replay_network_parts,
 )
-from adaptsky.algos.shared.shapes import parameter_count
+from adaptsky.algos.shared.shapes import observation_size_of, parameter_count
 from adaptsky.arrays import Field, Tree
 from adaptsky.scenario.agents import SacAgent
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.controls import Components
-from adaptsky.sim.observation import observation_size_of
 
 # /seeds/<S>/checkpoint/replay/actions: the D components of each stored action, in [-1, 1]
 CONTROL_ACTIONS = Field("actions", "float", ("R", "D"))

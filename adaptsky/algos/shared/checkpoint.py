@@ -7,9 +7,9 @@ from __future__ import annotations
 from itertools import pairwise
 
 from adaptsky.algos.protocol import LayoutCheck, Node
+from adaptsky.algos.shared.shapes import observation_size_of
 from adaptsky.arrays import Field
 from adaptsky.scenario.models import Scenario
-from adaptsky.sim.observation import observation_size_of
 
 FLOAT32 = 4
 # /seeds/<S>/checkpoint/agent/<optimizer>/: Adam's step count and moments of every parameter

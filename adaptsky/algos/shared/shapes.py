@@ -14,6 +14,9 @@ from dataclasses import dataclass
 from itertools import pairwise
 from typing import Literal
 
+from adaptsky.scenario.models import Scenario
+from adaptsky.sim.observation import local_observation_size, observation_size
+
 Head = Literal["dense", "branches", "gaussian"]
 Shapes = dict[str, tuple[int, ...]]
 
@@ -42,3 +45,13 @@ def mlp_shapes(prefix: str, sizes: list[int]) -> Shapes:
 def parameter_count(shapes: Shapes) -> int:
     """The numbers of every parameter of ``shapes``."""
     return sum(math.prod(shape) for shape in shapes.values())
+
+
+def observation_size_of(scenario: Scenario) -> int:
+    """The size of what ``scenario``'s agent observes, its networks' input: U local
+    observations one after the other where it acts per UAV (``agent.local_view``: MAPPO,
+    IPPO; docs/environment.md, "Local observations"), else the network's (4 N + 1 for one
+    UAV, 5 N + 3 U for several)."""
+    if getattr(scenario.agent, "local_view", False):
+        return scenario.uav.count * local_observation_size(scenario)
+    return observation_size(scenario.num_users, scenario.uav.count)

@@ -13,14 +13,14 @@ import pytest
 from adaptsky.algos.mappo.rows import actor_rows, critic_rows, joint_actions
 from adaptsky.algos.mappo.spec import input_sizes, uav_head
 from adaptsky.algos.registry import algorithm_of, check_actions
-from adaptsky.envs.observations import AgentView
+from adaptsky.algos.shared.shapes import observation_size_of
+from adaptsky.envs.observations import AgentView, observation_bounds_of
 from adaptsky.envs.parallel_env import NomaUavParallelEnv
 from adaptsky.errors import ScenarioError
 from adaptsky.scenario import load_scenario, parse_scenario
 from adaptsky.scenario.toml_writer import dumps
 from adaptsky.sim.actions import ActionSet
 from adaptsky.sim.network import NetworkBatch
-from adaptsky.sim.observation import bounds_of, observation_size_of
 from adaptsky.training import api
 from adaptsky_cli.cli.main import main
 from tests.conftest import SCENARIOS
@@ -96,7 +96,7 @@ def test_the_environment_observes_every_uav_s_local_observation(base):
     batch = NetworkBatch(mappo, num_envs=1, seed=3, view=AgentView.of(mappo))
     local, _ = pettingzoo.reset(seed=3)
     obs, _ = batch.reset()
-    low, high = bounds_of(mappo)
+    low, high = observation_bounds_of(mappo)
     assert obs.shape == (1, observation_size_of(mappo)) == (1, len(low))
     actions = ActionSet.of(mappo)
     rng = np.random.default_rng(1)

@@ -112,8 +112,8 @@ def test_padded_slots_widen_the_bounds_to_zero():
     """UAV 1 of ``uneven()`` pads slots 2-3: a gain range of -90 to -80 dB scales to
     [0.5, 1], which these slots widen to [0, 1]; UAV 0's own slots 0-1 keep it."""
     scenario = uneven()
-    low, high = local_observation_bounds(scenario, (1e-9, 1e-8))
-    global_low, global_high = multi_observation_bounds(scenario, (1e-9, 1e-8))
+    low, high = local_observation_bounds(scenario, (1e-9, 1e-8), scaled=True)
+    global_low, global_high = multi_observation_bounds(scenario, (1e-9, 1e-8), scaled=True)
     assert low.dtype == np.float32 and low.shape == (26,)
     gain_low = low[3:20:5]
     assert gain_low[:2] == pytest.approx([0.5, 0.5]) and gain_low[2:].tolist() == [0.0, 0.0]

@@ -13,9 +13,9 @@ import h5py
 import numpy as np
 import pytest
 
+from adaptsky.algos.shared.shapes import observation_size_of
 from adaptsky.scenario import load_scenario
 from adaptsky.scenario.toml_writer import dumps
-from adaptsky.sim.observation import observation_size_of
 from adaptsky.training.evaluation import COLUMNS, GreedyEvaluator, evaluation_set
 from adaptsky.training.stack_run import Member, StackRun
 from adaptsky_cli.cli.main import main
