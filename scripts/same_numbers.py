@@ -6,8 +6,11 @@ inspect and eval print, the CSV and figure data of reproduce).
     .venv/bin/python scripts/same_numbers.py [REV] [--wide] [--all]     (default REV: HEAD)
 
 ``--wide`` adds three and four UAVs, two UAVs on sub-6, the energy term on for one and two
-UAVs, evaluations against the oracle, best response and OMA, and a small ``reproduce e4``
-(about four times as long); ``--all`` lists every difference, not the first 40.
+UAVs, moving users (with and without fading), a city of one and of two UAVs, two moving UAVs,
+evaluations against the oracle, best response, OMA, tracking, the per-step oracles (best
+response at every step for two moving UAVs) and the static ceiling under fading, and a small
+``reproduce e4`` (an hour or more); ``--all`` lists every difference, not the first 40;
+``--parallel`` runs the revision and the working tree at once (one process each).
 
 Both run in this environment on this machine; the revision's code is checked out into a
 temporary worktree and put first on PYTHONPATH (with its built-in channel models). Prints one
@@ -27,6 +30,7 @@ import subprocess
 import sys
 import tempfile
 import tomllib
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import h5py
@@ -52,24 +56,40 @@ WIDE_TRAININGS = [
     ("two-uavs-sub6", "two_uavs_sub6.toml", ["train.eval_every=0"]),
     ("energy", "nyc_mmwave.toml", ["reward.w_energy=10"]),
     ("two-uavs-energy", "two_uavs_mmwave.toml", ["reward.w_energy=10", "train.eval_every=0"]),
+    ("moving", "moving_users_sub6.toml", []),
+    ("moving-fading", "moving_users_fading_sub6.toml", []),
+    ("city", "city_sub6.toml", []),
+    ("city-two-uavs", "city_two_uavs_mmwave.toml", ["train.eval_every=0"]),
+    ("two-uavs-moving", "two_uavs_moving_mmwave.toml", ["train.eval_every=0"]),
 ]
-# (run, baselines, --set of the evaluation): every baseline where the run's scenario has it
+# runs evaluated on their scenario's own layout, not on uniform ones (users that move: the
+# uniform layouts of an evaluation keep their mobility since issue 53, a fix)
+OWN_LAYOUT = {"moving", "moving-fading", "two-uavs-moving"}
+# (run, baselines, --set of the evaluation, steps): every baseline where the run's scenario
+# has it
 WIDE_EVALS = [
-    ("paper", "soa,oracle,oma", []),
-    ("sampled-los", "oracle", ["channel.los=expected"]),
-    ("two-uavs", "best-response,oma", []),
-    ("three-uavs", "soa,best-response,oma", []),
-    ("four-uavs", "soa,best-response,oma", []),
-    ("two-uavs-sub6", "soa,best-response,oma", []),
-    ("two-uavs-energy", "soa,best-response,oma", []),
+    ("paper", "soa,oracle,oma", [], 30),
+    ("sampled-los", "oracle", ["channel.los=expected"], 30),
+    ("two-uavs", "best-response,oma", [], 30),
+    ("three-uavs", "soa,best-response,oma", [], 30),
+    ("four-uavs", "soa,best-response,oma", [], 30),
+    ("two-uavs-sub6", "soa,best-response,oma", [], 30),
+    ("two-uavs-energy", "soa,best-response,oma", [], 30),
+    ("moving", "oracle,tracking,soa", [], 30),          # the per-step oracle
+    ("moving-fading", "oracle,tracking", [], 30),       # the per-step oracle under fading
+    ("city", "oracle,soa,oma", [], 30),                 # the static ceiling under fading
+    ("city-two-uavs", "best-response,oma", [], 30),
+    ("two-uavs-moving", "best-response,tracking", [], 10),  # best response at every step
 ]
 CODE = ("import sys; from adaptsky_cli.cli.main import main; sys.exit(main(sys.argv[1:]))")
 
 
 def run(tree: Path, out: Path, *args: str) -> str:
-    """One adaptsky command with the code of ``tree``; its stdout."""
+    """One adaptsky command with the code of ``tree`` (searches cached in ``out``'s own
+    cache, never a cache the other side filled); its stdout."""
     path = [str(tree), str(tree / "plugins" / "builtin")]
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(path), "COLUMNS": "200"}
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(path), "COLUMNS": "200",
+           "ADAPTSKY_CACHE_DIR": str(out.parent / f"{out.name}-cache")}
     done = subprocess.run([sys.executable, "-c", CODE, *args], capture_output=True, text=True,
                           cwd=out, env=env, check=False)
     if done.returncode != 0:
@@ -86,18 +106,20 @@ def outputs(tree: Path, out: Path, wide: bool = False) -> dict[str, str]:
         run(tree, out, "train", str(ROOT / "scenarios" / scenario), *RUN, *sets,
             "--out", f"{name}.h5")
         printed[f"inspect {name}"] = run(tree, out, "inspect", f"{name}.h5", "--json")
+        layouts = [] if name in OWN_LAYOUT else ["--layouts", "2"]
         printed[f"eval {name}"] = run(tree, out, "eval", "--checkpoint", f"{name}.h5",
-                                      "--steps", "50", "--layouts", "2",
+                                      "--steps", "50", *layouts,
                                       "--compare", "soa,random", "--out", f"{name}-eval.h5",
                                       "--json")
     run(tree, out, "reproduce", "e1a", *two_runs(tree), "--episodes", "3", "--steps", "20",
         "--workers", "1", "--out", "e1a", "--quiet")
     if wide:
-        for name, baselines, overrides in WIDE_EVALS:
+        for name, baselines, overrides, steps in WIDE_EVALS:
             sets = [word for item in overrides for word in ("--set", item)]
             label = f"eval {name} {baselines}"
+            layouts = [] if name in OWN_LAYOUT else ["--layouts", "1"]
             printed[label] = run(tree, out, "eval", "--checkpoint", f"{name}.h5", "--steps",
-                                 "30", "--layouts", "1", "--compare", baselines, *sets,
+                                 str(steps), *layouts, "--compare", baselines, *sets,
                                  "--out", f"{name}-{baselines.replace(',', '-')}-eval.h5",
                                  "--json")
         run(tree, out, "reproduce", "e4", *two_runs(tree), "--episodes", "2", "--steps",
@@ -309,7 +331,7 @@ def main() -> int:
         print(__doc__)
         return 0
     wide = "--wide" in sys.argv[1:]
-    positional = [arg for arg in sys.argv[1:] if arg not in ("--wide", "--all")]
+    positional = [arg for arg in sys.argv[1:] if arg not in ("--wide", "--all", "--parallel")]
     rev = positional[0] if positional else "HEAD"
     with tempfile.TemporaryDirectory() as scratch:
         base = Path(scratch)
@@ -319,8 +341,11 @@ def main() -> int:
         try:
             for side in ("old", "new"):
                 (base / side).mkdir()
-            printed_old = outputs(tree, base / "old", wide)
-            printed_new = outputs(ROOT, base / "new", wide)
+            jobs = 2 if "--parallel" in sys.argv[1:] else 1
+            with ThreadPoolExecutor(jobs) as pool:
+                old_side = pool.submit(outputs, tree, base / "old", wide)
+                new_side = pool.submit(outputs, ROOT, base / "new", wide)
+                printed_old, printed_new = old_side.result(), new_side.result()
             differences = compare(base / "old", base / "new", printed_old, printed_new)
         finally:
             subprocess.run(["git", "worktree", "remove", "--force", str(tree)], cwd=ROOT,
