@@ -1,7 +1,8 @@
 """Where runs execute: local processes of stacked runs (on the CPU or a GPU, through
 :class:`adaptsky.training.host.ProcessHost`), or a Dask cluster (one run per task).
 
-All speak futures: ``submit_all(specs) -> [future per run]``, ``request_stop()`` (running runs
+All speak futures: ``submit_all(specs) -> [future per run]``, ``wait_any(futures, timeout_s)``
+(back as soon as one is done, or after ``timeout_s``), ``request_stop()`` (running runs
 checkpoint and end, runs not started stay as they are) and ``close(now)``. A run writes only
 its own file, so results come back through the files, never through memory, and a retried run
 resumes from its last checkpoint.
@@ -9,10 +10,12 @@ resumes from its last checkpoint.
 
 from __future__ import annotations
 
+import contextlib
 import threading
 import uuid
 from collections.abc import Callable
-from concurrent.futures import Future
+from concurrent.futures import FIRST_COMPLETED, Future
+from concurrent.futures import wait as wait_futures
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -36,6 +39,8 @@ class Executor(Protocol):
     capacity: int  # runs at once
 
     def submit_all(self, specs: list[RunSpec]) -> list[Any]: ...
+
+    def wait_any(self, futures: list[Any], timeout_s: float) -> None: ...
 
     def request_stop(self) -> None: ...
 
@@ -92,6 +97,10 @@ class LocalExecutor:
         if not self.thread.is_alive():
             self.thread.start()
         return [futures[spec.path] for spec in specs]
+
+    def wait_any(self, futures: list[Future[RunReport]], timeout_s: float) -> None:
+        """Until one of ``futures`` is done, at most ``timeout_s``."""
+        wait_futures(futures, timeout=timeout_s, return_when=FIRST_COMPLETED)
 
     def _pump(self) -> None:
         try:
@@ -175,6 +184,13 @@ class DaskExecutor:
         return [self.client.submit(_dask_run, spec, self.stop_name, pure=False,
                                    key=f"adaptsky-run-{spec.name}-{uuid.uuid4().hex[:8]}")
                 for spec in specs]
+
+    def wait_any(self, futures: list[Any], timeout_s: float) -> None:
+        """Until one of ``futures`` is done, at most ``timeout_s``."""
+        from distributed import wait
+
+        with contextlib.suppress(TimeoutError):   # none done within timeout_s
+            wait(futures, timeout=timeout_s, return_when="FIRST_COMPLETED")
 
     def request_stop(self) -> None:
         self.stop.set()

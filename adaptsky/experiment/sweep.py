@@ -22,7 +22,7 @@ if TYPE_CHECKING:  # the executors and runs import torch; the sweep itself needs
     from adaptsky.experiment.plan import RunSpec
     from adaptsky.experiment.runs import RunReport, RunState
 
-POLL_S = 2.0
+POLL_S = 2.0   # the progress is read from the files at least this often; a run's end at once
 LOG_EVERY_S = 60.0
 
 
@@ -112,7 +112,7 @@ def run_sweep(todo: list[tuple[RunSpec, RunState]], executor: Executor, progress
                 display.update(f"runs {finished} done · {running} running · "
                                f"{len(futures) - running} left", episodes, pace.left())
                 if futures:
-                    time.sleep(POLL_S)
+                    executor.wait_any([future for _, future in futures.values()], POLL_S)
     except BaseException:
         executor.close(now=True)
         if interrupts.interrupted:  # a second Ctrl-C: what the files keep, then exit 130

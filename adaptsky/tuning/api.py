@@ -16,6 +16,7 @@ import os
 import re
 import time
 from dataclasses import dataclass, field
+from multiprocessing.connection import wait as wait_processes
 from pathlib import Path
 from typing import Any
 
@@ -113,8 +114,8 @@ def tune(*, scenario_path: str | os.PathLike[str], space_path: str | os.PathLike
             if interrupted:  # Ctrl-C stopped this process's trial: the others stop too
                 stop_event.set()
             while any(p.is_alive() for p in others):
-                view.event("wait", {})
-                time.sleep(POLL_S)
+                view.event("wait", {})   # back as soon as one of them ends
+                wait_processes([p.sentinel for p in others if p.is_alive()], POLL_S)
     except KeyboardInterrupt:
         interrupted = True
         stop_event.set()

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import io
 import re
+import threading
 import time
 from types import SimpleNamespace
 
@@ -134,12 +135,47 @@ def test_sweep_estimates_from_the_latest_episodes_written(clock, monkeypatch):
     written = iter(range(31))
     monkeypatch.setattr(sweep, "_episodes_in_file", lambda spec: next(written))
     sleeps = iter([FIRST_S] + [THEN_S] * 40)
-    monkeypatch.setattr(sweep.time, "sleep", lambda s: clock.sleep(next(sleeps)))
     executor = SimpleNamespace(description="a test", capacity=1, request_stop=lambda: None,
                                close=lambda now=False: None,
-                               submit_all=lambda specs: [Future(4, 30)])
+                               submit_all=lambda specs: [Future(4, 30)],
+                               wait_any=lambda futures, s: clock.sleep(next(sleeps)))
     recorder = Recorder()
     sweep.run_sweep([(spec, SimpleNamespace(episodes_done=0))], executor, recorder, 1)
     # polls see episodes 0, 1 (2.46 s), 2, 3 (0.2 s each): then 27 x 0.2 s are left
     assert recorder.etas[:4] == [ESTIMATING] * 3 + ["about 5 s left"], recorder.etas
     assert not any(re.search(r"1 min", eta) for eta in recorder.etas)
+
+
+def test_the_sweep_waits_on_its_futures_and_never_sleeps(monkeypatch):
+    """Between two looks the sweep waits on the executor (back as soon as a run ends), at
+    most :data:`sweep.POLL_S`; it never sleeps a whole poll after the last run ended."""
+    spec = SimpleNamespace(path="run.h5", name="run", seed=0, episodes=3)
+    monkeypatch.setattr(sweep, "_episodes_in_file", lambda spec: 1)
+    monkeypatch.setattr(sweep.time, "sleep", lambda s: pytest.fail("the sweep slept"))
+    waits = []
+    executor = SimpleNamespace(description="a test", capacity=1, request_stop=lambda: None,
+                               close=lambda now=False: None,
+                               submit_all=lambda specs: [Future(2, 3)],
+                               wait_any=lambda futures, s: waits.append((len(futures), s)))
+    outcome = sweep.run_sweep([(spec, SimpleNamespace(episodes_done=0))], executor,
+                              Recorder(), 1)
+    assert [report.episodes_done for report in outcome.reports] == [3]
+    assert waits == [(1, sweep.POLL_S)] * 2   # two looks before the run is done, none after
+
+
+def test_local_runs_wake_the_sweep_when_one_ends():
+    """``LocalExecutor.wait_any`` returns once a future is done, not after its timeout."""
+    from concurrent.futures import Future as RunFuture
+
+    import torch
+
+    from adaptsky.experiment.executors import LocalExecutor
+
+    executor = LocalExecutor(1, torch.device("cpu"))
+    future: RunFuture = RunFuture()
+    timer = threading.Timer(0.05, future.set_result, args=("done",))
+    began = time.monotonic()
+    timer.start()
+    executor.wait_any([future], timeout_s=600.0)
+    assert future.done() and time.monotonic() - began < 300.0
+    executor.close()
