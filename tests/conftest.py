@@ -13,6 +13,10 @@ from typing import Any
 import pytest
 
 from adaptsky.scenario import Scenario, parse_scenario
+from tests.helpers.schedule import (  # noqa: F401  (hooks: longest files first, times)
+    pytest_runtest_protocol,
+    pytest_xdist_make_scheduler,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 # no test reads or writes the user's search cache (docs/training.md); its own tests point it

@@ -1,5 +1,7 @@
 """The algorithms ``[agent] algorithm`` can name, by name: each one's torch-free
-:class:`~adaptsky.algos.protocol.AlgorithmSpec`."""
+:class:`~adaptsky.algos.protocol.AlgorithmSpec`; and the size of what a scenario's learner
+observes (:func:`observation_size_of`, its networks' input), the one thing of the learners'
+inputs the trainer asks."""
 
 from __future__ import annotations
 
@@ -9,6 +11,7 @@ from adaptsky.algos.mappo.spec import IPPO, MAPPO
 from adaptsky.algos.ppo.spec import PPO
 from adaptsky.algos.protocol import AlgorithmSpec
 from adaptsky.algos.sac.spec import SAC
+from adaptsky.algos.shared.shapes import observation_size_of as observation_size_of
 from adaptsky.errors import ScenarioError
 from adaptsky.scenario.models import Scenario
 

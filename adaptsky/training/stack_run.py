@@ -28,8 +28,7 @@ import numpy as np
 import torch
 
 from adaptsky.algos.protocol import EpsilonGreedy
-from adaptsky.algos.registry import algorithm_of
-from adaptsky.algos.shared.shapes import observation_size_of
+from adaptsky.algos.registry import algorithm_of, observation_size_of
 from adaptsky.arrays import Tree
 from adaptsky.envs.observations import AgentView
 from adaptsky.errors import NonFiniteError
