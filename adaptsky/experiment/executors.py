@@ -152,6 +152,10 @@ class LocalExecutor:
             future.cancel()
 
 
+CONNECT_TIMEOUT_S = 20.0
+"""How long ``--scheduler ADDRESS`` tries to reach the scheduler before one line says so."""
+
+
 def _dask_run(spec: RunSpec, stop_name: str) -> RunReport:
     from distributed import Event
 
@@ -170,7 +174,7 @@ class DaskExecutor:
         except ImportError:
             raise AdaptskyError("--scheduler needs Dask: pip install distributed") from None
         try:
-            self.client = Client(address, timeout="20s")
+            self.client = Client(address, timeout=CONNECT_TIMEOUT_S)
         except (OSError, TimeoutError, ValueError) as error:
             raise AdaptskyError(f"--scheduler {address}: cannot connect "
                                 f"({str(error).splitlines()[0]})") from None
