@@ -140,7 +140,7 @@ def arrays(path: Path) -> dict[str, np.ndarray]:
     found: dict[str, np.ndarray] = {}
     skip = {"created_utc", "sessions", "command_line", "adaptsky_version", "platform",
             "python_version", "torch_version", "numpy_version", "h5py_version",
-            "wall_time_s", "format_version", "seconds_per_layout",
+            "wall_time_s", "format_version", "seconds_per_layout", "seconds_per_step",
             "crc32"}  # a dataset's checksum (store.checksums): its data is compared
 
     def visit(name: str, item: h5py.HLObject) -> None:
