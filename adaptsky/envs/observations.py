@@ -6,7 +6,8 @@ users as the layout lists them: the paper's layout for one UAV, the several-UAV 
 otherwise (:mod:`adaptsky.sim.observation`). The agent may see it otherwise:
 
 - its users cluster by cluster (``agent.user_order = "clusters"``: UAV by UAV, cluster 1's
-  first and second user, then cluster 2's..., the order of the actions' power components), so
+  members in order (first and second user of a pair), then cluster 2's..., the order of the
+  actions' power components), so
   that a user's place tells its cluster and role on every layout (docs/agent.md);
 - every UAV's local part of it, one after the other (B, U L), where the agent acts per UAV
   (MAPPO, IPPO: ``agent.local_view``; docs/environment.md, "Local observations").
@@ -74,15 +75,14 @@ def observation_bounds_of(scenario: Scenario, gains: tuple[float, float] | None 
 
 def users_in_order(association: Association, user_order: str) -> IntArray | None:
     """The users (B, N) in observation order: None for ``"listed"`` (as the layout lists
-    them), else UAV by UAV and cluster by cluster, each cluster's first user then its second
-    (``"clusters"``)."""
+    them), else UAV by UAV and cluster by cluster, each cluster's members in order, the first
+    user first (``"clusters"``)."""
     if user_order == "listed":
         return None
     num_envs, num_users = association.serving_uav.shape
-    pairs = np.stack([association.first_user, association.second_user],
-                     axis=-1).reshape(num_envs, -1)
+    members = association.members.reshape(num_envs, -1)
     # (-1 marks the unused cluster slots of a UAV with fewer clusters than K_max)
-    return pairs[pairs >= 0].reshape(num_envs, num_users)
+    return members[members >= 0].reshape(num_envs, num_users)
 
 
 @dataclass(frozen=True)
@@ -107,7 +107,7 @@ class AgentView:
         scaled = scaled_of(scenario)
         if user_order == "listed" and not local and scaled:
             return None
-        return cls(user_order, local, 2 * scenario.clusters_per_uav, scaled)
+        return cls(user_order, local, scenario.users_per_uav, scaled)
 
     def gather(self, association: Association) -> IntArray | None:
         """Where every component of the agent's observation (B, W) comes from in the
@@ -149,7 +149,7 @@ class LocalObserver:
 
     def __init__(self, scenario: Scenario) -> None:
         self._observer = MultiObserver(scenario, scaled_of(scenario))
-        self.num_slots = 2 * scenario.clusters_per_uav
+        self.num_slots = scenario.users_per_uav
         self.num_uavs = scenario.uav.count
 
     def __call__(self, uav_m: FloatArray, users_m: FloatArray, serving_uav: IntArray,

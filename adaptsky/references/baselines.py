@@ -23,6 +23,8 @@ from adaptsky.sim.network import NetworkBatch
 class RandomControls(Reference):
     """Uniformly random controls at every step."""
 
+    any_cluster_size = True
+
     def run(self, scenario: Scenario, steps: int, users_m: np.ndarray, seed: int = 0,
             on_progress: Tick | None = None) -> Method:
         policy = random_controls_policy(controls_of(scenario, len(users_m)), seed)

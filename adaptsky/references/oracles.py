@@ -16,6 +16,7 @@ import numpy as np
 from adaptsky.progress import Tick
 from adaptsky.references.reference import Label, Reference, refusal_of
 from adaptsky.references.searches import best_response_bps
+from adaptsky.rollouts.cluster_oracle import cluster_oracle
 from adaptsky.rollouts.fading_genie import FADING_GENIE_NOTE, per_step_fading_oracle
 from adaptsky.rollouts.fading_oracle import (
     STATIC_CEILING_NOTE,
@@ -51,7 +52,10 @@ def _as_best_response(name: str, layouts: int) -> dict[str, Any]:
 @dataclass(frozen=True)
 class Oracle(Reference):
     """The best lattice point and shares of one UAV, held (docs/model.md §8): exhaustive
-    over the lattice (:mod:`adaptsky.rollouts.oracle`)."""
+    over the lattice (:mod:`adaptsky.rollouts.oracle`; for clusters of M > 2 users over every
+    share vector too, :mod:`adaptsky.rollouts.cluster_oracle`)."""
+
+    any_cluster_size = True
 
     def label(self, scenario: Scenario) -> Label:
         return "bound"
@@ -62,7 +66,9 @@ class Oracle(Reference):
                 or refusal_of(lambda: require_deterministic_gains(scenario)))
 
     def per_layout(self, scenario: Scenario) -> bool:
-        return True
+        # (training's greedy evaluations take it from best response's cached search, which
+        # searches pairs)
+        return scenario.cluster_size == 2
 
     def work(self, scenario: Scenario, steps: int, users_m: np.ndarray) -> tuple[int, str]:
         return len(users_m), "layout"
@@ -77,7 +83,8 @@ class Oracle(Reference):
     def run(self, scenario: Scenario, steps: int, users_m: np.ndarray, seed: int = 0,
             on_progress: Tick | None = None) -> Method:
         start = time.process_time()
-        best = oracle(scenario, users_m, on_progress, on_progress)
+        search = oracle if scenario.cluster_size == 2 else cluster_oracle
+        best = search(scenario, users_m, on_progress, on_progress)
         details = {"seconds_per_layout": (time.process_time() - start) / len(users_m),
                    "objective_bps": best.objective_bps}
         trace = hold(scenario, best.uav_m, best.alpha_first, 1, users_m, seed)

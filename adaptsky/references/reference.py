@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal
+from typing import ClassVar, Literal
 
 import numpy as np
 
@@ -28,6 +28,17 @@ class Reference:
     name: str
     title: str
     what: str
+    any_cluster_size: ClassVar[bool] = False
+    """Whether it runs on NOMA clusters of any size M (docs/model.md §15); else on pairs
+    only, and refused in one line for M > 2 (:meth:`cluster_refusal`)."""
+
+    def cluster_refusal(self, scenario: Scenario) -> str | None:
+        """Why it does not run on ``scenario``'s clusters (one line), or None."""
+        size = scenario.cluster_size
+        if size == 2 or self.any_cluster_size:
+            return None
+        return (f"users.cluster_size: '{self.name}' plans or searches NOMA pairs only, not "
+                f"clusters of {size} users (docs/model.md §15 lists what runs on them)")
 
     def label(self, scenario: Scenario) -> Label:
         """A bound, a reference or a baseline, on ``scenario``."""

@@ -69,7 +69,8 @@ def title_of(name: str) -> str:
 
 def applying(name: str, scenario: Scenario) -> Reference | None:
     """The first object that answers to ``name`` and applies to ``scenario``, or None."""
-    return next((entry for entry in candidates(name) if entry.applies(scenario) is None),
+    return next((entry for entry in candidates(name)
+                 if entry.cluster_refusal(scenario) is None and entry.applies(scenario) is None),
                 None)
 
 
@@ -79,7 +80,7 @@ def refusal(name: str, scenario: Scenario) -> str | None:
         return None
     tried = candidates(name)
     covering = next((entry for entry in tried if entry.covers(scenario)), tried[-1])
-    return covering.applies(scenario)
+    return covering.cluster_refusal(scenario) or covering.applies(scenario)
 
 
 def resolve(name: str, scenario: Scenario, option: str = "") -> Reference:

@@ -183,6 +183,52 @@ def best_shares(gain_first: FloatArray, gain_second: FloatArray, alphas: FloatAr
     return best_alpha, best_rate
 
 
+POINTS_PER_SHARE_BLOCK = 256
+"""Lattice points valued at once against every share vector of a cluster of M > 2."""
+
+
+def share_vectors(scenario: Scenario) -> tuple[FloatArray, FloatArray]:
+    """Every component vector (V, M - 1) the actions reach in a cluster of M users (the share
+    grid on each component, lattice order: the last fastest; docs/model.md §15) and the
+    shares (V, M) each gives."""
+    components = grid_points(*[share_lattice(scenario)] * (scenario.cluster_size - 1))
+    return components, noma.member_shares(components)
+
+
+def best_share_vectors(gain: FloatArray, shares: FloatArray, scenario: Scenario,
+                       snr_scale: float) -> tuple[NDArray[np.intp], FloatArray]:
+    """Per point and cluster of M users with gains ``gain`` (P, M) (one UAV: no
+    interference): the index into ``shares`` (V, M) of the share vector maximising the
+    cluster's sum rate under R_min, trying every one (exact for any SIC residual; ties to the
+    first), and that sum rate (P,); index 0 and -inf where none meets R_min. The SIC order is
+    the gains' (:func:`~adaptsky.sim.noma.sic_order`), so member p of the order hears the
+    shares before it and the residual of those after it (docs/model.md §15)."""
+    residual, bandwidth_hz = scenario.radio.sic_residual, scenario.radio.bandwidth_hz
+    min_se = scenario.reward.min_se
+    size = gain.shape[1]
+    order = noma.sic_order(gain, gain)                                      # (P, M)
+    index = np.zeros(len(gain), dtype=np.intp)
+    rate = np.full(len(gain), -np.inf)
+    codes = np.ravel_multi_index(order.T, (size,) * size)   # one number per order
+    for code in np.unique(codes):
+        rows = np.flatnonzero(codes == code)
+        permutation = order[rows[0]]
+        ordered = shares[:, permutation]                                    # (V, M)
+        heard = noma.heard_shares(ordered, residual)
+        snr = snr_scale * np.take_along_axis(gain[rows], order[rows], axis=1)   # (P_o, M)
+        for start in range(0, len(rows), POINTS_PER_SHARE_BLOCK):
+            block = slice(start, start + POINTS_PER_SHARE_BLOCK)
+            a = snr[block, None, :]                                          # (b, 1, M)
+            spectral = np.log2(1.0 + ordered * a / (heard * a + 1.0))        # (b, V, M)
+            total = spectral.sum(axis=2)
+            total[(spectral < min_se).any(axis=2)] = -np.inf
+            best = np.argmax(total, axis=1)
+            found = rows[block]
+            index[found] = best
+            rate[found] = bandwidth_hz * total[np.arange(len(best)), best]
+    return index, rate
+
+
 def either_share(alphas: FloatArray) -> FloatArray:
     """Every share either user of a cluster may hold: the grid and its complement."""
     return np.unique(np.concatenate([alphas, 1.0 - alphas]))

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from typing import Annotated, Any, Literal
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from adaptsky.scenario.agents import AgentConfig, DqnAgent
 from adaptsky.scenario.ground import MIN_OPEN_SHARE, open_ground_share
@@ -113,10 +113,20 @@ DEFAULT_SPREAD_M = 10.0
 """placement = "hotspots": the number of centres and the spread of the users, m (ours)."""
 
 
+MAX_CLUSTER_SIZE = 8
+"""The largest NOMA cluster (``users.cluster_size``): a SIC chain of 8 users (ours)."""
+
+
 class Users(Section):
+    # first: the checks of positions_m and count read it
+    cluster_size: int = Field(2, ge=2, le=MAX_CLUSTER_SIZE, description="users M of each NOMA "
+                              "cluster, sharing one resource block by SIC (docs/model.md §15); "
+                              "2: the paper's pairs")
     positions_m: list[Annotated[list[CoordinateM], Field(min_length=2, max_length=2)]] | None = (
-        Field(None, description="explicit user positions [[x, y], ...], m; even count"))
-    count: int | None = Field(None, ge=2, description="number of users N_UE = 2K (even)")
+        Field(None, description="explicit user positions [[x, y], ...], m; a multiple of "
+              "cluster_size"))
+    count: int | None = Field(None, ge=2, description="number of users N_UE = M K (a multiple "
+                              "of cluster_size)")
     placement: Literal["listed", "uniform", "fresh", "hotspots"] | None = Field(
         None, description="'listed' (positions_m), 'uniform' over the area (count, "
         "layout_seed), 'fresh': uniform, drawn anew every training episode from the "
@@ -154,18 +164,27 @@ class Users(Section):
 
     @field_validator("positions_m")
     @classmethod
-    def _even_pairs_of_xy(cls, value: list[list[float]] | None) -> list[list[float]] | None:
+    def _even_pairs_of_xy(cls, value: list[list[float]] | None, info: ValidationInfo
+                          ) -> list[list[float]] | None:
         if value is None:
             return value
-        if len(value) < 2 or len(value) % 2:
+        size = info.data.get("cluster_size", 2)
+        if size == 2 and (len(value) < 2 or len(value) % 2):
             raise ValueError(f"{len(value)} users given; NOMA pairs need an even count >= 2")
+        if len(value) < size or len(value) % size:
+            raise ValueError(f"{len(value)} users given; NOMA clusters of cluster_size = {size} "
+                             f"users need a multiple of {size}")
         return value
 
     @field_validator("count")
     @classmethod
-    def _even_count(cls, value: int | None) -> int | None:
-        if value is not None and value % 2:
-            raise ValueError(f"{value} users; NOMA pairs need an even count")
+    def _even_count(cls, value: int | None, info: ValidationInfo) -> int | None:
+        size = info.data.get("cluster_size", 2)
+        if value is not None and value % size:
+            if size == 2:
+                raise ValueError(f"{value} users; NOMA pairs need an even count")
+            raise ValueError(f"{value} users; NOMA clusters of cluster_size = {size} users need "
+                             f"a multiple of {size}")
         return value
 
     @model_validator(mode="after")
@@ -582,7 +601,9 @@ class Scenario(Section):
             return self  # no index: D components of [-1, 1], whatever their number
         count, dense = self.uav.count, self.agent.algorithm == "dqn"
         actions = MAX_DENSE_ACTIONS if dense else MAX_INDEX_ACTIONS
-        limit, users = max_users(self.uav.actions, count, actions), self.num_users
+        size = self.cluster_size
+        limit = max_users(self.uav.actions, count, actions, size)
+        users = self.num_users
         if users > limit:
             base = 2 if self.uav.actions == "paper" else 3
             other = "with-hover" if self.uav.actions == "paper" else "paper"
@@ -592,9 +613,10 @@ class Scenario(Section):
             branching = ("; agent.algorithm = 'bdq' acts per component and allows 2^62"
                          if dense and count > 1 else "")
             raise ValueError(
-                f"users: {users} users{uavs} give {base}^{3 * count + users // 2} actions; "
+                f"users: {users} users{uavs} give "
+                f"{base}^{3 * count + users // size * (size - 1)} actions; "
                 f"{held}, so at most {max(limit, 0)} users with uav.actions = "
-                f"'{self.uav.actions}' ({max(max_users(other, count, actions), 0)} with "
+                f"'{self.uav.actions}' ({max(max_users(other, count, actions, size), 0)} with "
                 f"'{other}'){branching}")
         return self
 
@@ -650,10 +672,11 @@ class Scenario(Section):
     def _several_uavs(self) -> Scenario:
         """Groups of users the UAVs can serve, and UAVs that start far enough apart
         (docs/model.md §9)."""
-        uav, users, n = self.uav, self.users, self.num_users
-        if uav.count > n // 2:
-            raise ValueError(f"uav.count: {uav.count} UAVs for {n // 2} NOMA pairs; every UAV "
-                             "needs at least one pair")
+        uav, users, n, size = self.uav, self.users, self.num_users, self.cluster_size
+        what = "pair" if size == 2 else "cluster"
+        if uav.count > n // size:
+            raise ValueError(f"uav.count: {uav.count} UAVs for {n // size} NOMA {what}s; every "
+                             f"UAV needs at least one {what}")
         if users.uav is not None:
             if len(users.uav) != n:
                 raise ValueError(f"users.uav: lists {len(users.uav)} UAVs for {n} users; give "
@@ -664,12 +687,16 @@ class Scenario(Section):
                                  f"the UAVs 0 to {uav.count - 1} (0-based); give every user "
                                  "one of them, or raise uav.count")
             sizes = [users.uav.count(u) for u in range(uav.count)]
-            if any(size == 0 or size % 2 for size in sizes):
+            if any(group == 0 or group % size for group in sizes):
+                served = ("an even number >= 2" if size == 2
+                          else f"a multiple >= {size} (users.cluster_size)")
                 raise ValueError(f"users.uav: group sizes {sizes} for UAVs 0..{uav.count - 1}; "
-                                 "every UAV serves an even number >= 2 of users")
-        elif n % uav.count or (n // uav.count) % 2:
+                                 f"every UAV serves {served} of users")
+        elif n % uav.count or (n // uav.count) % size:
+            sized = ("an even size" if size == 2
+                     else f"a multiple of users.cluster_size = {size}")
             raise ValueError(f"users.association: {n} users do not split into {uav.count} "
-                             "equal groups of an even size; choose N divisible by 2 U, or "
+                             f"equal groups of {sized}; choose N divisible by {size} U, or "
                              "association = 'listed' with users.uav")
         if len(set(self.clusters_of_uavs)) > 1 and getattr(self.agent, "reward_split",
                                                            "team") != "team":
@@ -780,24 +807,45 @@ class Scenario(Section):
                 for u in range(uav.count)]
 
     @property
+    def cluster_size(self) -> int:
+        """M, the users of every NOMA cluster (docs/model.md §15; 2: the paper's pairs)."""
+        return self.users.cluster_size
+
+    @property
     def num_clusters(self) -> int:
-        """K, the NOMA clusters of all UAVs together (N/2)."""
-        return self.num_users // 2
+        """K, the NOMA clusters of all UAVs together (N / M)."""
+        return self.num_users // self.cluster_size
 
     @property
     def clusters_of_uavs(self) -> tuple[int, ...]:
-        """K_u of every UAV (docs/model.md §9): half its listed users (``users.uav``), else
-        N / (2 U) each (equal groups)."""
-        listed = self.users.uav
+        """K_u of every UAV (docs/model.md §9): its listed users (``users.uav``) over M, else
+        N / (M U) each (equal groups)."""
+        listed, size = self.users.uav, self.cluster_size
         if listed is not None:
-            return tuple(listed.count(u) // 2 for u in range(self.uav.count))
-        return (self.num_users // (2 * self.uav.count),) * self.uav.count
+            return tuple(listed.count(u) // size for u in range(self.uav.count))
+        return (self.num_users // (size * self.uav.count),) * self.uav.count
 
     @property
     def clusters_per_uav(self) -> int:
-        """K_max, the most clusters of one UAV: N / (2 U) for equal groups; the width of every
-        UAV's shares in the configuration (a UAV with fewer has padded, unused slots)."""
+        """K_max, the most clusters of one UAV: N / (M U) for equal groups."""
         return max(self.clusters_of_uavs)
+
+    @property
+    def users_per_uav(self) -> int:
+        """M K_max, the most users of one UAV (the user slots of a UAV's local view)."""
+        return self.cluster_size * self.clusters_per_uav
+
+    @property
+    def shares_of_uavs(self) -> tuple[int, ...]:
+        """S_u = K_u (M - 1) of every UAV: its share components, M - 1 per cluster
+        (docs/model.md §15; K_u for pairs)."""
+        return tuple(k * (self.cluster_size - 1) for k in self.clusters_of_uavs)
+
+    @property
+    def shares_per_uav(self) -> int:
+        """S_max, the most share components of one UAV: the width of every UAV's shares in
+        the configuration (a UAV with fewer has padded, unused slots)."""
+        return max(self.shares_of_uavs)
 
     @property
     def min_rate_bps(self) -> float:

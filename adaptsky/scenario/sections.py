@@ -37,15 +37,16 @@ StepM = Annotated[float, Field(ge=0.01, le=1000.0)]
 CoordinateM = Annotated[float, Field(ge=-AREA_MAX_SIDE_M, le=AREA_MAX_SIDE_M)]
 
 
-def max_users(mode: str, num_uavs: int = 1, limit: int = MAX_DENSE_ACTIONS) -> int:
+def max_users(mode: str, num_uavs: int = 1, limit: int = MAX_DENSE_ACTIONS,
+              cluster_size: int = 2) -> int:
     """The most users whose dense action space (``uav.actions = mode``, ``num_uavs`` UAVs:
-    3 U + N/2 components) has at most ``limit`` actions: for one UAV and
-    ``MAX_DENSE_ACTIONS`` 42 for ``paper``, 24 for ``with-hover``; 0 where the UAVs' moves
-    leave no room (eight UAVs under ``MAX_DENSE_ACTIONS``)."""
+    3 U + (N / M) (M - 1) components, M = ``cluster_size``) has at most ``limit`` actions:
+    for one UAV, pairs and ``MAX_DENSE_ACTIONS`` 42 for ``paper``, 24 for ``with-hover``; 0
+    where the UAVs' moves leave no room (eight UAVs under ``MAX_DENSE_ACTIONS``)."""
     base, components = (2 if mode == "paper" else 3), 3 * num_uavs
     while base ** (components + 1) <= limit:
         components += 1
-    return 2 * (components - 3 * num_uavs)
+    return cluster_size * ((components - 3 * num_uavs) // (cluster_size - 1))
 
 
 def _name_character(char: str) -> bool:

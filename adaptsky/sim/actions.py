@@ -40,7 +40,9 @@ def count_estimate(num_clusters: int, mode: ActionMode, num_uavs: int = 1) -> fl
 class ActionSet:
     """The dense actions of ``num_uavs`` UAVs of ``num_clusters`` clusters each, or of
     ``clusters`` (K_u per UAV) where they differ: components x, y, h, cluster 1 .. K_u of
-    UAV 0, then those of UAV 1, ... (docs/model.md §3 and §9), D = sum_u (3 + K_u)."""
+    UAV 0, then those of UAV 1, ... (docs/model.md §3 and §9), D = sum_u (3 + K_u). With
+    clusters of M > 2 users a "cluster" here is one of its M - 1 share components
+    (docs/model.md §15): ``num_clusters`` counts components, K_u (M - 1)."""
 
     num_clusters: int
     mode: ActionMode = "paper"
@@ -55,8 +57,8 @@ class ActionSet:
         if mode not in DENSE_MODES:
             raise ValueError(f"uav.actions = '{mode}' has no dense action set; the dense "
                              f"kinds are {', '.join(repr(m) for m in DENSE_MODES)}")
-        clusters = scenario.clusters_of_uavs
-        return cls(scenario.clusters_per_uav, mode, scenario.uav.count,
+        clusters = scenario.shares_of_uavs   # K_u (M - 1) share components (K_u for pairs)
+        return cls(scenario.shares_per_uav, mode, scenario.uav.count,
                    () if len(set(clusters)) == 1 else clusters)
 
     @property

@@ -3,7 +3,8 @@
 Once per layout: a deterministic balanced k-means splits the N users into U groups of N/U
 (``users.association = "kmeans"``) or ``users.uav`` lists them (``"listed"``); groups are
 matched to UAVs by the least total distance from the UAVs' start positions; inside each group
-users are paired into NOMA clusters as for one UAV (:func:`adaptsky.sim.layout.pair_users`).
+users are put into NOMA clusters of M as for one UAV (:func:`adaptsky.sim.layout.cluster_users`;
+pairs for M = 2, docs/model.md §15).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from adaptsky.sim.layout import pair_users
+from adaptsky.sim.layout import cluster_users
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -129,21 +130,46 @@ class Association:
     """Serving UAV and NOMA cluster of every user of B layouts with U UAVs.
 
     ``serving_uav`` (B, N): the UAV u serving each user; ``cluster`` (B, N): the cluster k of
-    its UAV (its subchannel under full reuse); ``first_user`` and ``second_user``
-    (B, U, K_max): the users of cluster k of UAV u, -1 where UAV u has fewer clusters;
-    ``clusters_per_uav`` (U,): K_u.
+    its UAV (its subchannel under full reuse); ``members`` (B, U, K_max, M): the users of
+    cluster k of UAV u in their order (member j's share is the j-th of the cluster's, docs/
+    model.md §15), -1 where UAV u has fewer clusters; ``clusters_per_uav`` (U,): K_u.
     """
 
     serving_uav: IntArray
     cluster: IntArray
-    first_user: IntArray
-    second_user: IntArray
+    members: IntArray
     clusters_per_uav: IntArray
+
+    @property
+    def cluster_size(self) -> int:
+        """M, the users of a cluster."""
+        return self.members.shape[3]
+
+    @property
+    def first_user(self) -> IntArray:
+        """(B, U, K_max): the first user of every cluster (the one alpha_k belongs to), -1
+        where UAV u has fewer clusters."""
+        return self.members[..., 0]
+
+    @property
+    def second_user(self) -> IntArray:
+        """(B, U, K_max): the second user of every cluster, as :attr:`first_user`."""
+        return self.members[..., 1]
+
+    @property
+    def member(self) -> IntArray:
+        """(B, N): each user's place j in its cluster (0: the first)."""
+        member = np.empty(self.serving_uav.shape, dtype=np.intp)
+        valid = self.first_user >= 0                                     # (B, U, K_max)
+        rows = np.broadcast_to(np.arange(len(member))[:, None, None], valid.shape)[valid]
+        for j in range(self.cluster_size):
+            member[rows, self.members[..., j][valid]] = j
+        return member
 
     @property
     def has_cluster(self) -> NDArray[np.bool_]:
         """(U, K_max): whether UAV u has a cluster k."""
-        k_max = self.first_user.shape[2]
+        k_max = self.members.shape[2]
         return np.arange(k_max)[None, :] < self.clusters_per_uav[:, None]
 
     @property
@@ -187,26 +213,27 @@ def serving_groups(users_m: FloatArray, uav_start_m: FloatArray, association: st
 
 
 def associate(serving_uav: IntArray, start_gain: FloatArray, pairing: str,
-              num_uavs: int) -> Association:
-    """NOMA clusters inside every UAV's group: users served by UAV u (in listed order) paired
-    with :func:`~adaptsky.sim.layout.pair_users` (``"listed"``, or ``"near-far"`` by
-    ``start_gain`` (B, N), each user's gain from its serving UAV at the start)."""
+              num_uavs: int, cluster_size: int = 2) -> Association:
+    """NOMA clusters of ``cluster_size`` M users inside every UAV's group: users served by UAV
+    u (in listed order) put into clusters by :func:`~adaptsky.sim.layout.cluster_users`
+    (``"listed"``, or ``"near-far"`` by ``start_gain`` (B, N), each user's gain from its
+    serving UAV at the start)."""
     num_layouts, n = serving_uav.shape
     sizes = np.stack([(serving_uav == u).sum(axis=1) for u in range(num_uavs)], axis=1)
-    if np.any(sizes != sizes[:1]) or np.any(sizes % 2):
-        raise ValueError("every layout must give each UAV the same even number of users")
-    clusters_per_uav = (sizes[0] // 2).astype(np.intp)
+    if np.any(sizes != sizes[:1]) or np.any(sizes % cluster_size):
+        raise ValueError(f"every layout must give each UAV the same number of users, a "
+                         f"multiple of {cluster_size}")
+    clusters_per_uav = (sizes[0] // cluster_size).astype(np.intp)
     k_max = int(clusters_per_uav.max())
-    first = np.full((num_layouts, num_uavs, k_max), -1, dtype=np.intp)
-    second = np.full_like(first, -1)
+    members = np.full((num_layouts, num_uavs, k_max, cluster_size), -1, dtype=np.intp)
     cluster = np.empty((num_layouts, n), dtype=np.intp)
+    rows = np.arange(num_layouts)[:, None]
     for u, k_u in enumerate(clusters_per_uav):
-        members = np.stack([np.flatnonzero(row == u) for row in serving_uav])   # (B, n_u)
-        first_local, second_local = pair_users(np.take_along_axis(start_gain, members, axis=1),
-                                               pairing)
-        first[:, u, :k_u] = np.take_along_axis(members, first_local, axis=1)
-        second[:, u, :k_u] = np.take_along_axis(members, second_local, axis=1)
-        rows = np.arange(num_layouts)[:, None]
-        cluster[rows, first[:, u, :k_u]] = np.arange(k_u)
-        cluster[rows, second[:, u, :k_u]] = np.arange(k_u)
-    return Association(serving_uav, cluster, first, second, clusters_per_uav)
+        group = np.stack([np.flatnonzero(row == u) for row in serving_uav])     # (B, n_u)
+        local = cluster_users(np.take_along_axis(start_gain, group, axis=1), pairing,
+                              cluster_size)                                     # (B, K_u, M)
+        members[:, u, :k_u] = np.take_along_axis(
+            group, local.reshape(num_layouts, -1), axis=1).reshape(local.shape)
+        for j in range(cluster_size):
+            cluster[rows, members[:, u, :k_u, j]] = np.arange(k_u)
+    return Association(serving_uav, cluster, members, clusters_per_uav)

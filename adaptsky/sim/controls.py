@@ -54,8 +54,9 @@ class Components:
 
     @classmethod
     def of(cls, scenario: Scenario, num_envs: int) -> Components:
-        uav, k = scenario.uav, scenario.clusters_per_uav
-        clusters = scenario.clusters_of_uavs
+        # a UAV's share components: K_u for pairs, K_u (M - 1) for clusters of M (§15)
+        uav, k = scenario.uav, scenario.shares_per_uav
+        clusters = scenario.shares_of_uavs
         # one UAV's steps, then every UAV's: the components of an action in order
         step = np.concatenate([np.concatenate([np.array(uav.step_m, dtype=np.float64),
                                                np.full(k_u, uav.power_step)])

@@ -110,18 +110,34 @@ def uniform_layouts(scenario: Scenario, rng: np.random.Generator, count: int
 
 def pair_users(gains: NDArray[np.float64], pairing: str) -> tuple[NDArray[np.int64],
                                                                    NDArray[np.int64]]:
-    """Indices (B, K) of each cluster's first and second user.
+    """Indices (B, K) of each cluster's first and second user: :func:`cluster_users` with
+    M = 2. ``listed``: users (1, 2), (3, 4), ... ``near-far``: users sorted by ``gains``
+    (B, N); the k-th strongest is the first user of cluster k, the k-th weakest its second.
+    """
+    members = cluster_users(gains, pairing, 2)
+    return members[..., 0], members[..., 1]
 
-    ``listed``: users (1, 2), (3, 4), ... ``near-far``: users sorted by ``gains`` (B, N); the
-    k-th strongest is the first user of cluster k, the k-th weakest its second.
+
+def cluster_users(gains: NDArray[np.float64], pairing: str, cluster_size: int
+                  ) -> NDArray[np.int64]:
+    """Indices (B, K, M) of the M = ``cluster_size`` users of each of the K = N / M clusters,
+    in member order (docs/model.md §15).
+
+    ``listed``: users (1 .. M), (M + 1 .. 2 M), ... ``near-far``: users sorted by ``gains``
+    (B, N), strongest first, and dealt to the clusters in M rounds of K, every other round
+    backwards (a snake): member j of cluster k is the user of rank j K + k for even j and
+    (j + 1) K - 1 - k for odd j, so every cluster spans near to far. For M = 2: the k-th
+    strongest first, the k-th weakest second.
     """
     num_layouts, num_users = gains.shape
+    k = num_users // cluster_size
     if pairing == "listed":
-        first = np.broadcast_to(np.arange(0, num_users, 2), (num_layouts, num_users // 2))
-        return first.copy(), first + 1
+        return np.broadcast_to(np.arange(num_users).reshape(k, cluster_size),
+                               (num_layouts, k, cluster_size)).copy()
     order = np.argsort(-gains, axis=1, kind="stable")
-    half = num_users // 2
-    return order[:, :half].copy(), order[:, ::-1][:, :half].copy()
+    rounds = order.reshape(num_layouts, cluster_size, k).copy()            # (B, M, K)
+    rounds[:, 1::2] = rounds[:, 1::2, ::-1]
+    return rounds.transpose(0, 2, 1).copy()
 
 
 def episode_layouts(scenario: Scenario, seeds: list[int], episode: int) -> NDArray[np.float64]:

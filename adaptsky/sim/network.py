@@ -46,6 +46,7 @@ from adaptsky.scenario.models import Scenario
 from adaptsky.sim import noma
 from adaptsky.sim.association import Association, associate, serving_groups
 from adaptsky.sim.blockage import Blockage, kept_out, users_kept_out
+from adaptsky.sim.chain import Chain
 from adaptsky.sim.city import City, city_of, on_footprints
 from adaptsky.sim.energy import EnergyAccount
 from adaptsky.sim.fading import FadingStage, Generators
@@ -191,6 +192,8 @@ class NetworkBatch:
         self.num_users = scenario.num_users
         self.num_uavs = scenario.uav.count
         self.num_clusters = scenario.clusters_per_uav
+        self.cluster_size = scenario.cluster_size            # M (2: the paper's pairs)
+        self.num_shares = scenario.shares_per_uav            # K (M - 1) share components
         self.channel = build_channel(scenario)
         self._dynamics = Dynamics.of(scenario, num_envs)
         self.actions = self._dynamics.actions        # the dense set (None: continuous)
@@ -275,7 +278,8 @@ class NetworkBatch:
                                         self.geometry(starts, users_m))
         start_gain = start_gain.reshape(self.num_envs, self.num_uavs, self.num_users)
         self.association: Association = associate(
-            serving, serving_gain(start_gain, serving), scenario.users.pairing, self.num_uavs)
+            serving, serving_gain(start_gain, serving), scenario.users.pairing, self.num_uavs,
+            self.cluster_size)
         energy_shape = (self.num_envs,) if self.num_uavs == 1 else (self.num_envs,
                                                                      self.num_uavs)
         self._energy = EnergyAccount(scenario, self.weights, energy_shape,
@@ -301,8 +305,28 @@ class NetworkBatch:
         rows = np.arange(num_envs)[:, None]
         serving = association.serving_uav
         self._serving_link = rows * (num_uavs * n) + serving * n + np.arange(n)
-        self._partner_flat = rows * n + association.partner
         uav_base = rows * (num_uavs * width) + serving * width
+        self._serving_xy = np.stack([uav_base, uav_base + 1])
+        # every link's UAV x, y and h in the configuration (3, B*U, N)
+        link_base = (np.arange(num_envs * num_uavs) * width)[:, None] + np.zeros(n, np.intp)
+        self._link_source = np.stack([link_base, link_base + 1, link_base + 2])
+        self._interferer = interferers(association)
+        self._chain = None if self.cluster_size == 2 else Chain.of(association, width)
+        if self._chain is None:
+            self._index_pairs(uav_base)
+        gather = None if self._view is None else self._view.gather(association)
+        self._view_flat = (None if gather is None
+                           else flat_gather(gather, observation_size(n, num_uavs)))
+        self._repeated_of: FloatArray | None = None    # see _repeated_users
+        self._repeated: tuple[FloatArray, FloatArray] | None = None
+        self._no_interference = np.zeros((num_envs, n))
+        self._no_interference.flags.writeable = False
+
+    def _index_pairs(self, uav_base: NDArray[np.intp]) -> None:
+        """The index arrays of clusters of two (:meth:`_index`)."""
+        association, n = self.association, self.num_users
+        rows = np.arange(self.num_envs)[:, None]
+        self._partner_flat = rows * n + association.partner
         self._alpha_source = uav_base + 3 + association.cluster
         self._is_first = association.is_first
         # every user's share and its partner's, alpha_k and 1 - alpha_k in one step:
@@ -312,18 +336,6 @@ class NetworkBatch:
         self._share_sign = np.stack([sign, -sign])
         self._share_offset = np.stack([offset, 1.0 - offset])
         self._share_source = np.stack([self._alpha_source, self._alpha_source])
-        # every link's UAV x, y and h in the configuration (3, B*U, N)
-        link_base = (np.arange(num_envs * num_uavs) * width)[:, None] + np.zeros(n, np.intp)
-        self._link_source = np.stack([link_base, link_base + 1, link_base + 2])
-        self._interferer = interferers(association)
-        self._serving_xy = np.stack([uav_base, uav_base + 1])
-        gather = None if self._view is None else self._view.gather(association)
-        self._view_flat = (None if gather is None
-                           else flat_gather(gather, observation_size(n, num_uavs)))
-        self._repeated_of: FloatArray | None = None    # see _repeated_users
-        self._repeated: tuple[FloatArray, FloatArray] | None = None
-        self._no_interference = np.zeros((num_envs, n))
-        self._no_interference.flags.writeable = False
 
     def set_layouts(self, users_m: FloatArray) -> None:
         """New home positions of the users (B, N, 2), associated anew; they take effect at the
@@ -443,9 +455,9 @@ class NetworkBatch:
                   uav_m: FloatArray | None = None) -> None:
         """Step 0: every UAV at its start (or ``uav_m``, (B, U, 3)), every first user's share
         at ``start_alpha`` (or ``alpha_first``), users at home."""
-        alpha = (np.full((self.num_envs, self.num_uavs, self.num_clusters),
+        alpha = (np.full((self.num_envs, self.num_uavs, self.num_shares),
                          self.scenario.uav.start_alpha) if alpha_first is None
-                 else self._per_uav(alpha_first, self.num_clusters))
+                 else self._per_uav(alpha_first, self.num_shares))
         starts = np.broadcast_to(self.start_m if uav_m is None else uav_m,
                                  (self.num_envs, *self.start_m.shape))
         self.sim_state = SimState.of(starts, alpha, self.layouts_m)
@@ -514,7 +526,7 @@ class NetworkBatch:
         action)."""
         before = self.sim_state
         moved = SimState.of(self._per_uav(uav_m, 3), self._per_uav(alpha_first,
-                                                                   self.num_clusters),
+                                                                   self.num_shares),
                             before.users_m if users_m is None else users_m,
                             before.t if t is None else t)
         return self._settled(before, moved, flown=flown, draws=draws)
@@ -714,6 +726,10 @@ class NetworkBatch:
         UAVs' configuration: SIC by the effective gain c_i = g_i / (I_i + sigma^2)
         (:func:`~adaptsky.sim.interference.sic_rates`). Every user's share and its
         partner's are written into ``out`` (2, B, N) where given."""
+        if self._chain is not None:
+            return self._chain.rates(gain, interference, config, out, power_w=self._power_w,
+                                     noise_w=self._noise_w, bandwidth_hz=self._bandwidth,
+                                     sic_residual=self._sic_residual)
         partner = self._partner_flat
         shares = np.multiply(self._share_sign, config.take(self._share_source), out=out)
         shares += self._share_offset

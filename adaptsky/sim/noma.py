@@ -11,8 +11,9 @@ from numpy.typing import NDArray
 # the reward of eq. 13 lives in adaptsky.sim.reward; its names stay importable from here
 from adaptsky.sim.reward import RewardFromSums, RewardWeights, reward, stack_weights
 
-__all__ = ["RewardFromSums", "RewardWeights", "cluster_sinr", "is_strong", "jain_fairness",
-           "jain_from_sums", "rate_bps", "reward", "stack_weights", "user_sinr"]
+__all__ = ["RewardFromSums", "RewardWeights", "chain_sinr", "cluster_sinr", "heard_shares",
+           "is_strong", "jain_fairness", "jain_from_sums", "member_shares", "rate_bps",
+           "reward", "sic_order", "stack_weights", "user_sinr"]
 
 FloatArray = NDArray[np.float64]
 
@@ -74,6 +75,60 @@ def user_sinr(alpha: FloatArray, alpha_partner: FloatArray, gain: FloatArray,
         kept = np.where(strong, sic_residual, _ONE)    # the share of the partner heard
         return alpha * signal / (alpha_partner * signal * kept + _ONE)
     return alpha * signal / np.where(strong, _ONE, alpha_partner * signal + _ONE)
+
+
+def member_shares(components: FloatArray) -> FloatArray:
+    """The power shares (..., M) of a cluster's M members from its M - 1 share components
+    c_1 .. c_{M-1} (..., M - 1) (docs/model.md §15): member j takes c_j of the power the
+    members before it left, alpha_j = c_j prod_{i<j} (1 - c_i), and the last member the rest,
+    alpha_M = prod_{i<M} (1 - c_i). Every component in (0, 1) gives every share > 0, and the
+    shares sum to 1. For M = 2: alpha_1 = c_1, alpha_2 = 1 - c_1, the paper's split."""
+    size = components.shape[-1] + 1
+    shares = np.empty((*components.shape[:-1], size))
+    left = 1.0 - components[..., 0]
+    shares[..., 0] = components[..., 0]
+    for j in range(1, size - 1):
+        shares[..., j] = left * components[..., j]
+        left = left * (1.0 - components[..., j])
+    shares[..., size - 1] = left
+    return shares
+
+
+def sic_order(effective: FloatArray, gain: FloatArray) -> NDArray[np.intp]:
+    """The SIC order of every cluster (..., M), strongest first (docs/model.md §15): by the
+    effective gain c_i = g_i / (I_i + sigma^2), on a tie by the gain g_i, on a tie of both
+    the member listed first; :func:`is_strong`'s rule for M = 2."""
+    member = np.broadcast_to(np.arange(gain.shape[-1]), gain.shape)
+    return np.lexsort((member, -gain, -effective), axis=-1)
+
+
+def heard_shares(ordered: FloatArray, sic_residual: float = 0.0) -> FloatArray:
+    """Per member of clusters whose shares ``ordered`` (..., M) are in SIC order, strongest
+    first: the shares it hears, those of the stronger members before it plus
+    ``sic_residual`` of the weaker ones after it (docs/model.md §15)."""
+    stronger, weaker = np.zeros_like(ordered), np.zeros_like(ordered)
+    np.cumsum(ordered[..., :-1], axis=-1, out=stronger[..., 1:])
+    np.cumsum(ordered[..., :0:-1], axis=-1, out=weaker[..., -2::-1])
+    return stronger + sic_residual * weaker if sic_residual else stronger
+
+
+def chain_sinr(shares: FloatArray, gain: FloatArray, effective: FloatArray,
+               snr_scale: float | FloatArray, sic_residual: float = 0.0) -> FloatArray:
+    """SINR (..., M) of every member of clusters of M users decoded by a SIC chain
+    (docs/model.md §15). Member k, with share alpha_k and gain g_k, removes every weaker
+    member's signal (keeping ``sic_residual`` epsilon of each) and hears the stronger ones':
+
+        SINR_k = alpha_k s g_k / (s g_k (sum_{j stronger} alpha_j
+                                          + epsilon sum_{j weaker} alpha_j) + 1),
+
+    ``snr_scale`` s = P_T G / (I_k + sigma^2) (per member, or one number), the order by
+    :func:`sic_order` of ``effective`` and ``gain``. For M = 2 these are eq. 2's numbers."""
+    order = sic_order(effective, gain)
+    heard_ordered = heard_shares(np.take_along_axis(shares, order, axis=-1), sic_residual)
+    heard = np.empty_like(heard_ordered)
+    np.put_along_axis(heard, order, heard_ordered, axis=-1)
+    signal = snr_scale * gain
+    return shares * signal / (signal * heard + 1.0)
 
 
 def rate_bps(sinr: FloatArray, bandwidth_hz: float) -> FloatArray:

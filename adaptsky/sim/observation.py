@@ -47,8 +47,8 @@ def observation_size(num_users: int, num_uavs: int = 1) -> int:
 
 
 def local_observation_size(scenario: Scenario) -> int:
-    """L = 5 S + 3 U, one UAV's local observation (S = 2 K_max user slots)."""
-    return (MULTI_FEATURES_PER_USER * 2 * scenario.clusters_per_uav
+    """L = 5 S + 3 U, one UAV's local observation (S = M K_max user slots)."""
+    return (MULTI_FEATURES_PER_USER * scenario.users_per_uav
             + FEATURES_PER_UAV * scenario.uav.count)
 
 
@@ -272,9 +272,10 @@ def local_observation_bounds(scenario: Scenario, gains: tuple[float, float] | No
     slots a UAV with fewer users pads."""
     low, high = multi_observation_bounds(scenario, gains, scaled=scaled)
     users = MULTI_FEATURES_PER_USER * scenario.num_users
-    width = MULTI_FEATURES_PER_USER * 2 * scenario.clusters_per_uav
+    width = MULTI_FEATURES_PER_USER * scenario.users_per_uav
     low, high = (np.concatenate([bound[:width], bound[users:]]) for bound in (low, high))
-    padded = slice(MULTI_FEATURES_PER_USER * 2 * min(scenario.clusters_of_uavs), width)
+    padded = slice(MULTI_FEATURES_PER_USER * scenario.cluster_size
+                   * min(scenario.clusters_of_uavs), width)
     np.minimum(low[padded], 0.0, out=low[padded])
     np.maximum(high[padded], 0.0, out=high[padded])
     return low, high

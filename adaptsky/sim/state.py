@@ -128,7 +128,7 @@ class Dynamics:
     def of(cls, scenario: Scenario, num_envs: int) -> Dynamics:
         """The dynamics of ``scenario`` for ``num_envs`` environments of its U UAVs, each with
         its K_u clusters."""
-        uav, k = scenario.uav, scenario.clusters_per_uav
+        uav, k = scenario.uav, scenario.shares_per_uav     # K (M - 1) share components
         half_m = scenario.area.side_m / 2
         power_step = uav.power_step
         config_shape = (num_envs, uav.count, 3 + k)

@@ -188,7 +188,7 @@ class Sizes:
     def symbols(self) -> dict[str, int]:
         s = self.scenario
         return {"N": s.num_users, "O": observation_size_of(s), "T": s.train.steps,
-                "U": s.uav.count, "D": sum(3 + k for k in s.clusters_of_uavs)}
+                "U": s.uav.count, "D": sum(3 + k for k in s.shares_of_uavs)}
 
     @property
     def trajectory(self) -> tuple[Field, ...]:

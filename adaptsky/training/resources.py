@@ -61,7 +61,7 @@ def estimate(scenario: Scenario, workers: int | None = None) -> Estimate:
     seeds = len(train.seeds)
     users = scenario.num_users
     clusters = users // 2
-    actions = count_estimate(scenario.clusters_per_uav, scenario.uav.actions,
+    actions = count_estimate(scenario.shares_per_uav, scenario.uav.actions,
                              scenario.uav.count)
     # a step's state: uav (3), alpha, gain, p_los, rate (N each), los (N bytes), 3 sums;
     # the episode's trajectory stacks them, and every member gets a contiguous copy

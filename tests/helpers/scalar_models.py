@@ -77,3 +77,56 @@ def scalar_network(uavs, users, serving, clusters, alpha_first, reuse, los="alwa
         oma.append(BANDWIDTH_HZ / 2 * math.log2(
             1 + pg * gains[u][i] / (interference[i] + NOISE_W)))
     return gains, interference, strong, sinr, rate, oma
+
+
+def scalar_shares(components):
+    """A cluster's M shares from its M - 1 components (docs/model.md §15), with a loop:
+    member j takes c_j of what the members before it left, the last member the rest."""
+    shares, left = [], 1.0
+    for c in components:
+        shares.append(left * c)
+        left *= 1 - c
+    return [*shares, left]
+
+
+def scalar_chain_network(uavs, users, clusters, components, reuse, sic_residual=0.0):
+    """Interference, SINR and rates of clusters of any size M (docs/model.md §15) with loops.
+
+    ``clusters[u]`` lists UAV u's clusters, each a tuple of its M users in member order;
+    ``components[u][k]`` the M - 1 share components of cluster k of UAV u. Each member is
+    ranked by its effective gain g / (I + sigma^2), then its gain, then its place (the first
+    listed is stronger); it hears the stronger members' shares and ``sic_residual`` of the
+    weaker ones'."""
+    gains = [[scalar_gain(uav, user, "always") for user in users] for uav in uavs]
+    pg = TX_POWER_W * ANTENNA_GAIN
+    place = {}
+    for u, members_of in enumerate(clusters):
+        for k, members in enumerate(members_of):
+            shares = scalar_shares(components[u][k])
+            for j, i in enumerate(members):
+                place[i] = (u, k, j, shares[j])
+    interference = []
+    for i in range(len(users)):
+        u, k, _, _ = place[i]
+        total = 0.0
+        if reuse == "full":
+            for other in range(len(uavs)):
+                if other != u and k < len(clusters[other]):
+                    total += pg * gains[other][i]
+        interference.append(total)
+    sinr, rate = [], []
+    for i in range(len(users)):
+        u, k, j, alpha = place[i]
+        key_i = (gains[u][i] / (interference[i] + NOISE_W), gains[u][i], -j)
+        heard = 0.0
+        for m in clusters[u][k]:
+            if m == i:
+                continue
+            _, _, j_m, alpha_m = place[m]
+            key_m = (gains[u][m] / (interference[m] + NOISE_W), gains[u][m], -j_m)
+            heard += alpha_m if key_m > key_i else sic_residual * alpha_m
+        value = alpha * pg * gains[u][i] / (heard * pg * gains[u][i] + interference[i]
+                                            + NOISE_W)
+        sinr.append(value)
+        rate.append(BANDWIDTH_HZ * math.log2(1 + value))
+    return gains, interference, sinr, rate

@@ -118,7 +118,7 @@ class DqnSpec:
         and the dueling head's fixed (1 + A) x A matrix and its build copy (measured: 22 users
         peak at 2.4 GB, estimated 2.6 GB)."""
         agent = _config(scenario)
-        actions = count_estimate(scenario.clusters_per_uav, scenario.uav.actions,
+        actions = count_estimate(scenario.shares_per_uav, scenario.uav.actions,
                              scenario.uav.count)
         head = actions + 1 if agent.dueling else actions
         parts = replay_network_parts(scenario, seeds, workers, head, action_columns=1)

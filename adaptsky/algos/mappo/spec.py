@@ -26,7 +26,7 @@ def _config(scenario: Scenario) -> MappoAgent:
 
 def uav_components(scenario: Scenario) -> int:
     """D = 3 + K, one UAV's components (every UAV has K clusters: check_scenario)."""
-    return 3 + scenario.clusters_per_uav
+    return 3 + scenario.shares_per_uav
 
 
 def uav_head(scenario: Scenario) -> tuple[HeadShape, int | None]:

@@ -40,7 +40,7 @@ def head_of(scenario: Scenario) -> HeadShape:
     """The actor's head for ``scenario``'s actions."""
     kind = head_kind(scenario)
     if kind == "gaussian":
-        components = sum(3 + k for k in scenario.clusters_of_uavs)
+        components = sum(3 + k for k in scenario.shares_of_uavs)
         return HeadShape("gaussian", components, components=components)
     actions = ActionSet.of(scenario)
     if kind == "dense":

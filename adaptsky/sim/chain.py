@@ -1,0 +1,78 @@
+"""The rates stage for NOMA clusters of M > 2 users (docs/model.md §15): index arrays made once
+per association, then every cluster's SIC chain at once (:func:`adaptsky.sim.noma.chain_sinr`).
+
+Clusters of two keep their own, older path (:func:`adaptsky.sim.interference.sic_rates`), whose
+floating-point operations every number of the paper's model comes from; for M = 2 the two give
+the same values.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from adaptsky.sim import noma
+from adaptsky.sim.association import Association
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.intp]
+
+
+@dataclass(frozen=True)
+class Chain:
+    """Where a batch's clusters of M users are, for B layouts with C clusters in all.
+
+    ``members`` (B, C, M): every cluster's users as flat positions of a (B, N) array;
+    ``components`` (B, C, M - 1): its share components' flat positions in the configuration
+    (B, U, W), W = 3 + S_max; ``places`` (B, N): each user's flat position in a (B, C M)
+    array of the clusters' members (the way back to user order)."""
+
+    members: IntArray
+    components: IntArray
+    places: IntArray
+
+    @classmethod
+    def of(cls, association: Association, width: int) -> Chain:
+        """The index arrays of ``association``'s clusters in configurations of ``width``
+        3 + S_max per UAV."""
+        members = association.members                                  # (B, U, K_max, M)
+        num_layouts, num_uavs, _, size = members.shape
+        num_users = association.serving_uav.shape[1]
+        # the clusters that exist, UAV by UAV (a UAV with fewer than K_max has padding)
+        uav, cluster = np.nonzero(association.has_cluster)
+        rows = np.arange(num_layouts)[:, None, None]
+        flat_members = rows * num_users + members[:, uav, cluster]      # (B, C, M)
+        slots = 3 + cluster[:, None] * (size - 1) + np.arange(size - 1)  # (C, M - 1)
+        components = rows * (num_uavs * width) + (uav * width)[:, None] + slots
+        places = np.empty((num_layouts, num_users), dtype=np.intp)
+        local = members[:, uav, cluster]                                # users of each layout
+        places[np.repeat(np.arange(num_layouts), local[0].size), local.reshape(-1)] = (
+            np.arange(local.size))
+        return cls(flat_members, components, places)
+
+    def rates(self, gain: FloatArray, interference_w: FloatArray | None, config: FloatArray,
+              out: FloatArray | None = None, *, power_w: float, noise_w: float,
+              bandwidth_hz: float | FloatArray, sic_residual: float = 0.0
+              ) -> tuple[FloatArray, NDArray[np.bool_], FloatArray]:
+        """Every user's rate (B, N), whether it decodes every other member of its cluster
+        (the strongest of its SIC chain), and its share, from its serving gain ``gain``
+        (B, N), the interference it hears (W; None: none) and the configuration; the shares
+        also go into ``out[0]`` (the observation's alpha_i) where given."""
+        gains = gain.take(self.members)                                  # (B, C, M)
+        if interference_w is None:
+            effective, snr_scale = gains, power_w / noise_w
+        else:
+            noise_plus = interference_w.take(self.members) + noise_w
+            effective, snr_scale = gains / noise_plus, power_w / noise_plus
+        shares = noma.member_shares(config.take(self.components))       # (B, C, M)
+        sinr = noma.chain_sinr(shares, gains, effective, snr_scale, sic_residual)
+        order = noma.sic_order(effective, gains)
+        strongest = np.zeros(shares.shape, dtype=bool)
+        np.put_along_axis(strongest, order[..., :1], True, axis=-1)
+        rate = noma.rate_bps(sinr.take(self.places), bandwidth_hz)
+        alpha = shares.take(self.places)
+        if out is not None:
+            out[0] = alpha
+        return rate, strongest.take(self.places), alpha
