@@ -212,7 +212,9 @@ ADDED_SECTION_DEFAULTS = {("uav", "count"): 1, ("uav", "start_positions_m"): Non
                           ("users", "hotspots"): None, ("users", "spread_m"): None,
                           ("users", "reassociate_every_s"): None,
                           # the service metrics' outage threshold (docs/model.md §14)
-                          ("metrics", "outage_se"): 1.0}
+                          ("metrics", "outage_se"): 1.0,
+                          # NOMA clusters of M users (docs/model.md §15): pairs
+                          ("users", "cluster_size"): 2}
 # tables a newer adaptsky adds: left out where every key in them is at its default
 ADDED_TABLES = {"world", "metrics"}
 # names a newer adaptsky adds beside the numbers it had (JSON keys, HDF5 datasets with their

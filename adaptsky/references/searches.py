@@ -32,7 +32,8 @@ from adaptsky.sim.state import users_move
 from adaptsky.store.search_cache import cached_search, search_once
 
 OMA_POWER_SHARE = 0.5
-"""Each OMA user's share of its cluster's power (and of its band): the trace's ``alpha``."""
+"""Each OMA user's share of its cluster's power (and of its band) in a pair: the trace's
+``alpha`` (1/M in a cluster of M)."""
 
 
 def search(scenario: Scenario, method: str, users_m: np.ndarray,
@@ -123,9 +124,11 @@ class BestResponse(_LatticeSearch):
 
 @dataclass(frozen=True)
 class Oma(_LatticeSearch):
-    """The best configuration found for OMA (each user of a cluster on half the band with
-    half the power), by best response's search; its rates its own, held as found, since the
-    environment computes NOMA rates."""
+    """The best configuration found for OMA (each user of a cluster of M on 1/M of the band
+    with 1/M of the power), by best response's search; its rates its own, held as found,
+    since the environment computes NOMA rates."""
+
+    any_cluster_size = True
 
     def run(self, scenario: Scenario, steps: int, users_m: np.ndarray, seed: int = 0,
             on_progress: Tick | None = None) -> Method:
@@ -135,9 +138,9 @@ class Oma(_LatticeSearch):
                          users_m, seed, oma=True)
         else:
             hover_j = NetworkBatch(scenario, len(users_m), users_m=users_m).hover_energy_j
+            share = OMA_POWER_SHARE if scenario.cluster_size == 2 else 1 / scenario.cluster_size
             trace = Trace(result.rate_bps[None].copy(), uav_m[None].copy(),
-                          np.full((1, *result.rate_bps.shape), OMA_POWER_SHARE),
-                          hover_j[None].copy())
+                          np.full((1, *result.rate_bps.shape), share), hover_j[None].copy())
         return Method.of(self.name, scenario, trace, details)
 
 

@@ -91,7 +91,10 @@ def hold(scenario: Scenario, uav_m: FloatArray, alpha_first: FloatArray, steps: 
     walked: list[FloatArray] | None = [] if users_move(scenario) else None
     for step in range(steps):
         state = env.hold_step(uav_m, alpha_first)
-        states.append(replace(state, rate_bps=oma_rates(scenario, state)) if oma else state)
+        if oma:     # OMA's rates, and every user's share of its cluster's power: 1/M
+            state = replace(state, rate_bps=oma_rates(scenario, state),
+                            alpha=np.full(state.alpha.shape, 1 / scenario.cluster_size))
+        states.append(state)
         if walked is not None:
             walked.append(env.users_m)
         if on_step is not None:
@@ -114,13 +117,13 @@ def held_trace(scenario: Scenario, uav_m: FloatArray, alpha_first: FloatArray,
 
 
 def oma_rates(scenario: Scenario, state: NetworkState) -> FloatArray:
-    """Every user's OMA rate (B, N), bit/s, at the gains of ``state`` (docs/model.md §9:
-    half the band and half the power of its cluster each; the interference of several UAVs
-    as the state heard it)."""
+    """Every user's OMA rate (B, N), bit/s, at the gains of ``state`` (docs/model.md §9 and
+    §15: 1/M of the band and of the power of its cluster each; the interference of several
+    UAVs as the state heard it)."""
     radio = scenario.radio
     return oma_rates_bps(state.gain, state.interference_w, tx_power_w=radio.tx_power_w,
                          antenna_gain=radio.antenna_gain, noise_w=radio.noise_w,
-                         bandwidth_hz=radio.bandwidth_hz)
+                         bandwidth_hz=radio.bandwidth_hz, cluster_size=scenario.cluster_size)
 
 
 def random_policy(num_actions: int, seed: int = 0) -> Policy:

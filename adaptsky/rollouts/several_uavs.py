@@ -8,8 +8,9 @@
   docs/model.md §6) that maximise the whole network's objective with the others fixed (its
   interference on the other groups included); rounds until one gains less than 1e-9
   relative, or ``rounds`` rounds. For U = 1 it is the oracle.
-- **OMA** (:func:`best_oma`): the same search when each cluster's two users share its
-  resources orthogonally (half the band and half the power each).
+- **OMA** (:func:`best_oma`): the same search when each cluster's users share its
+  resources orthogonally (1/M of the band and of the power each; half for pairs), from SoA's
+  positions.
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ from adaptsky.rollouts.search import (
     point_gains,
     response_rounds,
 )
-from adaptsky.rollouts.soa import soa_per_uav_configuration
+from adaptsky.rollouts.soa import soa_per_uav_configuration, soa_positions
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.interference import interference_sum_w, interferers, oma_rates_bps, sic_rates
 from adaptsky.sim.lattice import axis_lattice, share_lattice
@@ -91,9 +92,12 @@ class BestResponseSearch:
         self.cluster = a.cluster[layout]
         self.first = a.first_user[layout]       # (U, K_max), -1 in unused slots
         self.second = a.second_user[layout]
-        # each user's cluster partner and whether it is the first user (alpha_k is its share)
-        self.partner = a.partner[layout]
-        self.is_first = a.is_first[layout]
+        # each user's cluster partner and whether it is the first user (alpha_k is its share):
+        # NOMA's rates of pairs (OMA's of clusters of any size need neither)
+        self.cluster_size = scenario.cluster_size
+        if self.cluster_size == 2:
+            self.partner = a.partner[layout]
+            self.is_first = a.is_first[layout]
         self.interferer = interferers(a)[layout]      # (U, N)
         radio = scenario.radio
         self.tx_power_w, self.antenna_gain = radio.tx_power_w, radio.antenna_gain
@@ -125,7 +129,7 @@ class BestResponseSearch:
         if self.oma:
             return oma_rates_bps(serving_gain, interference, tx_power_w=self.tx_power_w,
                                  antenna_gain=self.antenna_gain, noise_w=self.noise_w,
-                                 bandwidth_hz=self.bandwidth_hz)
+                                 bandwidth_hz=self.bandwidth_hz, cluster_size=self.cluster_size)
         partner = self.partner
         return sic_rates(serving_gain, interference, alpha_first[..., self.serving, self.cluster],
                          self.is_first, lambda values: values[..., partner],
@@ -223,7 +227,12 @@ def _search(scenario: Scenario, users_m: FloatArray, rounds: int, oma: bool,
         raise ValueError(f"rounds must be >= 1, got {rounds}")
     started = time.process_time()
     env = NetworkBatch(scenario, num_envs=len(users_m), users_m=users_m)
-    start_uav, start_alpha = soa_per_uav_configuration(env)
+    if scenario.cluster_size == 2:
+        start_uav, start_alpha = soa_per_uav_configuration(env)
+    else:   # OMA splits no power: SoA's positions, the start's components in their place
+        start_uav = soa_positions(env)
+        start_alpha = np.full((*start_uav.shape[:2], scenario.shares_per_uav),
+                              scenario.uav.start_alpha)
     num_layouts = len(users_m)
     objective = np.zeros(num_layouts)
     uav_m, alpha_first = start_uav.copy(), start_alpha.copy()

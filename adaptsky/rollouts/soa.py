@@ -36,13 +36,19 @@ def soa_per_uav_configuration(env: NetworkBatch) -> tuple[FloatArray, FloatArray
     (B, U, 3) at its group's 2D centroid at its start height, and its first users' shares
     (B, U, K_max) planned from the LoS gains without interference (a UAV with fewer clusters
     than K_max keeps ``start_alpha`` in its unused slots)."""
-    layouts = env.layouts_m
-    centroid = group_centroids(env, layouts)                                  # (B, U, 2)
+    uav_m = soa_positions(env)
+    return uav_m, soa_split(env, uav_m, env.layouts_m)
+
+
+def soa_positions(env: NetworkBatch) -> FloatArray:
+    """Every UAV's SoA position (B, U, 3) on the env's layouts: its group's 2D centroid at
+    its start height, 1 m above the roof of a building standing there."""
+    centroid = group_centroids(env, env.layouts_m)                            # (B, U, 2)
     height = np.broadcast_to(env.start_m[:, 2], centroid.shape[:2])[..., None]
     uav_m = np.concatenate([centroid, height], axis=-1)
     if env.city is not None:
         uav_m = above_buildings(uav_m, env.city)
-    return uav_m, soa_split(env, uav_m, layouts)
+    return uav_m
 
 
 def group_centroids(env: NetworkBatch, users_m: FloatArray) -> FloatArray:

@@ -79,12 +79,13 @@ def sic_rates(gain: FloatArray, interference_w: FloatArray | None, alpha_k: Floa
 
 
 def oma_rates_bps(gain_serving: FloatArray, interference: FloatArray, *, tx_power_w: float,
-                  antenna_gain: float, noise_w: float, bandwidth_hz: float) -> FloatArray:
-    """Rates (B, N), bit/s, when each cluster's two users share its resources orthogonally
-    (the OMA baseline, docs/model.md §9): each gets W/2 and P_T/2, and in half the band the
-    noise and the interference are halved too, so
-    R_i = (W/2) log2(1 + (P_T/2) G g_{u,i} / ((I_i + sigma^2)/2))
-        = (W/2) log2(1 + P_T G g_{u,i} / (I_i + sigma^2)),
+                  antenna_gain: float, noise_w: float, bandwidth_hz: float,
+                  cluster_size: int = 2) -> FloatArray:
+    """Rates (B, N), bit/s, when each cluster's M = ``cluster_size`` users share its resources
+    orthogonally (the OMA baseline, docs/model.md §9 and §15): each gets W/M and P_T/M, and
+    in 1/M of the band the noise and the interference are 1/M too, so
+    R_i = (W/M) log2(1 + (P_T/M) G g_{u,i} / ((I_i + sigma^2)/M))
+        = (W/M) log2(1 + P_T G g_{u,i} / (I_i + sigma^2)),
     ``interference`` I_i (B, N) the NOMA interference of :func:`interference_sum_w`."""
     snr = tx_power_w * antenna_gain * gain_serving / (interference + noise_w)
-    return noma.rate_bps(snr, bandwidth_hz / 2)
+    return noma.rate_bps(snr, bandwidth_hz / cluster_size)

@@ -249,6 +249,14 @@ def baseline(
         out.print(f"... {results['layouts'] - 10} more layouts (--json lists them all)")
 
 
+def _oma_words(cluster_size: int) -> str:
+    """OMA's split in words, for clusters of ``cluster_size`` users (OMA's share 1/M each)."""
+    if cluster_size == 2:
+        return "OMA (half the band and half the power each)"
+    part = {3: "a third", 4: "a quarter"}.get(cluster_size, f"1/{cluster_size}")
+    return f"OMA ({part} of the band and {part} of the power each)"
+
+
 def _configuration(method: str, best: dict[str, Any]) -> str:
     """What a search found on one layout, in words: the UAV or UAVs, the power shares (OMA
     splits no power), the users' rates and, for best response and OMA, the rounds."""
@@ -262,7 +270,7 @@ def _configuration(method: str, best: dict[str, Any]) -> str:
                 f"rates {rates}")
     uav_m = np.round(best["uav_m"], 3).tolist()
     where = f"UAVs at {uav_m}" if np.ndim(uav_m) == 2 else f"UAV at {uav_m}"
-    shares = ("OMA (half the band and half the power each)" if method == "oma" else
+    shares = (_oma_words(round(1 / best["alpha"][0])) if method == "oma" else
               f"alpha {[round(a, 4) for a in best['alpha']]}")
     rounds = best["rounds"]
     return (f"{where}, {shares}, rates {rates}; {rounds} round{'s' if rounds != 1 else ''}, "
