@@ -31,6 +31,11 @@ from adaptsky.rollouts.rollout import held_trace, hold
 from adaptsky.scenario import Scenario
 from adaptsky.sim.state import users_move
 
+CSI_NOTE = ("searched with perfect channel knowledge (the true gains and SIC order): its "
+            "objective bounds any policy; its rollout holds that configuration under the "
+            "estimates' SIC order")
+"""What the oracle is under imperfect channel knowledge (docs/model.md §16)."""
+
 
 def _one_uav(scenario: Scenario, name: str) -> str | None:
     """The refusal of the oracle (asked for by ``name``) for several UAVs, else None."""
@@ -87,6 +92,8 @@ class Oracle(Reference):
         best = search(scenario, users_m, on_progress, on_progress)
         details = {"seconds_per_layout": (time.process_time() - start) / len(users_m),
                    "objective_bps": best.objective_bps}
+        if scenario.channel.csi.model != "perfect":
+            details["note"] = CSI_NOTE
         trace = hold(scenario, best.uav_m, best.alpha_first, 1, users_m, seed)
         return Method.of(self.name, scenario, trace, details)
 

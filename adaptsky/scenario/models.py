@@ -414,6 +414,46 @@ class Fading(Section):
         return self
 
 
+CSI_NMSE_DB = (-60.0, 10.0)
+"""The estimate's normalised mean squared error a scenario may give, dB (ours)."""
+
+
+class Csi(Section):
+    """What the network knows of its channels (docs/model.md §16): perfectly, or a Gaussian
+    estimate of every link at every step."""
+
+    model: Literal["perfect", "gaussian"] = Field(
+        "perfect", description="'perfect' (the paper); 'gaussian': h_hat = h + e, "
+        "e ~ CN(0, nmse E|h|^2) per link and step, g_hat = L |h_hat|^2")
+    nmse_db: float | None = Field(
+        None, ge=CSI_NMSE_DB[0], le=CSI_NMSE_DB[1], description="the estimate's normalised "
+        "mean squared error E|e|^2 / E|h|^2, dB (model 'gaussian' only, which needs it)")
+    order_on: Literal["estimate", "truth"] | None = Field(
+        None, description="the SIC order by the estimated gains (a wrong order costs rate) or "
+        "the true ones (model 'gaussian' only; default 'estimate')")
+
+    @model_validator(mode="after")
+    def _keys_of_the_model(self) -> Csi:
+        if self.model == "perfect":
+            given = [key for key in ("nmse_db", "order_on") if getattr(self, key) is not None]
+            if given:
+                raise ValueError(f"{', '.join(given)} given with model = 'perfect', which reads "
+                                 "none of them; remove them or choose model = 'gaussian'")
+            return self
+        if self.nmse_db is None:
+            raise ValueError("model = 'gaussian' needs nmse_db, the estimate's normalised mean "
+                             f"squared error in dB (from {CSI_NMSE_DB[0]:g} to "
+                             f"{CSI_NMSE_DB[1]:g}; -20: an error 20 dB below the channel)")
+        if self.order_on is None:
+            self.order_on = "estimate"
+        return self
+
+    @property
+    def nmse(self) -> float:
+        """The normalised mean squared error, linear (0 for perfect knowledge)."""
+        return 0.0 if self.nmse_db is None else 10.0 ** (self.nmse_db / 10.0)
+
+
 class Channel(Section):
     model: str = Field("mmwave-nyc", min_length=1, description="name of a channel-model plugin")
     los: Literal["always", "sampled", "expected", "geometric"] = Field(
@@ -425,6 +465,8 @@ class Channel(Section):
                                    description="the plugin's parameters (its own Params model)")
     fading: Fading = Field(default_factory=Fading, description="small-scale fading "
                            "(docs/model.md §11), off by default")
+    csi: Csi = Field(default_factory=Csi, description="channel knowledge (docs/model.md §16): "
+                     "perfect by default")
 
 
 CITY_PRESETS: dict[str, tuple[float, float, float]] = {

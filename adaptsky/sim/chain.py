@@ -54,12 +54,15 @@ class Chain:
 
     def rates(self, gain: FloatArray, interference_w: FloatArray | None, config: FloatArray,
               out: FloatArray | None = None, *, power_w: float, noise_w: float,
-              bandwidth_hz: float | FloatArray, sic_residual: float = 0.0
+              bandwidth_hz: float | FloatArray, sic_residual: float = 0.0,
+              estimate: tuple[FloatArray, FloatArray | None] | None = None
               ) -> tuple[FloatArray, NDArray[np.bool_], FloatArray]:
         """Every user's rate (B, N), whether it decodes every other member of its cluster
         (the strongest of its SIC chain), and its share, from its serving gain ``gain``
         (B, N), the interference it hears (W; None: none) and the configuration; the shares
-        also go into ``out[0]`` (the observation's alpha_i) where given."""
+        also go into ``out[0]`` (the observation's alpha_i) where given. ``estimate``: the
+        estimated gains and interference (B, N) that decide the order instead (docs/model.md
+        §16); a member that must remove a truly stronger member's message gets rate 0."""
         gains = gain.take(self.members)                                  # (B, C, M)
         if interference_w is None:
             effective, snr_scale = gains, power_w / noise_w
@@ -67,8 +70,16 @@ class Chain:
             noise_plus = interference_w.take(self.members) + noise_w
             effective, snr_scale = gains / noise_plus, power_w / noise_plus
         shares = noma.member_shares(config.take(self.components))       # (B, C, M)
-        sinr = noma.chain_sinr(shares, gains, effective, snr_scale, sic_residual)
-        order = noma.sic_order(effective, gains)
+        if estimate is None:
+            order = noma.sic_order(effective, gains)
+        else:
+            gains_hat = estimate[0].take(self.members)
+            order = noma.sic_order(gains_hat if estimate[1] is None else
+                                   gains_hat / (estimate[1].take(self.members) + noise_w),
+                                   gains_hat)
+        sinr = noma.chain_sinr(shares, gains, effective, snr_scale, sic_residual, order)
+        if estimate is not None:
+            sinr = np.where(noma.undecodable(effective, order), 0.0, sinr)
         strongest = np.zeros(shares.shape, dtype=bool)
         np.put_along_axis(strongest, order[..., :1], True, axis=-1)
         rate = noma.rate_bps(sinr.take(self.places), bandwidth_hz)

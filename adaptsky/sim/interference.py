@@ -46,7 +46,9 @@ def interference_sum_w(gain: FloatArray, interferer: BoolArray, power_w: float) 
 def sic_rates(gain: FloatArray, interference_w: FloatArray | None, alpha_k: FloatArray,
               is_first: BoolArray, partner: Callable[[np.ndarray], np.ndarray], *,
               power_w: float, noise_w: float, bandwidth_hz: float | FloatArray,
-              sic_residual: float = 0.0) -> tuple[FloatArray, BoolArray, FloatArray]:
+              sic_residual: float = 0.0,
+              estimate: tuple[FloatArray, FloatArray | None] | None = None
+              ) -> tuple[FloatArray, BoolArray, FloatArray]:
     """The rates stage, written once (eqs. 2-3; docs/model.md §9): every user's rate (bit/s),
     whether it is its cluster's strong user, and its share, each (..., N).
 
@@ -59,6 +61,9 @@ def sic_rates(gain: FloatArray, interference_w: FloatArray | None, alpha_k: Floa
     s_i = P_T G / (I_i + sigma^2) (``power_w`` = P_T G): with I = 0 the same floating-point
     operations as docs/model.md §1. ``sic_residual`` epsilon: the share of its partner's
     signal the strong user keeps after SIC (docs/model.md §13; 0, perfect SIC).
+    ``estimate``: the estimated gains and interference (docs/model.md §16) that decide the SIC
+    order instead; a strong user by the estimate that is truly weaker than its partner cannot
+    decode its partner's message and gets rate 0.
     """
     if interference_w is None:
         effective, snr_scale = gain, power_w / noise_w
@@ -66,8 +71,15 @@ def sic_rates(gain: FloatArray, interference_w: FloatArray | None, alpha_k: Floa
         noise_plus = interference_w + noise_w
         effective, snr_scale = gain / noise_plus, power_w / noise_plus
     gain_partner = partner(gain)
-    strong = noma.is_strong(effective, gain_partner if effective is gain
-                            else partner(effective), gain, gain_partner, is_first)
+    if estimate is None:
+        strong = noma.is_strong(effective, gain_partner if effective is gain
+                                else partner(effective), gain, gain_partner, is_first)
+    else:
+        gain_hat, interference_hat = estimate
+        effective_hat = (gain_hat if interference_hat is None
+                         else gain_hat / (interference_hat + noise_w))
+        strong = noma.is_strong(effective_hat, partner(effective_hat), gain_hat,
+                                partner(gain_hat), is_first)
     if alpha_k.ndim == gain.ndim:
         second_share = 1.0 - alpha_k
         alpha = np.where(is_first, alpha_k, second_share)
@@ -75,7 +87,10 @@ def sic_rates(gain: FloatArray, interference_w: FloatArray | None, alpha_k: Floa
     else:
         alpha, alpha_partner = alpha_k
     sinr = noma.user_sinr(alpha, alpha_partner, gain, strong, snr_scale, sic_residual)
-    return noma.rate_bps(sinr, bandwidth_hz), strong, alpha
+    rate = noma.rate_bps(sinr, bandwidth_hz)
+    if estimate is not None:
+        rate = np.where(strong & (effective < partner(effective)), 0.0, rate)
+    return rate, strong, alpha
 
 
 def oma_rates_bps(gain_serving: FloatArray, interference: FloatArray, *, tx_power_w: float,

@@ -131,7 +131,19 @@ def link_gains(channel: ChannelModel, los_mode: str, geometry: LinkGeometry,
                small_scale: FadingStage | None = None
                ) -> tuple[FloatArray, BoolArray, FloatArray]:
     """Linear gain of one antenna pair, LoS state and LoS probability of every link, each
-    (B, U, N), from a (B*U, N) ``geometry`` (:func:`links_geometry`).
+    (B, U, N), from a (B*U, N) ``geometry``: :func:`link_gains_and_means` without the
+    large-scale gains."""
+    return link_gains_and_means(channel, los_mode, geometry, rng, num_uavs=num_uavs,
+                                fading=fading, small_scale=small_scale)[:3]
+
+
+def link_gains_and_means(channel: ChannelModel, los_mode: str, geometry: LinkGeometry,
+                         rng: Generators = None, *, num_uavs: int = 1,
+                         fading: bool | None = None, small_scale: FadingStage | None = None
+                         ) -> tuple[FloatArray, BoolArray, FloatArray, FloatArray]:
+    """Linear gain of one antenna pair, LoS state, LoS probability and large-scale gain (the
+    gain before any fading: its mean, docs/model.md §16) of every link, each (B, U, N), from
+    a (B*U, N) ``geometry`` (:func:`links_geometry`).
 
     ``los_mode`` (docs/model.md §2): ``"always"`` the LoS gain; ``"sampled"`` LoS drawn per
     link (the plugin's ``sample_los``), the LoS or NLoS gain; ``"expected"``
@@ -152,6 +164,7 @@ def link_gains(channel: ChannelModel, los_mode: str, geometry: LinkGeometry,
         p_los = los.astype(np.float64)
     else:
         gain, los, p_los = _drawn_los(channel, los_mode, geometry, rng, num_uavs)
+    large_scale = gain
     if fading_active(channel) if fading is None else fading:
         gain = gain * _drawn(channel.sample_fading, geometry, los, rng, num_uavs)
     if small_scale is not None:
@@ -161,7 +174,8 @@ def link_gains(channel: ChannelModel, los_mode: str, geometry: LinkGeometry,
                                           None if los_mode == "always" else los, rng)
         gain = np.multiply(gain, factors, out=factors)
     shape = (geometry.shape[0] // num_uavs, num_uavs, geometry.shape[1])
-    return gain.reshape(shape), los.reshape(shape), p_los.reshape(shape)
+    return (gain.reshape(shape), los.reshape(shape), p_los.reshape(shape),
+            large_scale.reshape(shape))
 
 
 def _drawn_los(channel: ChannelModel, los_mode: str, geometry: LinkGeometry,

@@ -48,6 +48,7 @@ from adaptsky.sim.association import Association, associate, serving_groups
 from adaptsky.sim.blockage import Blockage, kept_out, users_kept_out
 from adaptsky.sim.chain import Chain
 from adaptsky.sim.city import City, city_of, on_footprints
+from adaptsky.sim.csi import CsiStage
 from adaptsky.sim.energy import EnergyAccount
 from adaptsky.sim.fading import FadingStage, Generators
 from adaptsky.sim.gain_bounds import gain_range, reachable_heights
@@ -63,7 +64,7 @@ from adaptsky.sim.links import (
     carrier_hz,
     deterministic_gain,
     fading_active,
-    link_gains,
+    link_gains_and_means,
     links_geometry,
     offsets_geometry,
     scenario_geometry,
@@ -231,6 +232,10 @@ class NetworkBatch:
         self._small_scale = (None if scenario.channel.fading.model == "none" else
                              FadingStage(scenario.channel.fading, num_envs, self.num_uavs,
                                          self.num_users, self._max_steps))
+        # imperfect channel knowledge (docs/model.md §16): None for csi.model = "perfect"
+        self._csi = (None if scenario.channel.csi.model == "perfect"
+                     else CsiStage(scenario.channel.csi))
+        self._estimate: tuple[FloatArray, FloatArray | None] | None = None
         self._reward = RewardFromSums(self.weights, self.num_users, self.bandwidth_hz)
         self._num_users = np.array(float(self.num_users))
         self._bandwidth = np.array(self.bandwidth_hz)
@@ -689,9 +694,9 @@ class NetworkBatch:
                 geometry.shape))
         if draws is None:
             draws = self.rngs if self.rngs is not None else self.rng
-        gains, los, p_los = link_gains(self.channel, self._los_mode, geometry, draws,
-                                       num_uavs=self.num_uavs, fading=self._fading,
-                                       small_scale=self._small_scale)
+        gains, los, p_los, large_scale = link_gains_and_means(
+            self.channel, self._los_mode, geometry, draws, num_uavs=self.num_uavs,
+            fading=self._fading, small_scale=self._small_scale)
         if self.num_uavs == 1:    # the only link of every user is its serving link
             gain, link_los, link_p_los = gains[:, 0], los[:, 0], p_los[:, 0]
         else:
@@ -705,6 +710,9 @@ class NetworkBatch:
         else:
             self._interfering = None
             interference = self._no_interference
+        seen_gain, seen_interference = gain, interference     # what the agent observes
+        if self._csi is not None:
+            seen_gain, seen_interference = self._estimated(gains, large_scale, draws)
         rate_bps, strong, alpha = self._noma_rates(
             gain, interference if self._full_reuse else None, config,
             None if features is None else features[2:4])
@@ -713,30 +721,52 @@ class NetworkBatch:
             energy_j = self._energy.hover_j
         if self._energy.weighted:
             rewards = self._energy.rewarded(rewards, energy_j)
-        self._obs = self._observe(config, users_m, alpha, gain, interference, features)
+        self._obs = self._observe(config, users_m, alpha, seen_gain, seen_interference,
+                                  features)
         return NetworkState._new(self._squeezed(uav_m).copy(), alpha, gain, interference,
                                  link_los, link_p_los, strong, rate_bps, total, fairness,
                                  rewards, energy_j)
 
+    def _estimated(self, gains: FloatArray, large_scale: FloatArray, draws: Generators
+                   ) -> tuple[FloatArray, FloatArray]:
+        """Stage 4b (docs/model.md §16): the step's estimates of every link (drawn after its
+        fading), as the agent sees them: each user's serving gain g_hat and interference
+        (from the estimated gains of the interfering links), each (B, N); kept for the SIC
+        order where ``csi.order_on = "estimate"``."""
+        assert self._csi is not None
+        gains_hat = self._csi.estimate(gains, large_scale, draws)
+        gain_hat = (gains_hat[:, 0] if self.num_uavs == 1
+                    else gains_hat.take(self._serving_link))
+        interference_hat = (interference_sum_w(gains_hat, self._interferer, self._power_w)
+                            if self._full_reuse else self._no_interference)
+        self._estimate = ((gain_hat, interference_hat if self._full_reuse else None)
+                          if self._csi.order_on_estimate else None)
+        self._gains_hat = gains_hat
+        return gain_hat, interference_hat
+
     def _noma_rates(self, gain: FloatArray, interference: FloatArray | None,
-                    config: FloatArray, out: FloatArray | None = None
+                    config: FloatArray, out: FloatArray | None = None,
+                    estimate: tuple[FloatArray, FloatArray | None] | None = None
                     ) -> tuple[FloatArray, NDArray[np.bool_], FloatArray]:
         """Stage 6: every user's rate (B, N), whether it is its cluster's strong user, and
         its share, from its serving gain, the interference it hears (W; None: none) and the
         UAVs' configuration: SIC by the effective gain c_i = g_i / (I_i + sigma^2)
-        (:func:`~adaptsky.sim.interference.sic_rates`). Every user's share and its
+        (:func:`~adaptsky.sim.interference.sic_rates`), or by the estimated one where the
+        channel knowledge is imperfect and the order follows the estimate (docs/model.md
+        §16; ``estimate``: other estimates than the step's). Every user's share and its
         partner's are written into ``out`` (2, B, N) where given."""
+        estimate = self._estimate if estimate is None else estimate
         if self._chain is not None:
             return self._chain.rates(gain, interference, config, out, power_w=self._power_w,
                                      noise_w=self._noise_w, bandwidth_hz=self._bandwidth,
-                                     sic_residual=self._sic_residual)
+                                     sic_residual=self._sic_residual, estimate=estimate)
         partner = self._partner_flat
         shares = np.multiply(self._share_sign, config.take(self._share_source), out=out)
         shares += self._share_offset
         return sic_rates(gain, interference, shares, self._is_first,
                          lambda values: values.take(partner), power_w=self._power_w,
                          noise_w=self._noise_w, bandwidth_hz=self._bandwidth,
-                         sic_residual=self._sic_residual)
+                         sic_residual=self._sic_residual, estimate=estimate)
 
     def _rewarded(self, rate_bps: FloatArray, gain: FloatArray
                   ) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -794,8 +824,13 @@ class NetworkBatch:
             return self.state.rate_bps
         interferer = self._interferer.copy()
         interferer[:, uav] = False
+        estimate = None
+        if self._estimate is not None:    # the order by the estimates without its term too
+            estimate = (self._estimate[0], interference_sum_w(self._gains_hat, interferer,
+                                                              self._power_w))
         return self._noma_rates(self.state.gain, interference_sum_w(
-            self._interfering, interferer, self._power_w), self.sim_state.config)[0]
+            self._interfering, interferer, self._power_w), self.sim_state.config,
+            estimate=estimate)[0]
 
     def reward_parts(self, state: NetworkState, split: str = "per-uav") -> FloatArray:
         """Eq. 13 of ``state``, the last evaluated one, for each UAV (B, U) (docs/agent.md,

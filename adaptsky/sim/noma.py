@@ -13,7 +13,7 @@ from adaptsky.sim.reward import RewardFromSums, RewardWeights, reward, stack_wei
 
 __all__ = ["RewardFromSums", "RewardWeights", "chain_sinr", "cluster_sinr", "heard_shares",
            "is_strong", "jain_fairness", "jain_from_sums", "member_shares", "rate_bps",
-           "reward", "sic_order", "stack_weights", "user_sinr"]
+           "reward", "sic_order", "stack_weights", "undecodable", "user_sinr"]
 
 FloatArray = NDArray[np.float64]
 
@@ -113,7 +113,8 @@ def heard_shares(ordered: FloatArray, sic_residual: float = 0.0) -> FloatArray:
 
 
 def chain_sinr(shares: FloatArray, gain: FloatArray, effective: FloatArray,
-               snr_scale: float | FloatArray, sic_residual: float = 0.0) -> FloatArray:
+               snr_scale: float | FloatArray, sic_residual: float = 0.0,
+               order: NDArray[np.intp] | None = None) -> FloatArray:
     """SINR (..., M) of every member of clusters of M users decoded by a SIC chain
     (docs/model.md §15). Member k, with share alpha_k and gain g_k, removes every weaker
     member's signal (keeping ``sic_residual`` epsilon of each) and hears the stronger ones':
@@ -122,13 +123,29 @@ def chain_sinr(shares: FloatArray, gain: FloatArray, effective: FloatArray,
                                           + epsilon sum_{j weaker} alpha_j) + 1),
 
     ``snr_scale`` s = P_T G / (I_k + sigma^2) (per member, or one number), the order by
-    :func:`sic_order` of ``effective`` and ``gain``. For M = 2 these are eq. 2's numbers."""
-    order = sic_order(effective, gain)
+    :func:`sic_order` of ``effective`` and ``gain`` (or ``order``, strongest first: the
+    order of estimated gains, docs/model.md §16). For M = 2 these are eq. 2's numbers."""
+    if order is None:
+        order = sic_order(effective, gain)
     heard_ordered = heard_shares(np.take_along_axis(shares, order, axis=-1), sic_residual)
     heard = np.empty_like(heard_ordered)
     np.put_along_axis(heard, order, heard_ordered, axis=-1)
     signal = snr_scale * gain
     return shares * signal / (signal * heard + 1.0)
+
+
+def undecodable(effective: FloatArray, order: NDArray[np.intp]) -> NDArray[np.bool_]:
+    """(..., M): the members that cannot decode a message they must remove (docs/model.md
+    §16): decoding in ``order`` (strongest first, by estimated gains), member k removes every
+    member after it, which succeeds where its true effective gain ``effective`` is at least
+    theirs (the same SINR formula at a larger gain); it fails where one of them is truly
+    stronger, and then decodes nothing."""
+    ordered = np.take_along_axis(effective, order, axis=-1)
+    weaker_best = np.full(ordered.shape, -np.inf)      # the largest after each, in the order
+    np.maximum.accumulate(ordered[..., :0:-1], axis=-1, out=weaker_best[..., -2::-1])
+    failed = np.empty(ordered.shape, dtype=bool)
+    np.put_along_axis(failed, order, ordered < weaker_best, axis=-1)
+    return failed
 
 
 def rate_bps(sinr: FloatArray, bandwidth_hz: float) -> FloatArray:

@@ -2,7 +2,8 @@
 seed alone equals the same seed in a stack, a checkpoint makes the round trip through the run
 file, a run killed with kill -9 after a checkpoint and resumed is the uninterrupted run's file,
 and ``adaptsky eval`` loads the greedy policy and gives back the stored evaluation. All bit for
-bit, in worlds that draw: users that move, fading, a city, sampled LoS, two UAVs.
+bit, in worlds that draw: users that move, fading, a city, sampled LoS, two UAVs, channel
+estimates (in clusters of three).
 
 A learner added to ``adaptsky.algos.registry`` gets these tests without writing them: it runs in
 the first world it can learn, with the small settings of :data:`SMALL` its ``[agent]`` has."""
@@ -51,6 +52,9 @@ WORLDS = {
         "train": {"eval_layouts": 2, "exploring_starts": "both"}}),
     "two-uavs-sampled-los": ("two_uavs_sub6.toml", {}),
     "two-uavs-moving": ("two_uavs_moving_mmwave.toml", {}),
+    # clusters of three whose channels are known by estimates (docs/model.md §15-16)
+    "csi-clusters-of-three": ("three_user_clusters_mmwave.toml", {
+        "channel": {"csi": {"model": "gaussian", "nmse_db": -10.0}}}),
 }
 
 
@@ -86,6 +90,7 @@ NAMED = [
     Case("sac", "sampled-los-fresh", actions="continuous"),
     Case("mappo", "two-uavs-moving", agent=(("reward_split", "per-uav"),)),
     Case("ippo", "two-uavs-moving", actions="continuous"),
+    Case("dqn", "csi-clusters-of-three"),
 ]
 
 
