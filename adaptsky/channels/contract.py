@@ -163,7 +163,8 @@ class Supports:
     one value ``(f, f)`` where its constants hold only that one (``mmwave-nyc``'s 28 GHz: it
     ignores any other); None: every value a scenario allows, as for a model that declares
     nothing. A scenario outside a declared range is refused. ``monotone_gains`` is a promise
-    about the gains instead, which lets the per-step searches bound them."""
+    about the gains instead, which lets the per-step searches bound them; ``reciprocal`` one
+    that they hold in the uplink too."""
 
     carrier_hz: tuple[float, float] | None = None
     """f_c, Hz (``radio.carrier_hz``)."""
@@ -171,6 +172,10 @@ class Supports:
     """W of each cluster, Hz (``radio.bandwidth_hz``)."""
     user_height_m: tuple[float, float] | None = None
     """h_UT, the users' antenna height, m (``users.height_m``)."""
+    reciprocal: bool = False
+    """True states that the model's gains hold both ways, user to UAV as UAV to user (the
+    uplink, ``radio.direction = "uplink"``, takes the same large-scale gain, docs/model.md
+    §17); False: a scenario of the uplink is refused with the model."""
     monotone_gains: bool = False
     """True promises, for the parameters and shared settings of a run: ``gain_los`` and
     ``gain_nlos`` depend on a link only through its ground distance d2D and the UAV's height

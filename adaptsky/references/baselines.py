@@ -24,6 +24,7 @@ class RandomControls(Reference):
     """Uniformly random controls at every step."""
 
     any_cluster_size = True
+    uplink = True
 
     def run(self, scenario: Scenario, steps: int, users_m: np.ndarray, seed: int = 0,
             on_progress: Tick | None = None) -> Method:

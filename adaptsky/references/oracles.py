@@ -28,7 +28,9 @@ from adaptsky.rollouts.genie import GENIE_NOTE, per_step_oracle
 from adaptsky.rollouts.metrics import Method
 from adaptsky.rollouts.oracle import oracle, require_deterministic_gains, require_static_users
 from adaptsky.rollouts.rollout import held_trace, hold
+from adaptsky.rollouts.search import UPLINK_MAX_VECTORS
 from adaptsky.scenario import Scenario
+from adaptsky.sim.lattice import share_lattice
 from adaptsky.sim.state import users_move
 
 CSI_NOTE = ("searched with perfect channel knowledge (the true gains and SIC order): its "
@@ -46,6 +48,21 @@ def _one_uav(scenario: Scenario, name: str) -> str | None:
     return None
 
 
+def _uplink_refusal(scenario: Scenario) -> str | None:
+    """Where the uplink's oracle would try more transmit-share vectors per point than
+    :data:`~adaptsky.rollouts.search.UPLINK_MAX_VECTORS` (a residual or R_min > 0: no
+    shortcut), the one-line refusal, else None."""
+    if not scenario.uplink or not (scenario.radio.sic_residual or scenario.reward.min_se):
+        return None
+    vectors = len(share_lattice(scenario)) ** scenario.shares_per_cluster
+    if vectors <= UPLINK_MAX_VECTORS:
+        return None
+    return (f"scenario '{scenario.name}': the uplink's oracle would try {vectors:,} transmit "
+            f"share vectors at each lattice point (a SIC residual or R_min > 0 leaves no "
+            f"shortcut; at most {UPLINK_MAX_VECTORS:,}); raise uav.power_step or use fewer "
+            "users per cluster")
+
+
 def _as_best_response(name: str, layouts: int) -> dict[str, Any]:
     """The search details of one UAV's best response where the oracle answers for it."""
     if name != "best-response":
@@ -61,6 +78,7 @@ class Oracle(Reference):
     share vector too, :mod:`adaptsky.rollouts.cluster_oracle`)."""
 
     any_cluster_size = True
+    uplink = True
 
     def label(self, scenario: Scenario) -> Label:
         return "bound"
@@ -68,12 +86,13 @@ class Oracle(Reference):
     def applies(self, scenario: Scenario) -> str | None:
         return (_one_uav(scenario, self.name)
                 or refusal_of(lambda: require_static_users(scenario))
-                or refusal_of(lambda: require_deterministic_gains(scenario)))
+                or refusal_of(lambda: require_deterministic_gains(scenario))
+                or _uplink_refusal(scenario))
 
     def per_layout(self, scenario: Scenario) -> bool:
         # (training's greedy evaluations take it from best response's cached search, which
-        # searches pairs)
-        return scenario.cluster_size == 2
+        # searches the downlink's pairs)
+        return scenario.cluster_size == 2 and not scenario.uplink
 
     def work(self, scenario: Scenario, steps: int, users_m: np.ndarray) -> tuple[int, str]:
         return len(users_m), "layout"
@@ -88,7 +107,8 @@ class Oracle(Reference):
     def run(self, scenario: Scenario, steps: int, users_m: np.ndarray, seed: int = 0,
             on_progress: Tick | None = None) -> Method:
         start = time.process_time()
-        search = oracle if scenario.cluster_size == 2 else cluster_oracle
+        search = (oracle if scenario.cluster_size == 2 and not scenario.uplink
+                  else cluster_oracle)
         best = search(scenario, users_m, on_progress, on_progress)
         details = {"seconds_per_layout": (time.process_time() - start) / len(users_m),
                    "objective_bps": best.objective_bps}

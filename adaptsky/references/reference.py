@@ -31,9 +31,15 @@ class Reference:
     any_cluster_size: ClassVar[bool] = False
     """Whether it runs on NOMA clusters of any size M (docs/model.md §15); else on pairs
     only, and refused in one line for M > 2 (:meth:`cluster_refusal`)."""
+    uplink: ClassVar[bool] = False
+    """Whether it runs on the uplink (docs/model.md §17); else refused in one line there."""
 
     def cluster_refusal(self, scenario: Scenario) -> str | None:
-        """Why it does not run on ``scenario``'s clusters (one line), or None."""
+        """Why it does not run on ``scenario``'s NOMA (clusters of M > 2, the uplink), in one
+        line, or None."""
+        if scenario.uplink and not self.uplink:
+            return (f"radio.direction: '{self.name}' plans or searches the downlink only, not "
+                    "the uplink (docs/model.md §17 lists what runs on it)")
         size = scenario.cluster_size
         if size == 2 or self.any_cluster_size:
             return None

@@ -1,5 +1,8 @@
-"""The oracle of one UAV whose NOMA clusters have M > 2 users (docs/model.md §15): the best
-lattice point and share components for the users' home positions, deterministic gains.
+"""The oracle of one UAV whose NOMA clusters have M > 2 users (docs/model.md §15), or of the
+uplink (§17): the best lattice point and power components for the users' home positions,
+deterministic gains. The uplink's clusters are valued by
+:func:`~adaptsky.rollouts.search.best_uplink_vectors` and bounded by W log2(1 + s sum_i g_i)
+(every member at full power: the sum rate of a SIC receiver); the rest is as below.
 
 At a point every cluster is valued apart (clusters have their own power and band) by the
 kernel's best share vector (:func:`~adaptsky.rollouts.search.best_share_vectors`): every
@@ -27,6 +30,7 @@ from adaptsky.rollouts.search import (
     LatticeBoxes,
     best_in_chunks,
     best_share_vectors,
+    best_uplink_vectors,
     bound_gains,
     branch_and_bound,
     every_point,
@@ -55,11 +59,12 @@ def cluster_point_values(env: NetworkBatch, layout: int, points_m: FloatArray,
     building."""
     gain = point_gains(env, layout, points_m, users_m)
     clusters = env.association.members[layout, 0]                          # (K, M)
-    width = clusters.shape[1] - 1
+    width = components.shape[1]
+    best_vectors = best_uplink_vectors if env.scenario.uplink else best_share_vectors
     total = np.zeros(len(points_m))
     chosen = np.empty((len(points_m), len(clusters) * width))
     for k, members in enumerate(clusters):
-        index, rate = best_share_vectors(gain[:, members], shares, env.scenario, snr)
+        index, rate = best_vectors(gain[:, members], shares, env.scenario, snr)
         total += rate
         chosen[:, k * width:(k + 1) * width] = components[index]
     return outside_buildings(env, layout, points_m, total), chosen
@@ -68,10 +73,12 @@ def cluster_point_values(env: NetworkBatch, layout: int, points_m: FloatArray,
 def cluster_box_bounds(env: NetworkBatch, layout: int, boxes: LatticeBoxes,
                        users_m: FloatArray, snr: float) -> FloatArray:
     """Every box's upper bound on the objective: the sum over clusters of
-    W log2(1 + s g_max), g_max the largest member's gain at its nearest point of the box."""
+    W log2(1 + s g_max), g_max the largest member's gain at its nearest point of the box
+    (the uplink's: W log2(1 + s sum_i g_i), every member at full power)."""
     gain = bound_gains(env, boxes.nearest(users_m), users_m)
-    strongest = gain[:, env.association.members[layout, 0]].max(axis=2)   # (boxes, K)
-    return (env.bandwidth_hz * np.log2(1.0 + snr * strongest)).sum(axis=1)
+    members = gain[:, env.association.members[layout, 0]]                  # (boxes, K, M)
+    best = members.sum(axis=2) if env.scenario.uplink else members.max(axis=2)
+    return (env.bandwidth_hz * np.log2(1.0 + snr * best)).sum(axis=1)
 
 
 def cluster_oracle(scenario: Scenario, users_m: FloatArray,
@@ -84,6 +91,8 @@ def cluster_oracle(scenario: Scenario, users_m: FloatArray,
     num_layouts = len(users_m)
     env = NetworkBatch(scenario, num_envs=num_layouts, users_m=users_m)
     snr = snr_scale(scenario)
+    if scenario.uplink:      # P_u G / sigma^2
+        snr = scenario.user_tx_power_w * scenario.radio.antenna_gain / scenario.radio.noise_w
     xs, ys, hs, _ = lattice(scenario)
     components, shares = share_vectors(scenario)
     boxes = LatticeBoxes((xs, ys, hs)) if declares_monotone_gains(env.channel) else None

@@ -187,12 +187,49 @@ POINTS_PER_SHARE_BLOCK = 256
 """Lattice points valued at once against every share vector of a cluster of M > 2."""
 
 
+UPLINK_MAX_VECTORS = 200_000
+"""The most transmit-share vectors of a cluster the uplink's oracle tries at each point."""
+
+
 def share_vectors(scenario: Scenario) -> tuple[FloatArray, FloatArray]:
-    """Every component vector (V, M - 1) the actions reach in a cluster of M users (the share
-    grid on each component, lattice order: the last fastest; docs/model.md §15) and the
-    shares (V, M) each gives."""
-    components = grid_points(*[share_lattice(scenario)] * (scenario.cluster_size - 1))
-    return components, noma.member_shares(components)
+    """Every component vector (V, C) the actions reach in a cluster of M users (the grid on
+    each component, lattice order: the last fastest) and the shares (V, M) each gives: the
+    downlink's M - 1 components and their split (docs/model.md §15), or the uplink's M
+    transmit shares, themselves (§17)."""
+    components = grid_points(*[share_lattice(scenario)] * scenario.shares_per_cluster)
+    return components, components if scenario.uplink else noma.member_shares(components)
+
+
+def best_uplink_vectors(gain: FloatArray, betas: FloatArray, scenario: Scenario,
+                        snr_scale: float) -> tuple[NDArray[np.intp], FloatArray]:
+    """Per point and uplink cluster of M users with gains ``gain`` (P, M) (one UAV): the index
+    into ``betas`` (V, M) of the transmit shares maximising the cluster's sum rate under
+    R_min, and that sum rate (P,) (docs/model.md §17; ``snr_scale`` = P_u G / sigma^2). With
+    perfect SIC and R_min = 0 the sum rate is W log2(1 + sum_i a_i), rising with every share:
+    the vector of the largest shares, found without trying the others; else every vector is
+    tried (ties to the first; index 0 and -inf where none meets R_min)."""
+    residual, bandwidth_hz = scenario.radio.sic_residual, scenario.radio.bandwidth_hz
+    min_se = scenario.reward.min_se
+    if not residual and not min_se:
+        top = int(np.argmax(betas.sum(axis=1)))        # every share at its largest
+        received = snr_scale * betas[top] * gain
+        rate = bandwidth_hz * np.log2(1.0 + received.sum(axis=1))
+        return np.full(len(gain), top, dtype=np.intp), rate
+    index = np.zeros(len(gain), dtype=np.intp)
+    rate = np.full(len(gain), -np.inf)
+    for start in range(0, len(gain), POINTS_PER_SHARE_BLOCK):
+        block = slice(start, start + POINTS_PER_SHARE_BLOCK)
+        received = snr_scale * betas[None] * gain[block, None, :]            # (b, V, M)
+        order = noma.sic_order(received, received)
+        ordered = np.take_along_axis(received, order, axis=-1)
+        heard = noma.heard_shares(ordered[..., ::-1], residual)[..., ::-1]
+        spectral = np.log2(1.0 + ordered / (heard + 1.0))
+        total = spectral.sum(axis=2)
+        total[(spectral < min_se).any(axis=2)] = -np.inf
+        best = np.argmax(total, axis=1)
+        index[block] = best
+        rate[block] = bandwidth_hz * total[np.arange(len(best)), best]
+    return index, rate
 
 
 def best_share_vectors(gain: FloatArray, shares: FloatArray, scenario: Scenario,

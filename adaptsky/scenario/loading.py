@@ -119,6 +119,7 @@ def parse_scenario(data: dict[str, Any], source: str = "<scenario>") -> Scenario
     if scenario.radio.carrier_hz is None:  # the carrier the model's defaults give
         _refuse_unsupported(scenario, model_class, carrier_hz, source)
     _refuse_two_fadings(scenario, model_class, params, source)
+    _refuse_no_reciprocity(scenario, model_class, source)
     channel = scenario.channel.model_copy(update={"params": params.model_dump()})
     radio = scenario.radio.model_copy(update={"carrier_hz": carrier_hz})
     return scenario.model_copy(update={"channel": channel, "radio": radio})
@@ -169,6 +170,21 @@ def _refuse_unsupported(scenario: Scenario, model_class: type[ChannelModel],
                      "choose another model (adaptsky plugins list)")
     if lines:
         raise ScenarioError(lines)
+
+
+def _refuse_no_reciprocity(scenario: Scenario, model_class: type[ChannelModel],
+                           source: str) -> None:
+    """Refuse the uplink (docs/model.md §17) with a channel model that does not state its
+    gains hold both ways (``Supports(reciprocal=True)``, docs/plugins.md)."""
+    if not scenario.uplink:
+        return
+    supports = getattr(model_class, "supports", None)
+    if getattr(supports, "reciprocal", False) is not True:
+        raise ScenarioError([
+            f"{source}: radio.direction: 'uplink', but channel model "
+            f"'{scenario.channel.model}' does not state that its gains hold from the users to "
+            "the UAV (Supports(reciprocal=True), docs/plugins.md); use 'downlink', or a model "
+            "that states it (adaptsky plugins list)"])
 
 
 def _refuse_two_fadings(scenario: Scenario, model_class: type[ChannelModel],

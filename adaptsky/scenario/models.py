@@ -113,6 +113,9 @@ DEFAULT_SPREAD_M = 10.0
 """placement = "hotspots": the number of centres and the spread of the users, m (ours)."""
 
 
+DEFAULT_USER_TX_DBM = 23.0
+"""The uplink's transmit power of a user when ``users.tx_power_dbm`` is unset: 23 dBm, a
+handset's largest (3GPP power class 3)."""
 MAX_CLUSTER_SIZE = 8
 """The largest NOMA cluster (``users.cluster_size``): a SIC chain of 8 users (ours)."""
 
@@ -127,6 +130,9 @@ class Users(Section):
               "cluster_size"))
     count: int | None = Field(None, ge=2, description="number of users N_UE = M K (a multiple "
                               "of cluster_size)")
+    tx_power_dbm: float | None = Field(
+        None, ge=-50.0, le=50.0, description="the uplink's largest transmit power P_u of every "
+        "user, dBm (radio.direction = 'uplink' only; default 23, a handset's)")
     placement: Literal["listed", "uniform", "fresh", "hotspots"] | None = Field(
         None, description="'listed' (positions_m), 'uniform' over the area (count, "
         "layout_seed), 'fresh': uniform, drawn anew every training episode from the "
@@ -320,7 +326,8 @@ class Radio(Section):
         "model; default: the model's carrier_hz parameter where it has one, else 28e9 "
         "(Table I, mmWave)")
     tx_power_dbm: float = Field(20.0, ge=-50.0, le=80.0,
-                                description="power P_T of each cluster, dBm")
+                                description="power P_T of each cluster, dBm (the downlink's: "
+                                "in the uplink the users send, users.tx_power_dbm)")
     bandwidth_hz: float = Field(2e9, gt=0, le=1e12, description="bandwidth W of each cluster, Hz")
     thermal_noise_dbm: float = Field(-84.0, ge=-200.0, le=0.0,
                                      description="thermal noise over W, dBm")
@@ -334,6 +341,10 @@ class Radio(Section):
         0.0, ge=0.0, le=1.0, description="imperfect SIC (docs/model.md §13): the fraction "
         "epsilon of its partner's signal that a cluster's strong user keeps after cancelling "
         "it, in [0, 1]; 0: perfect SIC (the paper), 1: no cancellation at all")
+    direction: Literal["downlink", "uplink"] = Field(
+        "downlink", description="'downlink' (the paper: the UAV sends, P_T per cluster split "
+        "among its users) or 'uplink' (each user sends at its own power, users.tx_power_dbm; "
+        "the UAV decodes each cluster by SIC, docs/model.md §17)")
 
     @property
     def noise_w(self) -> float:
@@ -643,8 +654,8 @@ class Scenario(Section):
             return self  # no index: D components of [-1, 1], whatever their number
         count, dense = self.uav.count, self.agent.algorithm == "dqn"
         actions = MAX_DENSE_ACTIONS if dense else MAX_INDEX_ACTIONS
-        size = self.cluster_size
-        limit = max_users(self.uav.actions, count, actions, size)
+        size, per_cluster = self.cluster_size, self.shares_per_cluster
+        limit = max_users(self.uav.actions, count, actions, size, per_cluster)
         users = self.num_users
         if users > limit:
             base = 2 if self.uav.actions == "paper" else 3
@@ -656,9 +667,10 @@ class Scenario(Section):
                          if dense and count > 1 else "")
             raise ValueError(
                 f"users: {users} users{uavs} give "
-                f"{base}^{3 * count + users // size * (size - 1)} actions; "
+                f"{base}^{3 * count + users // size * per_cluster} actions; "
                 f"{held}, so at most {max(limit, 0)} users with uav.actions = "
-                f"'{self.uav.actions}' ({max(max_users(other, count, actions, size), 0)} with "
+                f"'{self.uav.actions}' "
+                f"({max(max_users(other, count, actions, size, per_cluster), 0)} with "
                 f"'{other}'){branching}")
         return self
 
@@ -708,6 +720,27 @@ class Scenario(Section):
         if abs(x) > half_m or abs(y) > half_m:
             raise ValueError(f"uav.start_m: ({x}, {y}) lies outside the area "
                              f"|x|, |y| <= {half_m:g} m")
+        return self
+
+    @model_validator(mode="after")
+    def _direction(self) -> Scenario:
+        """The uplink's keys with the uplink only, and what it does not model yet
+        (docs/model.md §17)."""
+        if not self.uplink:
+            if self.users.tx_power_dbm is not None:
+                raise ValueError("users.tx_power_dbm: the users' transmit power is the "
+                                 "uplink's, but radio.direction = 'downlink' (the UAV sends "
+                                 "radio.tx_power_dbm); remove it or set radio.direction = "
+                                 "'uplink'")
+            return self
+        if self.channel.csi.model != "perfect":
+            raise ValueError("channel.csi: imperfect channel knowledge is modelled for the "
+                             "downlink (docs/model.md §16); with radio.direction = 'uplink' "
+                             "use channel.csi.model = 'perfect'")
+        if getattr(self.agent, "reward_split", "team") == "difference":
+            raise ValueError("agent.reward_split: 'difference' prices a UAV's interference on "
+                             "the downlink; the uplink's interference comes from the users "
+                             "(docs/model.md §17): use 'team' or 'per-uav'")
         return self
 
     @model_validator(mode="after")
@@ -878,10 +911,27 @@ class Scenario(Section):
         return self.cluster_size * self.clusters_per_uav
 
     @property
+    def uplink(self) -> bool:
+        """Whether the users send and the UAVs receive (docs/model.md §17)."""
+        return self.radio.direction == "uplink"
+
+    @property
+    def shares_per_cluster(self) -> int:
+        """A cluster's power components: M - 1 shares of the downlink's split (docs/model.md
+        §15), M transmit shares in the uplink (§17)."""
+        return self.cluster_size if self.uplink else self.cluster_size - 1
+
+    @property
+    def user_tx_power_w(self) -> float:
+        """P_u, W: every user's largest transmit power in the uplink (default 23 dBm)."""
+        dbm = DEFAULT_USER_TX_DBM if self.users.tx_power_dbm is None else self.users.tx_power_dbm
+        return 10 ** ((dbm - 30.0) / 10.0)
+
+    @property
     def shares_of_uavs(self) -> tuple[int, ...]:
-        """S_u = K_u (M - 1) of every UAV: its share components, M - 1 per cluster
-        (docs/model.md §15; K_u for pairs)."""
-        return tuple(k * (self.cluster_size - 1) for k in self.clusters_of_uavs)
+        """S_u of every UAV: its power components, K_u (M - 1) shares of the downlink's split
+        (docs/model.md §15; K_u for pairs) or K_u M transmit shares in the uplink (§17)."""
+        return tuple(k * self.shares_per_cluster for k in self.clusters_of_uavs)
 
     @property
     def shares_per_uav(self) -> int:

@@ -38,15 +38,17 @@ CoordinateM = Annotated[float, Field(ge=-AREA_MAX_SIDE_M, le=AREA_MAX_SIDE_M)]
 
 
 def max_users(mode: str, num_uavs: int = 1, limit: int = MAX_DENSE_ACTIONS,
-              cluster_size: int = 2) -> int:
+              cluster_size: int = 2, per_cluster: int | None = None) -> int:
     """The most users whose dense action space (``uav.actions = mode``, ``num_uavs`` UAVs:
-    3 U + (N / M) (M - 1) components, M = ``cluster_size``) has at most ``limit`` actions:
-    for one UAV, pairs and ``MAX_DENSE_ACTIONS`` 42 for ``paper``, 24 for ``with-hover``; 0
-    where the UAVs' moves leave no room (eight UAVs under ``MAX_DENSE_ACTIONS``)."""
+    3 U + (N / M) C components, M = ``cluster_size``, C = ``per_cluster`` components of a
+    cluster, M - 1 by default: the downlink's) has at most ``limit`` actions: for one UAV,
+    pairs and ``MAX_DENSE_ACTIONS`` 42 for ``paper``, 24 for ``with-hover``; 0 where the UAVs'
+    moves leave no room (eight UAVs under ``MAX_DENSE_ACTIONS``)."""
     base, components = (2 if mode == "paper" else 3), 3 * num_uavs
     while base ** (components + 1) <= limit:
         components += 1
-    return cluster_size * ((components - 3 * num_uavs) // (cluster_size - 1))
+    per_cluster = cluster_size - 1 if per_cluster is None else per_cluster
+    return cluster_size * ((components - 3 * num_uavs) // per_cluster)
 
 
 def _name_character(char: str) -> bool:

@@ -25,7 +25,8 @@ class Chain:
     """Where a batch's clusters of M users are, for B layouts with C clusters in all.
 
     ``members`` (B, C, M): every cluster's users as flat positions of a (B, N) array;
-    ``components`` (B, C, M - 1): its share components' flat positions in the configuration
+    ``components`` (B, C, M - 1), the uplink's (B, C, M): its power components' flat
+    positions in the configuration
     (B, U, W), W = 3 + S_max; ``places`` (B, N): each user's flat position in a (B, C M)
     array of the clusters' members (the way back to user order)."""
 
@@ -34,17 +35,20 @@ class Chain:
     places: IntArray
 
     @classmethod
-    def of(cls, association: Association, width: int) -> Chain:
+    def of(cls, association: Association, width: int, per_cluster: int | None = None
+           ) -> Chain:
         """The index arrays of ``association``'s clusters in configurations of ``width``
-        3 + S_max per UAV."""
+        3 + S_max per UAV, ``per_cluster`` components a cluster (M - 1: the downlink's
+        shares; M: the uplink's transmit shares)."""
         members = association.members                                  # (B, U, K_max, M)
         num_layouts, num_uavs, _, size = members.shape
+        per_cluster = size - 1 if per_cluster is None else per_cluster
         num_users = association.serving_uav.shape[1]
         # the clusters that exist, UAV by UAV (a UAV with fewer than K_max has padding)
         uav, cluster = np.nonzero(association.has_cluster)
         rows = np.arange(num_layouts)[:, None, None]
         flat_members = rows * num_users + members[:, uav, cluster]      # (B, C, M)
-        slots = 3 + cluster[:, None] * (size - 1) + np.arange(size - 1)  # (C, M - 1)
+        slots = 3 + cluster[:, None] * per_cluster + np.arange(per_cluster)  # (C, per_cluster)
         components = rows * (num_uavs * width) + (uav * width)[:, None] + slots
         places = np.empty((num_layouts, num_users), dtype=np.intp)
         local = members[:, uav, cluster]                                # users of each layout
@@ -87,3 +91,38 @@ class Chain:
         if out is not None:
             out[0] = alpha
         return rate, strongest.take(self.places), alpha
+
+    def uplink_rates(self, gains: FloatArray, gain: FloatArray, config: FloatArray,
+                     cross: NDArray[np.bool_] | None, serving: IntArray, *, power_w: float,
+                     noise_w: float, bandwidth_hz: float | FloatArray,
+                     sic_residual: float = 0.0
+                     ) -> tuple[FloatArray, NDArray[np.bool_], FloatArray, FloatArray]:
+        """The uplink (docs/model.md §17): every user's rate (B, N), whether its UAV decodes
+        it first in its cluster, its transmit share beta_i and the other UAVs' users' power
+        its UAV hears on its block (W), from every link's gain ``gains`` (B, U, N), each
+        user's serving gain ``gain`` (B, N), the configuration (each member's beta) and
+        ``cross`` (B, N, N): whether user j sends on user i's block to another UAV (None: no
+        interference); ``serving`` (B, N) each user's UAV; ``power_w`` = P_u G. The UAV
+        decodes from the strongest received signal down: member k hears the members decoded
+        after it, ``sic_residual`` of those decoded before, and the interference."""
+        beta = config.take(self.components)                              # (B, C, M)
+        share = beta.take(self.places)                                  # (B, N)
+        received = power_w * share * gain                                # (B, N), W
+        if cross is None:
+            interference = np.zeros(received.shape)
+        else:   # user j's power at user i's UAV: p_j G g_{u(i), j}
+            at_uav = gains[np.arange(len(gains))[:, None], serving]       # (B, N, N)
+            interference = np.where(cross, power_w * share[:, None, :] * at_uav, 0.0).sum(-1)
+        ordered_from = received.take(self.members)                      # (B, C, M)
+        order = noma.sic_order(ordered_from, ordered_from)
+        ordered = np.take_along_axis(ordered_from, order, axis=-1)
+        # decoded after (interference) and before (their residual): the downlink's sums,
+        # mirrored
+        heard_ordered = noma.heard_shares(ordered[..., ::-1], sic_residual)[..., ::-1]
+        heard = np.empty_like(heard_ordered)
+        np.put_along_axis(heard, order, heard_ordered, axis=-1)
+        sinr = ordered_from / (heard + interference.take(self.members) + noise_w)
+        first = np.zeros(sinr.shape, dtype=bool)
+        np.put_along_axis(first, order[..., :1], True, axis=-1)
+        rate = noma.rate_bps(sinr.take(self.places), bandwidth_hz)
+        return rate, first.take(self.places), share, interference

@@ -198,6 +198,7 @@ class ContinuousControls:
     shares: NDArray[np.bool_]
     share_slots: NDArray[np.intp]
     power_step: float
+    share_span: float
     kind: str = "continuous"
     form: ActionForm = "box"
 
@@ -206,8 +207,11 @@ class ContinuousControls:
         components = Components.of(scenario, num_envs)
         shares = components.shares()
         slots = np.arange(len(shares)) if components.slots is None else components.slots
-        return cls(components, scenario.uav.power == "absolute", shares, slots[shares],
-                   scenario.uav.power_step)
+        step = scenario.uav.power_step
+        # the components' span: [delta, 1 - delta], the uplink's [delta, 1] (docs/model.md §17)
+        span = 1 - step if scenario.uplink else 1 - 2 * step
+        return cls(components, scenario.uav.power == "absolute", shares, slots[shares], step,
+                   span)
 
     @property
     def num_components(self) -> int:
@@ -240,7 +244,7 @@ class ContinuousControls:
             return config + self.components.placed(values)
         # x, y, h move; every share its component names is set
         shares = self.shares
-        alpha = self.power_step + (1 - 2 * self.power_step) * (actions[:, shares] + 1) / 2
+        alpha = self.power_step + self.share_span * (actions[:, shares] + 1) / 2
         values[:, shares] = 0.0
         target = config + self.components.placed(values)
         target.reshape(len(target), -1)[:, self.share_slots] = alpha

@@ -102,7 +102,8 @@ class StepEnergy:
     def of(cls, scenario: Scenario, clusters: NDArray[np.integer] | None = None) -> StepEnergy:
         """A scenario's steps (``uav.step_s``, P_T per cluster), with K_u per UAV
         ``clusters`` (U,) where they differ (default: the scenario's equal groups)."""
-        return cls(scenario.uav.step_s, scenario.radio.tx_power_w,
+        # the uplink's UAV receives: no radio power of its own (docs/model.md §17)
+        return cls(scenario.uav.step_s, 0.0 if scenario.uplink else scenario.radio.tx_power_w,
                    scenario.clusters_per_uav if clusters is None else clusters)
 
     @property

@@ -23,11 +23,18 @@ def axis_lattice(start: float, step: float, low: float, high: float) -> FloatArr
     return start + step * np.arange(k_low, k_high + 1)
 
 
+def share_high(scenario: Scenario) -> float:
+    """The largest value of a power component: 1 - delta_alpha for the downlink's shares
+    (the other users keep some power), 1 for the uplink's transmit shares (a user may send at
+    full power, docs/model.md §17)."""
+    return 1.0 if scenario.uplink else 1 - scenario.uav.power_step
+
+
 def share_lattice(scenario: Scenario) -> FloatArray:
-    """Every first-user share the actions reach: ``start_alpha`` plus whole ``power_step``s in
-    [delta_alpha, 1 - delta_alpha]."""
+    """Every value of a power component the actions reach: ``start_alpha`` plus whole
+    ``power_step``s in [delta_alpha, 1 - delta_alpha] (the uplink's: [delta_alpha, 1])."""
     uav = scenario.uav
-    return axis_lattice(uav.start_alpha, uav.power_step, uav.power_step, 1 - uav.power_step)
+    return axis_lattice(uav.start_alpha, uav.power_step, uav.power_step, share_high(scenario))
 
 
 def exploring_shares(scenario: Scenario, rngs: Sequence[np.random.Generator],

@@ -206,7 +206,10 @@ class NetworkBatch:
         if radio.reuse not in ("full", "orthogonal"):
             raise ValueError(f"unknown reuse {radio.reuse!r}; use full or orthogonal")
         self.bandwidth_hz = radio.bandwidth_hz
-        self._power_w = radio.tx_power_w * radio.antenna_gain        # P_T G
+        self._uplink = scenario.uplink
+        # P_T G, the uplink's P_u G (docs/model.md §17)
+        self._power_w = ((scenario.user_tx_power_w if self._uplink else radio.tx_power_w)
+                         * radio.antenna_gain)
         self._noise_w = radio.noise_w
         self._sic_residual = radio.sic_residual
         self._full_reuse = radio.reuse == "full" and self.num_uavs > 1
@@ -316,9 +319,15 @@ class NetworkBatch:
         link_base = (np.arange(num_envs * num_uavs) * width)[:, None] + np.zeros(n, np.intp)
         self._link_source = np.stack([link_base, link_base + 1, link_base + 2])
         self._interferer = interferers(association)
-        self._chain = None if self.cluster_size == 2 else Chain.of(association, width)
+        self._chain = (None if self.cluster_size == 2 and not self._uplink else
+                       Chain.of(association, width, self.scenario.shares_per_cluster))
         if self._chain is None:
             self._index_pairs(uav_base)
+        # the uplink's interference: whether user j sends on user i's block to another UAV
+        self._cross = None
+        if self._uplink and self._full_reuse:
+            self._cross = ((association.cluster[:, :, None] == association.cluster[:, None, :])
+                           & (serving[:, :, None] != serving[:, None, :]))
         gather = None if self._view is None else self._view.gather(association)
         self._view_flat = (None if gather is None
                            else flat_gather(gather, observation_size(n, num_uavs)))
@@ -703,6 +712,9 @@ class NetworkBatch:
             serving_link = self._serving_link
             gain = gains.take(serving_link)
             link_los, link_p_los = los.take(serving_link), p_los.take(serving_link)
+        if self._uplink:
+            return self._evaluated_uplink(state, gains, gain, link_los, link_p_los, features,
+                                          energy_j)
         # I_i: the gains of every interfering link (B, U, N), kept for rates_without
         if self._full_reuse:
             self._interfering = gains
@@ -726,6 +738,32 @@ class NetworkBatch:
         return NetworkState._new(self._squeezed(uav_m).copy(), alpha, gain, interference,
                                  link_los, link_p_los, strong, rate_bps, total, fairness,
                                  rewards, energy_j)
+
+    def _evaluated_uplink(self, state: SimState, gains: FloatArray, gain: FloatArray,
+                          link_los: NDArray[np.bool_], link_p_los: FloatArray,
+                          features: FloatArray | None, energy_j: FloatArray | None
+                          ) -> NetworkState:
+        """Stages 6-8 of the uplink (docs/model.md §17): every user's rate by its UAV's SIC
+        chain, the other UAVs' users' power on its block, then reward, energy and
+        observation as for the downlink (the power feature: each user's transmit share)."""
+        assert self._chain is not None
+        config = state.config
+        rate_bps, strong, alpha, interference = self._chain.uplink_rates(
+            gains, gain, config, self._cross, self.association.serving_uav,
+            power_w=self._power_w, noise_w=self._noise_w, bandwidth_hz=self._bandwidth,
+            sic_residual=self._sic_residual)
+        self._interfering = None
+        if features is not None:
+            features[2] = alpha
+        rewards, total, fairness = self._rewarded(rate_bps, gain)
+        if energy_j is None:
+            energy_j = self._energy.hover_j
+        if self._energy.weighted:
+            rewards = self._energy.rewarded(rewards, energy_j)
+        self._obs = self._observe(config, state.users_m, alpha, gain, interference, features)
+        return NetworkState._new(self._squeezed(config[..., :3]).copy(), alpha, gain,
+                                 interference, link_los, link_p_los, strong, rate_bps, total,
+                                 fairness, rewards, energy_j)
 
     def _estimated(self, gains: FloatArray, large_scale: FloatArray, draws: Generators
                    ) -> tuple[FloatArray, FloatArray]:

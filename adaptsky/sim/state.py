@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.actions import ActionSet
 from adaptsky.sim.controls import Controls, DenseControls, controls_of
+from adaptsky.sim.lattice import share_high
 
 FloatArray = NDArray[np.float64]
 
@@ -134,7 +135,7 @@ class Dynamics:
         config_shape = (num_envs, uav.count, 3 + k)
         low = np.concatenate([[-half_m, -half_m, uav.min_height_m], np.full(k, power_step)])
         high = np.concatenate([[half_m, half_m, uav.max_height_m],
-                               np.full(k, 1.0 - power_step)])
+                               np.full(k, share_high(scenario))])
         return cls(controls_of(scenario, num_envs),
                    np.broadcast_to(low, config_shape).copy(),
                    np.broadcast_to(high, config_shape).copy(), num_envs,

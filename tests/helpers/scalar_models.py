@@ -130,3 +130,45 @@ def scalar_chain_network(uavs, users, clusters, components, reuse, sic_residual=
         sinr.append(value)
         rate.append(BANDWIDTH_HZ * math.log2(1 + value))
     return gains, interference, sinr, rate
+
+
+def scalar_uplink_network(uavs, users, clusters, betas, reuse, user_tx_power_w,
+                          sic_residual=0.0):
+    """Interference, SINR and rates of the uplink (docs/model.md §17) with loops.
+
+    ``clusters[u]`` lists UAV u's clusters, each a tuple of its users; ``betas[i]`` user i's
+    transmit share. User i sends beta_i P_u; its UAV receives p_i G g_{u,i}; the UAV decodes a
+    cluster from the strongest received signal down (ties: the first listed), member k
+    hearing those decoded after it, the residual of those before and the users of other UAVs
+    on the same block under full reuse."""
+    gains = [[scalar_gain(uav, user, "always") for user in users] for uav in uavs]
+    pg = user_tx_power_w * ANTENNA_GAIN
+    place = {}
+    for u, members_of in enumerate(clusters):
+        for k, members in enumerate(members_of):
+            for j, i in enumerate(members):
+                place[i] = (u, k, j)
+    interference, sinr, rate = [], [], []
+    for i in range(len(users)):
+        u, k, _ = place[i]
+        total = 0.0
+        if reuse == "full":
+            for other in range(len(users)):
+                u_o, k_o, _ = place[other]
+                if u_o != u and k_o == k:
+                    total += betas[other] * pg * gains[u][other]
+        interference.append(total)
+    for i in range(len(users)):
+        u, k, j = place[i]
+        received = betas[i] * pg * gains[u][i]
+        heard = 0.0
+        for m in clusters[u][k]:
+            if m == i:
+                continue
+            other = betas[m] * pg * gains[u][m]
+            decoded_before = (other, -place[m][2]) > (received, -j)
+            heard += sic_residual * other if decoded_before else other
+        value = received / (heard + interference[i] + NOISE_W)
+        sinr.append(value)
+        rate.append(BANDWIDTH_HZ * math.log2(1 + value))
+    return gains, interference, sinr, rate

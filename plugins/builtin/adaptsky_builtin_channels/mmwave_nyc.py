@@ -41,7 +41,7 @@ class MmWaveNyc(ChannelModel):
     # the constants of eq. 4-5 are measured at 28 GHz (Table I): no other carrier is modelled;
     # eq. 5's gains fall with the 3D distance, the NLoS one below the LoS one (its intercept
     # and exponent are the weaker): the per-step searches may bound them
-    supports = Supports(carrier_hz=(28e9, 28e9), monotone_gains=True)
+    supports = Supports(carrier_hz=(28e9, 28e9), monotone_gains=True, reciprocal=True)
     # the paper's Table I, mmWave column: what a scenario's [radio] leaves out
     default_radio = MappingProxyType({
         "carrier_hz": 28e9, "tx_power_dbm": 20.0, "bandwidth_hz": 2e9,

@@ -37,7 +37,7 @@ class Sub6AlHourani(ChannelModel):
     contract_version = 3
     # eq. 7's gains fall with the 3D distance, the NLoS one below the LoS one (its excess
     # loss is the larger): the per-step searches may bound them
-    supports = Supports(monotone_gains=True)
+    supports = Supports(monotone_gains=True, reciprocal=True)
     # the paper's Table I, sub-6 column: what a scenario's [radio] leaves out
     default_radio = MappingProxyType({
         "carrier_hz": 2e9, "tx_power_dbm": 30.0, "bandwidth_hz": 50e6,

@@ -34,8 +34,13 @@ def test_it_applies_to_every_scenario_of_pairs_and_each_uav_takes_its_group_cent
     for path in SCENARIOS.glob("*.toml"):
         scenario = load_scenario(path)
         refused = refusal("centroid", scenario)
-        # SoA's split is for pairs: clusters of three are refused (docs/model.md §15)
-        assert refused is None if scenario.cluster_size == 2 else "NOMA pairs only" in refused
+        # SoA's split is for the downlink's pairs: clusters of three and the uplink are
+        # refused (docs/model.md §15, §17)
+        if scenario.uplink:
+            assert "downlink only" in refused
+        else:
+            assert (refused is None if scenario.cluster_size == 2
+                    else "NOMA pairs only" in refused)
     scenario = load_scenario(SCENARIOS / "two_uavs_mmwave.toml")
     users_m = eval_layouts(scenario, None)
     uav_m = run_baseline(scenario, "centroid", 2, users_m).trace.uav_m[-1, 0]   # (U, 3)
