@@ -213,8 +213,10 @@ ADDED_SECTION_DEFAULTS = {("uav", "count"): 1, ("uav", "start_positions_m"): Non
                           ("users", "reassociate_every_s"): None,
                           # the service metrics' outage threshold (docs/model.md §14)
                           ("metrics", "outage_se"): 1.0,
-                          # NOMA clusters of M users (docs/model.md §15): pairs
-                          ("users", "cluster_size"): 2}
+                          # NOMA clusters of M users (docs/model.md §15): pairs; perfect
+                          # channel knowledge (§16); the downlink (§17)
+                          ("users", "cluster_size"): 2, ("channel", "csi"): {"model": "perfect"},
+                          ("radio", "direction"): "downlink", ("users", "tx_power_dbm"): None}
 # tables a newer adaptsky adds: left out where every key in them is at its default
 ADDED_TABLES = {"world", "metrics"}
 # names a newer adaptsky adds beside the numbers it had (JSON keys, HDF5 datasets with their

@@ -14,7 +14,7 @@ from adaptsky_cli.cli.values import conflict, format_value, set_value
 def reproduce(
     experiment: Annotated[str, typer.Argument(
         metavar="EXPERIMENT", show_default=False,
-        help="a shipped experiment id (the paper's e1a, e1b, e2, e3; ours e4, e5, e6, e7, bdq, "
+        help="a shipped experiment id (the paper's e1a, e1b, e2, e3; ours e4, e5, e6, e7, e9, bdq, "
         "ppo, sac, mappo; suite, the benchmark), 'all' (the paper's), or an experiment "
         "file (TOML)")],
     out: Annotated[Path | None, typer.Option(

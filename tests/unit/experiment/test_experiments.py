@@ -15,9 +15,11 @@ from tests.conftest import ROOT
 
 # runs per shipped experiment: E1a and E1b 10, E2 6 x 8 thresholds, E3 6 + 6 + 6
 # (docs/model.md §5); ours: E4 6 per number of UAVs, 1 to 4; E5 6 x 5 weights; E6 6 x 5
-# SIC residuals; bdq 6 + 6 + 6; ppo 6 + 6, sac 6, mappo 6 + 6; the suite 22 cells x 5 (four
-# learners on each one-UAV task of four, three on each of two and four UAVs)
-RUNS = {"e1a": 10, "e1b": 10, "e2": 48, "e3": 18, "e4": 24, "e5": 30, "e6": 78, "e7": 24, "bdq": 18,
+# SIC residuals; E9 6 x 10 conditions x 2 learners; bdq 6 + 6 + 6; ppo 6 + 6, sac 6,
+# mappo 6 + 6; the suite 22 cells x 5 (four learners on each one-UAV task of four, three on
+# each of two and four UAVs)
+RUNS = {"e1a": 10, "e1b": 10, "e2": 48, "e3": 18, "e4": 24, "e5": 30, "e6": 78, "e7": 24, "e9": 120,
+        "bdq": 18,
         "ppo": 12, "sac": 6, "mappo": 12, "suite": 110}
 EPISODES = {"suite": 150}  # the suite's runs: a budget of 150 episodes
 
@@ -105,9 +107,9 @@ def test_malformed_experiment_is_one_line(tmp_path, capsys, change, message):
 
 
 def test_unknown_experiment_names_the_shipped_ones(capsys):
-    assert main(["reproduce", "e9"]) == 1
+    assert main(["reproduce", "e99"]) == 1
     line = capsys.readouterr().err.strip()
-    assert line.startswith("e9: no such experiment") and "bdq, e1a, e1b, e2, e3, e4" in line
+    assert line.startswith("e99: no such experiment") and "bdq, e1a, e1b, e2, e3, e4" in line
 
 
 def test_reproduce_help_names_every_shipped_experiment():
