@@ -36,6 +36,23 @@ def scalar_gain(uav, user, los):
     return p * g_los + (1 - p) * g_nlos
 
 
+def scalar_interference(gains, clusters, uav_and_cluster, reuse):
+    """The downlink's I_i of every user (docs/model.md §9) with loops: P_T G times the gain
+    from every other UAV that has a cluster on its subchannel k (full reuse; 0 otherwise);
+    ``uav_and_cluster[i]`` is user i's (u, k)."""
+    pg = TX_POWER_W * ANTENNA_GAIN
+    interference = []
+    for i in range(len(uav_and_cluster)):
+        u, k = uav_and_cluster[i]
+        total = 0.0
+        if reuse == "full":
+            for other in range(len(gains)):
+                if other != u and k < len(clusters[other]):
+                    total += pg * gains[other][i]
+        interference.append(total)
+    return interference
+
+
 def scalar_network(uavs, users, serving, clusters, alpha_first, reuse, los="always",
                    sic_residual=0.0):
     """Gains, interference, strong flags, SINR and rates of docs/model.md §9 with loops.
@@ -50,15 +67,9 @@ def scalar_network(uavs, users, serving, clusters, alpha_first, reuse, los="alwa
             cluster_of[first] = (u, k, second, alpha_first[u][k])
             cluster_of[second] = (u, k, first, 1 - alpha_first[u][k])
     pg = TX_POWER_W * ANTENNA_GAIN
-    interference, strong, sinr, rate, oma = [], [], [], [], []
-    for i in range(len(users)):
-        u, k, _, _ = cluster_of[i]
-        total = 0.0
-        if reuse == "full":
-            for other in range(len(uavs)):
-                if other != u and k < len(clusters[other]):
-                    total += pg * gains[other][i]
-        interference.append(total)
+    strong, sinr, rate, oma = [], [], [], []
+    interference = scalar_interference(gains, clusters, {i: place[:2] for i, place
+                                                         in cluster_of.items()}, reuse)
     for i in range(len(users)):
         u, k, partner, alpha = cluster_of[i]
         c_i = gains[u][i] / (interference[i] + NOISE_W)
@@ -105,15 +116,8 @@ def scalar_chain_network(uavs, users, clusters, components, reuse, sic_residual=
             shares = scalar_shares(components[u][k])
             for j, i in enumerate(members):
                 place[i] = (u, k, j, shares[j])
-    interference = []
-    for i in range(len(users)):
-        u, k, _, _ = place[i]
-        total = 0.0
-        if reuse == "full":
-            for other in range(len(uavs)):
-                if other != u and k < len(clusters[other]):
-                    total += pg * gains[other][i]
-        interference.append(total)
+    interference = scalar_interference(gains, clusters, {i: p[:2] for i, p in place.items()},
+                                       reuse)
     sinr, rate = [], []
     for i in range(len(users)):
         u, k, j, alpha = place[i]
@@ -172,3 +176,52 @@ def scalar_uplink_network(uavs, users, clusters, betas, reuse, user_tx_power_w,
         sinr.append(value)
         rate.append(BANDWIDTH_HZ * math.log2(1 + value))
     return gains, interference, sinr, rate
+
+
+def small_lattice(users_m, radio, min_se, **users):
+    """A one-UAV scenario over 40 m x 40 m with a lattice of 10 m steps and heights 10-50 m,
+    shares on a 0.1 grid, for the searches' brute-force checks."""
+    from tests.conftest import make_scenario
+
+    return make_scenario(
+        area={"side_m": 40.0}, radio=radio, reward={"min_se": min_se},
+        users={"positions_m": users_m, "pairing": "listed", **users},
+        uav={"start_m": [0.0, 0.0, 50.0], "step_m": [10.0, 10.0, 10.0], "min_height_m": 10.0,
+             "max_height_m": 50.0, "power_step": 0.1})
+
+
+def assert_oracle_is(found, expected):
+    """An oracle's result on one layout: its objective, and the simulator's sum rate at the
+    configuration it names, equal to ``expected`` (> 0) to 1e-12."""
+    import pytest
+
+    assert expected > 0
+    assert found.objective_bps[0] == pytest.approx(expected, rel=1e-12)
+    assert found.rate_bps[0].sum() == pytest.approx(expected, rel=1e-12)
+
+
+def brute_force_lattice(scenario, users_m, spectral, vectors):
+    """The best objective over every lattice point of a :func:`small_lattice` scenario and
+    every vector of ``vectors`` in every cluster (users listed in clusters of M), with scalar
+    loops: ``spectral(vector, gains)`` gives the cluster's members' spectral efficiencies at
+    those gains; a cluster's value is their sum times W where each meets the scenario's
+    min SE, its best over the vectors."""
+    uav, half_m, size = scenario.uav, scenario.area.side_m / 2, scenario.cluster_size
+    min_se = scenario.reward.min_se
+    best = 0.0
+    for x in range(round(-half_m), round(half_m) + 1, round(uav.step_m[0])):
+        for y in range(round(-half_m), round(half_m) + 1, round(uav.step_m[1])):
+            for h in range(round(uav.min_height_m), round(uav.max_height_m) + 1,
+                           round(uav.step_m[2])):
+                total = 0.0
+                for k in range(len(users_m) // size):
+                    g = [scalar_gain([x, y, h], users_m[i], "always")
+                         for i in range(k * size, (k + 1) * size)]
+                    cluster_best = -math.inf
+                    for vector in vectors:
+                        ses = spectral(vector, g)
+                        if min(ses) >= min_se:
+                            cluster_best = max(cluster_best, sum(ses) * BANDWIDTH_HZ)
+                    total += cluster_best
+                best = max(best, total)
+    return best

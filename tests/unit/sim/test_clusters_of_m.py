@@ -5,6 +5,7 @@ and the refusals of what does not run on them yet."""
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -17,7 +18,14 @@ from adaptsky.sim.network import NetworkBatch
 from adaptsky_cli.cli.main import main
 from tests.conftest import ROOT, make_scenario
 from tests.helpers.cli import one_line
-from tests.helpers.scalar_models import BANDWIDTH_HZ, scalar_chain_network, scalar_shares
+from tests.helpers.scalar_models import (
+    BANDWIDTH_HZ,
+    assert_oracle_is,
+    brute_force_lattice,
+    scalar_chain_network,
+    scalar_shares,
+    small_lattice,
+)
 
 RADIO = {"thermal_noise_dbm": -79.0}
 USERS_M = [[-30.0, 10.0], [25.0, -40.0], [5.0, 5.0], [45.0, 35.0], [-10.0, -45.0],
@@ -172,40 +180,22 @@ def test_random_runs_on_clusters_of_three(capsys):
 def _brute_force_oracle(scenario, users_m):
     """The best objective over every lattice point and every share component vector of
     every cluster, with scalar loops (docs/model.md §15; one UAV, LoS always)."""
-    from tests.helpers.scalar_models import ANTENNA_GAIN, NOISE_W, TX_POWER_W, scalar_gain
+    from tests.helpers.scalar_models import ANTENNA_GAIN, NOISE_W, TX_POWER_W
 
-    uav, half_m = scenario.uav, scenario.area.side_m / 2
-    size, step = scenario.cluster_size, uav.power_step
+    size, step = scenario.cluster_size, scenario.uav.power_step
     grid = [round(step * i, 12) for i in range(1, round(1 / step))]
-    xs = np.arange(-half_m, half_m + 1e-9, uav.step_m[0])
-    hs = np.arange(uav.min_height_m, uav.max_height_m + 1e-9, uav.step_m[2])
-    vectors = [list(v) for v in np.array(np.meshgrid(*[grid] * (size - 1), indexing="ij"))
-               .reshape(size - 1, -1).T]
-    s = TX_POWER_W * ANTENNA_GAIN / NOISE_W
-    min_se, eps = scenario.reward.min_se, scenario.radio.sic_residual
-    best = 0.0
-    for x in xs:
-        for y in xs:
-            for h in hs:
-                total = 0.0
-                for k in range(len(users_m) // size):
-                    members = range(k * size, (k + 1) * size)
-                    g = [scalar_gain([x, y, h], users_m[i], "always") for i in members]
-                    cluster_best = -math.inf
-                    for v in vectors:
-                        shares = scalar_shares(v)
-                        ses = []
-                        for j in range(size):
-                            key = (g[j], -j)
-                            heard = sum(shares[m] if (g[m], -m) > key else eps * shares[m]
-                                        for m in range(size) if m != j)
-                            ses.append(math.log2(1 + shares[j] * s * g[j]
-                                                 / (heard * s * g[j] + 1)))
-                        if min(ses) >= min_se:
-                            cluster_best = max(cluster_best, sum(ses) * BANDWIDTH_HZ)
-                    total += cluster_best
-                best = max(best, total)
-    return best
+    s, eps = TX_POWER_W * ANTENNA_GAIN / NOISE_W, scenario.radio.sic_residual
+
+    def spectral(components, g):
+        shares, ses = scalar_shares(components), []
+        for j in range(size):
+            heard = sum(shares[m] if (g[m], -m) > (g[j], -j) else eps * shares[m]
+                        for m in range(size) if m != j)
+            ses.append(math.log2(1 + shares[j] * s * g[j] / (heard * s * g[j] + 1)))
+        return ses
+
+    return brute_force_lattice(scenario, users_m, spectral,
+                               list(itertools.product(grid, repeat=size - 1)))
 
 
 @pytest.mark.parametrize("bounded", [True, False])
@@ -222,18 +212,10 @@ def test_the_oracle_of_clusters_of_three_equals_brute_force(monkeypatch, sic_res
 
     users_m = [[-15.0, 10.0], [12.0, -18.0], [3.0, 4.0], [18.0, 16.0], [-8.0, -19.0],
                [10.0, 0.0]]
-    scenario = make_scenario(
-        area={"side_m": 40.0}, radio={**RADIO, "sic_residual": sic_residual},
-        reward={"min_se": min_se},
-        users={"positions_m": users_m, "pairing": "listed", "cluster_size": 3},
-        uav={"start_m": [0.0, 0.0, 50.0], "step_m": [10.0, 10.0, 10.0], "min_height_m": 10.0,
-             "max_height_m": 50.0, "power_step": 0.1})
-    found = cluster_oracle(scenario, np.array([users_m]))
-    expected = _brute_force_oracle(scenario, users_m)
-    assert expected > 0
-    assert found.objective_bps[0] == pytest.approx(expected, rel=1e-12)
-    # the configuration it names is worth its objective in the simulator
-    assert found.rate_bps[0].sum() == pytest.approx(expected, rel=1e-12)
+    scenario = small_lattice(users_m, {**RADIO, "sic_residual": sic_residual}, min_se,
+                             cluster_size=3)
+    assert_oracle_is(cluster_oracle(scenario, np.array([users_m])),
+                     _brute_force_oracle(scenario, users_m))
 
 
 def test_the_gymnasium_env_of_clusters_of_three_passes_the_checker():
@@ -256,11 +238,7 @@ def test_oma_of_clusters_of_three_equals_brute_force():
 
     users_m = [[-15.0, 10.0], [12.0, -18.0], [3.0, 4.0], [18.0, 16.0], [-8.0, -19.0],
                [10.0, 0.0]]
-    scenario = make_scenario(
-        area={"side_m": 40.0}, radio=RADIO, reward={"min_se": 0.5},
-        users={"positions_m": users_m, "pairing": "listed", "cluster_size": 3},
-        uav={"start_m": [0.0, 0.0, 50.0], "step_m": [10.0, 10.0, 10.0], "min_height_m": 10.0,
-             "max_height_m": 50.0, "power_step": 0.1})
+    scenario = small_lattice(users_m, RADIO, 0.5, cluster_size=3)
     found = best_oma(scenario, np.array([users_m]))
     s = TX_POWER_W * ANTENNA_GAIN / NOISE_W
     best = -math.inf
@@ -272,9 +250,7 @@ def test_oma_of_clusters_of_three_equals_brute_force():
                          for user in users_m]
                 if min(rates) >= 0.5 * BANDWIDTH_HZ:
                     best = max(best, sum(rates))
-    assert best > 0
-    assert found.objective_bps[0] == pytest.approx(best, rel=1e-12)
-    assert found.rate_bps[0].sum() == pytest.approx(best, rel=1e-12)
+    assert_oracle_is(found, best)
 
 
 def test_oma_runs_on_the_shipped_clusters_of_three(capsys):

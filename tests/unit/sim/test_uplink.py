@@ -18,10 +18,12 @@ from tests.conftest import ROOT, make_scenario
 from tests.helpers.cli import one_line
 from tests.helpers.scalar_models import (
     ANTENNA_GAIN,
-    BANDWIDTH_HZ,
     NOISE_W,
+    assert_oracle_is,
+    brute_force_lattice,
     scalar_gain,
     scalar_uplink_network,
+    small_lattice,
 )
 
 RADIO = {"thermal_noise_dbm": -79.0, "direction": "uplink"}
@@ -78,32 +80,18 @@ def test_two_uavs_rates_match_the_scalar_formula(size):
 def _brute_force(scenario, users_m):
     """The best objective over every lattice point and every transmit-share vector of every
     cluster, with scalar loops (one UAV, LoS always)."""
-    uav, half_m, size = scenario.uav, scenario.area.side_m / 2, scenario.cluster_size
-    step = uav.power_step
+    size, step = scenario.cluster_size, scenario.uav.power_step
     grid = [round(step * i, 12) for i in range(1, round(1 / step) + 1)]
-    s = P_U * ANTENNA_GAIN / NOISE_W
-    eps, min_se = scenario.radio.sic_residual, scenario.reward.min_se
-    best = 0.0
-    for x in np.arange(-half_m, half_m + 1e-9, uav.step_m[0]):
-        for y in np.arange(-half_m, half_m + 1e-9, uav.step_m[1]):
-            for h in np.arange(uav.min_height_m, uav.max_height_m + 1e-9, uav.step_m[2]):
-                total = 0.0
-                for k in range(len(users_m) // size):
-                    g = [scalar_gain([x, y, h], users_m[i], "always")
-                         for i in range(k * size, (k + 1) * size)]
-                    cluster_best = -math.inf
-                    for betas in itertools.product(grid, repeat=size):
-                        r = [b * s * gi for b, gi in zip(betas, g, strict=True)]
-                        ses = []
-                        for j in range(size):
-                            heard = sum(eps * r[m] if (r[m], -m) > (r[j], -j) else r[m]
-                                        for m in range(size) if m != j)
-                            ses.append(math.log2(1 + r[j] / (heard + 1)))
-                        if min(ses) >= min_se:
-                            cluster_best = max(cluster_best, sum(ses) * BANDWIDTH_HZ)
-                    total += cluster_best
-                best = max(best, total)
-    return best
+    s, eps = P_U * ANTENNA_GAIN / NOISE_W, scenario.radio.sic_residual
+
+    def spectral(betas, g):
+        r = [b * s * gi for b, gi in zip(betas, g, strict=True)]
+        return [math.log2(1 + r[j] / (sum(eps * r[m] if (r[m], -m) > (r[j], -j) else r[m]
+                                          for m in range(size) if m != j) + 1))
+                for j in range(size)]
+
+    return brute_force_lattice(scenario, users_m, spectral,
+                               list(itertools.product(grid, repeat=size)))
 
 
 @pytest.mark.parametrize("bounded", [True, False])
@@ -114,16 +102,9 @@ def test_the_uplink_oracle_equals_brute_force(monkeypatch, sic_residual, min_se,
     if not bounded:
         monkeypatch.setattr(module, "declares_monotone_gains", lambda model: False)
     users_m = [[-15.0, 10.0], [12.0, -18.0], [3.0, 4.0], [18.0, 16.0]]
-    scenario = make_scenario(
-        area={"side_m": 40.0}, radio={**RADIO, "sic_residual": sic_residual},
-        reward={"min_se": min_se}, users={"positions_m": users_m, "pairing": "listed"},
-        uav={"start_m": [0.0, 0.0, 50.0], "step_m": [10.0, 10.0, 10.0], "min_height_m": 10.0,
-             "max_height_m": 50.0, "power_step": 0.1})
-    found = cluster_oracle(scenario, np.array([users_m]))
-    expected = _brute_force(scenario, users_m)
-    assert expected > 0
-    assert found.objective_bps[0] == pytest.approx(expected, rel=1e-12)
-    assert found.rate_bps[0].sum() == pytest.approx(expected, rel=1e-12)
+    scenario = small_lattice(users_m, {**RADIO, "sic_residual": sic_residual}, min_se)
+    assert_oracle_is(cluster_oracle(scenario, np.array([users_m])),
+                     _brute_force(scenario, users_m))
 
 
 def test_the_uav_spends_no_radio_power_in_the_uplink():
