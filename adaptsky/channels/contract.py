@@ -260,6 +260,11 @@ def declares_monotone_gains(model: Any) -> bool:
     return getattr(getattr(model, "supports", None), "monotone_gains", False) is True
 
 
+def declares_reciprocal_gains(model: Any) -> bool:
+    """Whether a model class (or instance) declares ``Supports(reciprocal=True)``."""
+    return getattr(getattr(model, "supports", None), "reciprocal", False) is True
+
+
 def carrier_parameter_hz(params: BaseModel) -> float | None:
     """The value of a model's ``carrier_hz`` parameter (shared with ``[radio] carrier_hz``,
     docs/plugins.md), or None where its ``Params`` has no such number."""

@@ -48,6 +48,12 @@ def _one_uav(scenario: Scenario, name: str) -> str | None:
     return None
 
 
+def _paper_noma(scenario: Scenario) -> bool:
+    """Whether the scenario's NOMA is the paper's, downlink pairs: the pairs' oracle (closed
+    form) applies, else :mod:`adaptsky.rollouts.cluster_oracle` (docs/model.md §15, §17)."""
+    return scenario.cluster_size == 2 and not scenario.uplink
+
+
 def _uplink_refusal(scenario: Scenario) -> str | None:
     """Where the uplink's oracle would try more transmit-share vectors per point than
     :data:`~adaptsky.rollouts.search.UPLINK_MAX_VECTORS` (a residual or R_min > 0: no
@@ -92,7 +98,7 @@ class Oracle(Reference):
     def per_layout(self, scenario: Scenario) -> bool:
         # (training's greedy evaluations take it from best response's cached search, which
         # searches the downlink's pairs)
-        return scenario.cluster_size == 2 and not scenario.uplink
+        return _paper_noma(scenario)
 
     def work(self, scenario: Scenario, steps: int, users_m: np.ndarray) -> tuple[int, str]:
         return len(users_m), "layout"
@@ -107,8 +113,7 @@ class Oracle(Reference):
     def run(self, scenario: Scenario, steps: int, users_m: np.ndarray, seed: int = 0,
             on_progress: Tick | None = None) -> Method:
         start = time.process_time()
-        search = (oracle if scenario.cluster_size == 2 and not scenario.uplink
-                  else cluster_oracle)
+        search = oracle if _paper_noma(scenario) else cluster_oracle
         best = search(scenario, users_m, on_progress, on_progress)
         details = {"seconds_per_layout": (time.process_time() - start) / len(users_m),
                    "objective_bps": best.objective_bps}

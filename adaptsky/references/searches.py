@@ -32,8 +32,9 @@ from adaptsky.sim.state import users_move
 from adaptsky.store.search_cache import cached_search, search_once
 
 OMA_POWER_SHARE = 0.5
-"""Each OMA user's share of its cluster's power (and of its band) in a pair: the trace's
-``alpha`` (1/M in a cluster of M)."""
+"""The power components OMA holds in the environment, which computes NOMA rates its own
+rates replace (each OMA user's share of its cluster's power and band, the trace's ``alpha``,
+is 1/M: 0.5 in a pair)."""
 
 
 def search(scenario: Scenario, method: str, users_m: np.ndarray,
@@ -138,9 +139,9 @@ class Oma(_LatticeSearch):
                          users_m, seed, oma=True)
         else:
             hover_j = NetworkBatch(scenario, len(users_m), users_m=users_m).hover_energy_j
-            share = OMA_POWER_SHARE if scenario.cluster_size == 2 else 1 / scenario.cluster_size
             trace = Trace(result.rate_bps[None].copy(), uav_m[None].copy(),
-                          np.full((1, *result.rate_bps.shape), share), hover_j[None].copy())
+                          np.full((1, *result.rate_bps.shape), 1 / scenario.cluster_size),
+                          hover_j[None].copy())
         return Method.of(self.name, scenario, trace, details)
 
 

@@ -90,9 +90,7 @@ def cluster_oracle(scenario: Scenario, users_m: FloatArray,
     require_deterministic_gains(scenario)
     num_layouts = len(users_m)
     env = NetworkBatch(scenario, num_envs=num_layouts, users_m=users_m)
-    snr = snr_scale(scenario)
-    if scenario.uplink:      # P_u G / sigma^2
-        snr = scenario.user_tx_power_w * scenario.radio.antenna_gain / scenario.radio.noise_w
+    snr = snr_scale(scenario)                       # (the uplink's: P_u G / sigma^2)
     xs, ys, hs, _ = lattice(scenario)
     components, shares = share_vectors(scenario)
     boxes = LatticeBoxes((xs, ys, hs)) if declares_monotone_gains(env.channel) else None

@@ -68,9 +68,9 @@ def grid_points(*axes: FloatArray) -> FloatArray:
 
 
 def snr_scale(scenario: Scenario) -> float:
-    """P_T G / sigma^2: a gain's SNR per unit gain."""
+    """P_T G / sigma^2 (the uplink's P_u G / sigma^2): a gain's SNR per unit gain."""
     radio = scenario.radio
-    return radio.tx_power_w * radio.antenna_gain / radio.noise_w
+    return scenario.sender_power_w * radio.antenna_gain / radio.noise_w
 
 
 def point_geometry(env: NetworkBatch, layout: int, points_m: FloatArray, users_m: FloatArray

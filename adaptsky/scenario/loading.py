@@ -20,6 +20,7 @@ from adaptsky.channels.contract import (
     ChannelParams,
     carrier_parameter_hz,
     contract_version_of,
+    declares_reciprocal_gains,
     default_carrier_hz,
     quantity_text,
     supported_range,
@@ -176,10 +177,7 @@ def _refuse_no_reciprocity(scenario: Scenario, model_class: type[ChannelModel],
                            source: str) -> None:
     """Refuse the uplink (docs/model.md §17) with a channel model that does not state its
     gains hold both ways (``Supports(reciprocal=True)``, docs/plugins.md)."""
-    if not scenario.uplink:
-        return
-    supports = getattr(model_class, "supports", None)
-    if getattr(supports, "reciprocal", False) is not True:
+    if scenario.uplink and not declares_reciprocal_gains(model_class):
         raise ScenarioError([
             f"{source}: radio.direction: 'uplink', but channel model "
             f"'{scenario.channel.model}' does not state that its gains hold from the users to "

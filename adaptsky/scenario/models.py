@@ -928,6 +928,12 @@ class Scenario(Section):
         return 10 ** ((dbm - 30.0) / 10.0)
 
     @property
+    def sender_power_w(self) -> float:
+        """The power a link's sender has, W: P_T of each cluster in the downlink, P_u of each
+        user in the uplink (docs/model.md §17)."""
+        return self.user_tx_power_w if self.uplink else self.radio.tx_power_w
+
+    @property
     def shares_of_uavs(self) -> tuple[int, ...]:
         """S_u of every UAV: its power components, K_u (M - 1) shares of the downlink's split
         (docs/model.md §15; K_u for pairs) or K_u M transmit shares in the uplink (§17)."""

@@ -84,22 +84,21 @@ class Chain:
         sinr = noma.chain_sinr(shares, gains, effective, snr_scale, sic_residual, order)
         if estimate is not None:
             sinr = np.where(noma.undecodable(effective, order), 0.0, sinr)
-        strongest = np.zeros(shares.shape, dtype=bool)
-        np.put_along_axis(strongest, order[..., :1], True, axis=-1)
         rate = noma.rate_bps(sinr.take(self.places), bandwidth_hz)
         alpha = shares.take(self.places)
         if out is not None:
             out[0] = alpha
-        return rate, strongest.take(self.places), alpha
+        return rate, noma.first_in_order(order).take(self.places), alpha
 
     def uplink_rates(self, gains: FloatArray, gain: FloatArray, config: FloatArray,
                      cross: NDArray[np.bool_] | None, serving: IntArray, *, power_w: float,
                      noise_w: float, bandwidth_hz: float | FloatArray,
                      sic_residual: float = 0.0
-                     ) -> tuple[FloatArray, NDArray[np.bool_], FloatArray, FloatArray]:
+                     ) -> tuple[FloatArray, NDArray[np.bool_], FloatArray, FloatArray | None]:
         """The uplink (docs/model.md §17): every user's rate (B, N), whether its UAV decodes
         it first in its cluster, its transmit share beta_i and the other UAVs' users' power
-        its UAV hears on its block (W), from every link's gain ``gains`` (B, U, N), each
+        its UAV hears on its block (W; None without ``cross``), from every link's gain
+        ``gains`` (B, U, N), each
         user's serving gain ``gain`` (B, N), the configuration (each member's beta) and
         ``cross`` (B, N, N): whether user j sends on user i's block to another UAV (None: no
         interference); ``serving`` (B, N) each user's UAV; ``power_w`` = P_u G. The UAV
@@ -108,21 +107,19 @@ class Chain:
         beta = config.take(self.components)                              # (B, C, M)
         share = beta.take(self.places)                                  # (B, N)
         received = power_w * share * gain                                # (B, N), W
-        if cross is None:
-            interference = np.zeros(received.shape)
-        else:   # user j's power at user i's UAV: p_j G g_{u(i), j}
+        noise_plus: FloatArray | float = noise_w
+        interference = None
+        if cross is not None:   # user j's power at user i's UAV: p_j G g_{u(i), j}
             at_uav = gains[np.arange(len(gains))[:, None], serving]       # (B, N, N)
             interference = np.where(cross, power_w * share[:, None, :] * at_uav, 0.0).sum(-1)
+            noise_plus = interference.take(self.members) + noise_w
         ordered_from = received.take(self.members)                      # (B, C, M)
         order = noma.sic_order(ordered_from, ordered_from)
         ordered = np.take_along_axis(ordered_from, order, axis=-1)
         # decoded after (interference) and before (their residual): the downlink's sums,
         # mirrored
-        heard_ordered = noma.heard_shares(ordered[..., ::-1], sic_residual)[..., ::-1]
-        heard = np.empty_like(heard_ordered)
-        np.put_along_axis(heard, order, heard_ordered, axis=-1)
-        sinr = ordered_from / (heard + interference.take(self.members) + noise_w)
-        first = np.zeros(sinr.shape, dtype=bool)
-        np.put_along_axis(first, order[..., :1], True, axis=-1)
+        heard = noma.in_member_order(
+            noma.heard_shares(ordered[..., ::-1], sic_residual)[..., ::-1], order)
+        sinr = ordered_from / (heard + noise_plus)
         rate = noma.rate_bps(sinr.take(self.places), bandwidth_hz)
-        return rate, first.take(self.places), share, interference
+        return rate, noma.first_in_order(order).take(self.places), share, interference

@@ -208,8 +208,7 @@ class NetworkBatch:
         self.bandwidth_hz = radio.bandwidth_hz
         self._uplink = scenario.uplink
         # P_T G, the uplink's P_u G (docs/model.md §17)
-        self._power_w = ((scenario.user_tx_power_w if self._uplink else radio.tx_power_w)
-                         * radio.antenna_gain)
+        self._power_w = scenario.sender_power_w * radio.antenna_gain
         self._noise_w = radio.noise_w
         self._sic_residual = radio.sic_residual
         self._full_reuse = radio.reuse == "full" and self.num_uavs > 1
@@ -713,21 +712,23 @@ class NetworkBatch:
             gain = gains.take(serving_link)
             link_los, link_p_los = los.take(serving_link), p_los.take(serving_link)
         if self._uplink:
-            return self._evaluated_uplink(state, gains, gain, link_los, link_p_los, features,
-                                          energy_j)
-        # I_i: the gains of every interfering link (B, U, N), kept for rates_without
-        if self._full_reuse:
-            self._interfering = gains
-            interference = interference_sum_w(gains, self._interferer, self._power_w)
+            rate_bps, strong, alpha, interference = self._uplink_rates(gains, gain, config,
+                                                                       features)
+            seen_gain, seen_interference = gain, interference
         else:
-            self._interfering = None
-            interference = self._no_interference
-        seen_gain, seen_interference = gain, interference     # what the agent observes
-        if self._csi is not None:
-            seen_gain, seen_interference = self._estimated(gains, large_scale, draws)
-        rate_bps, strong, alpha = self._noma_rates(
-            gain, interference if self._full_reuse else None, config,
-            None if features is None else features[2:4])
+            # I_i: the gains of every interfering link (B, U, N), kept for rates_without
+            if self._full_reuse:
+                self._interfering = gains
+                interference = interference_sum_w(gains, self._interferer, self._power_w)
+            else:
+                self._interfering = None
+                interference = self._no_interference
+            seen_gain, seen_interference = gain, interference     # what the agent observes
+            if self._csi is not None:
+                seen_gain, seen_interference = self._estimated(gains, large_scale, draws)
+            rate_bps, strong, alpha = self._noma_rates(
+                gain, interference if self._full_reuse else None, config,
+                None if features is None else features[2:4])
         rewards, total, fairness = self._rewarded(rate_bps, gain)
         if energy_j is None:
             energy_j = self._energy.hover_j
@@ -739,15 +740,14 @@ class NetworkBatch:
                                  link_los, link_p_los, strong, rate_bps, total, fairness,
                                  rewards, energy_j)
 
-    def _evaluated_uplink(self, state: SimState, gains: FloatArray, gain: FloatArray,
-                          link_los: NDArray[np.bool_], link_p_los: FloatArray,
-                          features: FloatArray | None, energy_j: FloatArray | None
-                          ) -> NetworkState:
-        """Stages 6-8 of the uplink (docs/model.md §17): every user's rate by its UAV's SIC
-        chain, the other UAVs' users' power on its block, then reward, energy and
-        observation as for the downlink (the power feature: each user's transmit share)."""
+    def _uplink_rates(self, gains: FloatArray, gain: FloatArray, config: FloatArray,
+                      features: FloatArray | None
+                      ) -> tuple[FloatArray, NDArray[np.bool_], FloatArray, FloatArray]:
+        """Stage 6 of the uplink (docs/model.md §17): every user's rate by its UAV's SIC
+        chain, whether its UAV decodes it first, its transmit share (also the observation's
+        power feature, into ``features[2]`` where given) and the other UAVs' users' power its
+        UAV hears on its block (W), each (B, N)."""
         assert self._chain is not None
-        config = state.config
         rate_bps, strong, alpha, interference = self._chain.uplink_rates(
             gains, gain, config, self._cross, self.association.serving_uav,
             power_w=self._power_w, noise_w=self._noise_w, bandwidth_hz=self._bandwidth,
@@ -755,15 +755,8 @@ class NetworkBatch:
         self._interfering = None
         if features is not None:
             features[2] = alpha
-        rewards, total, fairness = self._rewarded(rate_bps, gain)
-        if energy_j is None:
-            energy_j = self._energy.hover_j
-        if self._energy.weighted:
-            rewards = self._energy.rewarded(rewards, energy_j)
-        self._obs = self._observe(config, state.users_m, alpha, gain, interference, features)
-        return NetworkState._new(self._squeezed(config[..., :3]).copy(), alpha, gain,
-                                 interference, link_los, link_p_los, strong, rate_bps, total,
-                                 fairness, rewards, energy_j)
+        return (rate_bps, strong, alpha,
+                self._no_interference if interference is None else interference)
 
     def _estimated(self, gains: FloatArray, large_scale: FloatArray, draws: Generators
                    ) -> tuple[FloatArray, FloatArray]:

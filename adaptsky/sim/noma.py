@@ -11,9 +11,10 @@ from numpy.typing import NDArray
 # the reward of eq. 13 lives in adaptsky.sim.reward; its names stay importable from here
 from adaptsky.sim.reward import RewardFromSums, RewardWeights, reward, stack_weights
 
-__all__ = ["RewardFromSums", "RewardWeights", "chain_sinr", "cluster_sinr", "heard_shares",
-           "is_strong", "jain_fairness", "jain_from_sums", "member_shares", "rate_bps",
-           "reward", "sic_order", "stack_weights", "undecodable", "user_sinr"]
+__all__ = ["RewardFromSums", "RewardWeights", "chain_sinr", "cluster_sinr", "first_in_order",
+           "heard_shares", "in_member_order", "is_strong", "jain_fairness", "jain_from_sums",
+           "member_shares", "rate_bps", "reward", "sic_order", "stack_weights", "undecodable",
+           "user_sinr"]
 
 FloatArray = NDArray[np.float64]
 
@@ -127,9 +128,8 @@ def chain_sinr(shares: FloatArray, gain: FloatArray, effective: FloatArray,
     order of estimated gains, docs/model.md §16). For M = 2 these are eq. 2's numbers."""
     if order is None:
         order = sic_order(effective, gain)
-    heard_ordered = heard_shares(np.take_along_axis(shares, order, axis=-1), sic_residual)
-    heard = np.empty_like(heard_ordered)
-    np.put_along_axis(heard, order, heard_ordered, axis=-1)
+    heard = in_member_order(heard_shares(np.take_along_axis(shares, order, axis=-1),
+                                         sic_residual), order)
     signal = snr_scale * gain
     return shares * signal / (signal * heard + 1.0)
 
@@ -143,9 +143,24 @@ def undecodable(effective: FloatArray, order: NDArray[np.intp]) -> NDArray[np.bo
     ordered = np.take_along_axis(effective, order, axis=-1)
     weaker_best = np.full(ordered.shape, -np.inf)      # the largest after each, in the order
     np.maximum.accumulate(ordered[..., :0:-1], axis=-1, out=weaker_best[..., -2::-1])
-    failed = np.empty(ordered.shape, dtype=bool)
-    np.put_along_axis(failed, order, ordered < weaker_best, axis=-1)
-    return failed
+    return in_member_order(ordered < weaker_best, order)
+
+
+def in_member_order(ordered: NDArray[np.generic], order: NDArray[np.intp]
+                    ) -> NDArray[np.generic]:
+    """Values (..., M) given in ``order`` (each cluster's members as :func:`sic_order` ranks
+    them) back in member order."""
+    values = np.empty_like(ordered)
+    np.put_along_axis(values, order, ordered, axis=-1)
+    return values
+
+
+def first_in_order(order: NDArray[np.intp]) -> NDArray[np.bool_]:
+    """(..., M): each cluster's member that ``order`` puts first (its strongest: it decodes
+    every other, or in the uplink is decoded first)."""
+    first = np.zeros(order.shape, dtype=bool)
+    np.put_along_axis(first, order[..., :1], True, axis=-1)
+    return first
 
 
 def rate_bps(sinr: FloatArray, bandwidth_hz: float) -> FloatArray:

@@ -225,3 +225,22 @@ def brute_force_lattice(scenario, users_m, spectral, vectors):
                     total += cluster_best
                 best = max(best, total)
     return best
+
+
+def clusters_of(env):
+    """Every UAV's clusters in layout 0 of ``env`` as tuples of their members (the
+    association's), the form the scalar networks above take."""
+    members = env.association.members[0]
+    return [[tuple(int(i) for i in cluster) for cluster in members[u] if cluster[0] >= 0]
+            for u in range(len(members))]
+
+
+def listed_clusters_env(users_m, size, radio):
+    """A one-UAV network (seed 0) of the users ``users_m`` listed in clusters of ``size``,
+    with ``radio``: the scalar formulas' checks of the rates."""
+    from adaptsky.sim.network import NetworkBatch
+    from tests.conftest import make_scenario
+
+    scenario = make_scenario(users={"positions_m": users_m, "pairing": "listed",
+                                    "cluster_size": size}, radio=radio)
+    return NetworkBatch(scenario, seed=0)

@@ -17,11 +17,13 @@ from adaptsky.sim.layout import cluster_users
 from adaptsky.sim.network import NetworkBatch
 from adaptsky_cli.cli.main import main
 from tests.conftest import ROOT, make_scenario
-from tests.helpers.cli import one_line
+from tests.helpers.cli import one_line, refusal_of_scenario
 from tests.helpers.scalar_models import (
     BANDWIDTH_HZ,
     assert_oracle_is,
     brute_force_lattice,
+    clusters_of,
+    listed_clusters_env,
     scalar_chain_network,
     scalar_shares,
     small_lattice,
@@ -33,24 +35,14 @@ USERS_M = [[-30.0, 10.0], [25.0, -40.0], [5.0, 5.0], [45.0, 35.0], [-10.0, -45.0
            [0.0, -15.0], [-40.0, 44.0]]
 
 
-def _clusters(env: NetworkBatch, uav: int | None = None) -> list[list[tuple[int, ...]]]:
-    """Every UAV's clusters as tuples of their members, from the association."""
-    members = env.association.members[0]
-    return [[tuple(int(i) for i in cluster) for cluster in members[u] if cluster[0] >= 0]
-            for u in range(len(members))]
-
-
 @pytest.mark.parametrize("size", [2, 3, 4])
 @pytest.mark.parametrize("sic_residual", [0.0, 0.05, 1.0])
 def test_one_uav_rates_match_the_scalar_formula(size, sic_residual):
-    scenario = make_scenario(users={"positions_m": USERS_M, "pairing": "listed",
-                                    "cluster_size": size},
-                             radio={**RADIO, "sic_residual": sic_residual})
-    env = NetworkBatch(scenario, seed=0)
+    env = listed_clusters_env(USERS_M, size, {**RADIO, "sic_residual": sic_residual})
     uav_m = [12.0, -7.0, 40.0]
     components = np.random.default_rng(size).uniform(0.05, 0.95, (12 // size, size - 1))
     state = env.evaluate_at(np.array([uav_m]), components.reshape(1, -1))
-    clusters = _clusters(env)
+    clusters = clusters_of(env)
     assert clusters == [[tuple(range(k * size, (k + 1) * size)) for k in range(12 // size)]]
     _, _, sinr, rate = scalar_chain_network([uav_m], USERS_M, clusters, [components.tolist()],
                                             "full", sic_residual=sic_residual)
@@ -77,7 +69,7 @@ def test_two_uavs_rates_match_the_scalar_formula(sic_residual):
     uav_m = np.array([[[-30.0, 20.0, 40.0], [40.0, 10.0, 60.0]]])
     components = np.array([[[0.25, 0.7, 0.5, 0.1], [0.9, 0.4, 0.3, 0.6]]])
     state = env.evaluate_at(uav_m, components)
-    clusters = _clusters(env)
+    clusters = clusters_of(env)
     assert clusters == [[(0, 2, 4), (6, 8, 10)], [(1, 3, 5), (7, 9, 11)]]
     per_cluster = [[c[:2], c[2:]] for c in components[0].tolist()]
     _, interference, _, rate = scalar_chain_network(uav_m[0], users_m, clusters, per_cluster,
@@ -148,19 +140,15 @@ def test_dense_actions_carry_m_minus_one_shares_per_cluster():
                                        "to 8"),
 ])
 def test_sizes_that_do_not_divide_are_one_line(tmp_path, capsys, users, words):
-    path = tmp_path / "bad.toml"
     body = "\n".join(f"{key} = {value!r}" for key, value in users.items())
-    path.write_text(f'name = "bad"\n[users]\n{body}\n')
-    assert main(["scenario", "validate", str(path)]) == 1
-    assert words in one_line(capsys)
+    assert words in refusal_of_scenario(tmp_path, capsys, f"[users]\n{body}")
 
 
 def test_groups_of_several_uavs_that_do_not_divide_are_one_line(tmp_path, capsys):
-    path = tmp_path / "bad.toml"
-    path.write_text('name = "bad"\n[users]\ncount = 12\ncluster_size = 4\n[uav]\ncount = 2\n')
-    assert main(["scenario", "validate", str(path)]) == 1
+    line = refusal_of_scenario(tmp_path, capsys, "[users]\ncount = 12\ncluster_size = 4\n"
+                               "[uav]\ncount = 2")
     assert ("12 users do not split into 2 equal groups of a multiple of users.cluster_size = 4"
-            in one_line(capsys))
+            in line)
 
 
 @pytest.mark.parametrize("method", ["soa", "tracking", "best-response", "centroid"])

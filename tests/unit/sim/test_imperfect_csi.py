@@ -15,9 +15,8 @@ from adaptsky.sim import noma
 from adaptsky.sim.csi import CsiStage
 from adaptsky.sim.interference import sic_rates
 from adaptsky.sim.network import NetworkBatch
-from adaptsky_cli.cli.main import main
 from tests.conftest import make_scenario
-from tests.helpers.cli import one_line
+from tests.helpers.cli import refusal_of_scenario
 
 DRAWS = 200_000
 
@@ -150,7 +149,4 @@ def test_the_order_by_the_estimate_loses_rate_on_average():
                                          "equal to 10"),
 ])
 def test_csi_keys_are_checked_in_one_line(tmp_path, capsys, csi, words):
-    path = tmp_path / "bad.toml"
-    path.write_text(f'name = "bad"\n[channel.csi]\n{csi}\n')
-    assert main(["scenario", "validate", str(path)]) == 1
-    assert words in one_line(capsys)
+    assert words in refusal_of_scenario(tmp_path, capsys, f"[channel.csi]\n{csi}")

@@ -15,12 +15,14 @@ from adaptsky.rollouts.cluster_oracle import cluster_oracle
 from adaptsky.sim.network import NetworkBatch
 from adaptsky_cli.cli.main import main
 from tests.conftest import ROOT, make_scenario
-from tests.helpers.cli import one_line
+from tests.helpers.cli import one_line, refusal_of_scenario
 from tests.helpers.scalar_models import (
     ANTENNA_GAIN,
     NOISE_W,
     assert_oracle_is,
     brute_force_lattice,
+    clusters_of,
+    listed_clusters_env,
     scalar_gain,
     scalar_uplink_network,
     small_lattice,
@@ -32,29 +34,20 @@ USERS_M = [[-30.0, 10.0], [25.0, -40.0], [5.0, 5.0], [45.0, 35.0], [-10.0, -45.0
 P_U = 10 ** ((23.0 - 30) / 10)          # the default 23 dBm
 
 
-def _clusters(env: NetworkBatch) -> list[list[tuple[int, ...]]]:
-    members = env.association.members[0]
-    return [[tuple(int(i) for i in cluster) for cluster in members[u] if cluster[0] >= 0]
-            for u in range(len(members))]
-
-
 @pytest.mark.parametrize("size", [2, 3])
 @pytest.mark.parametrize("sic_residual", [0.0, 0.1])
 def test_one_uav_rates_match_the_scalar_formula(size, sic_residual):
-    scenario = make_scenario(users={"positions_m": USERS_M, "pairing": "listed",
-                                    "cluster_size": size},
-                             radio={**RADIO, "sic_residual": sic_residual})
-    env = NetworkBatch(scenario, seed=0)
+    env = listed_clusters_env(USERS_M, size, {**RADIO, "sic_residual": sic_residual})
     uav_m = [12.0, -7.0, 40.0]
     betas = np.random.default_rng(size).uniform(0.05, 1.0, 6)
     state = env.evaluate_at(np.array([uav_m]), betas[None])
-    *_, rate = scalar_uplink_network([uav_m], USERS_M, _clusters(env), betas.tolist(),
+    *_, rate = scalar_uplink_network([uav_m], USERS_M, clusters_of(env), betas.tolist(),
                                      "full", P_U, sic_residual)
     assert state.rate_bps[0] == pytest.approx(rate, rel=1e-12)
     assert np.array_equal(state.alpha[0], betas)      # the power feature: each user's share
     # the UAV decodes the strongest received signal first: it hears every other member
     received = betas * np.array([scalar_gain(uav_m, user, "always") for user in USERS_M])
-    first = [max(cluster, key=lambda i: received[i]) for cluster in _clusters(env)[0]]
+    first = [max(cluster, key=lambda i: received[i]) for cluster in clusters_of(env)[0]]
     assert np.flatnonzero(state.strong[0]).tolist() == sorted(first)
 
 
@@ -70,7 +63,7 @@ def test_two_uavs_rates_match_the_scalar_formula(size):
     uav_m = np.array([[[-30.0, 20.0, 40.0], [40.0, 10.0, 60.0]]])
     betas = np.random.default_rng(7).uniform(0.05, 1.0, 12)
     state = env.evaluate_at(uav_m, betas.reshape(1, 2, 6))
-    _, interference, _, rate = scalar_uplink_network(uav_m[0], users_m, _clusters(env),
+    _, interference, _, rate = scalar_uplink_network(uav_m[0], users_m, clusters_of(env),
                                                      betas.tolist(), "full", P_U, 0.02)
     assert state.interference_w[0] == pytest.approx(interference, rel=1e-12)
     assert min(interference) > 0
@@ -128,10 +121,7 @@ def test_the_uav_spends_no_radio_power_in_the_uplink():
      "hold from the users to the UAV"),
 ])
 def test_what_the_uplink_does_not_take_is_one_line(tmp_path, capsys, body, words):
-    path = tmp_path / "bad.toml"
-    path.write_text(f'name = "bad"\n{body}\n')
-    assert main(["scenario", "validate", str(path)]) == 1
-    assert words in one_line(capsys)
+    assert words in refusal_of_scenario(tmp_path, capsys, body)
 
 
 @pytest.mark.parametrize("method", ["soa", "oma", "tracking"])
