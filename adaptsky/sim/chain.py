@@ -107,12 +107,10 @@ class Chain:
         beta = config.take(self.components)                              # (B, C, M)
         share = beta.take(self.places)                                  # (B, N)
         received = power_w * share * gain                                # (B, N), W
-        noise_plus: FloatArray | float = noise_w
         interference = None
         if cross is not None:   # user j's power at user i's UAV: p_j G g_{u(i), j}
             at_uav = gains[np.arange(len(gains))[:, None], serving]       # (B, N, N)
             interference = np.where(cross, power_w * share[:, None, :] * at_uav, 0.0).sum(-1)
-            noise_plus = interference.take(self.members) + noise_w
         ordered_from = received.take(self.members)                      # (B, C, M)
         order = noma.sic_order(ordered_from, ordered_from)
         ordered = np.take_along_axis(ordered_from, order, axis=-1)
@@ -120,6 +118,8 @@ class Chain:
         # mirrored
         heard = noma.in_member_order(
             noma.heard_shares(ordered[..., ::-1], sic_residual)[..., ::-1], order)
-        sinr = ordered_from / (heard + noise_plus)
+        if interference is not None:    # heard + I + sigma^2, summed in that order
+            heard = heard + interference.take(self.members)
+        sinr = ordered_from / (heard + noise_w)
         rate = noma.rate_bps(sinr.take(self.places), bandwidth_hz)
         return rate, noma.first_in_order(order).take(self.places), share, interference
