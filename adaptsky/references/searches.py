@@ -100,7 +100,21 @@ class _LatticeSearch(Reference):
 class BestResponse(_LatticeSearch):
     """Each UAV in turn moved to its best lattice point and shares given the others', in
     rounds until none moves (docs/model.md §9); under the built-in fading each cluster's
-    share then chosen over the policy's own draws where no minimum rate binds."""
+    share then chosen over the policy's own draws where no minimum rate binds. Clusters of
+    M > 2 and the uplink search every share vector of the grid (§15, §17), without fading."""
+
+    any_cluster_size = True
+    uplink = True
+
+    def applies(self, scenario: Scenario) -> str | None:
+        if ((scenario.cluster_size > 2 or scenario.uplink)
+                and scenario.channel.fading.model != "none"):
+            what = ("the uplink" if scenario.uplink
+                    else f"clusters of {scenario.cluster_size} users")
+            return (f"channel.fading: '{self.name}' chooses shares over fading draws for the "
+                    f"downlink's NOMA pairs only, not for {what} (docs/model.md §15, §17); "
+                    "set channel.fading.model = 'none'")
+        return super().applies(scenario) or several_uavs.response_refusal(scenario)
 
     def label(self, scenario: Scenario) -> Label:
         exact = scenario.uav.count == 1 and searched_scenario(scenario) is scenario

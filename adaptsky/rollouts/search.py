@@ -201,16 +201,21 @@ def share_vectors(scenario: Scenario) -> tuple[FloatArray, FloatArray]:
 
 
 def best_uplink_vectors(gain: FloatArray, betas: FloatArray, scenario: Scenario,
-                        snr_scale: float) -> tuple[NDArray[np.intp], FloatArray]:
-    """Per point and uplink cluster of M users with gains ``gain`` (P, M) (one UAV): the index
+                        snr_scale: float, others_bps: FloatArray | None = None
+                        ) -> tuple[NDArray[np.intp], FloatArray]:
+    """Per point and uplink cluster of M users with gains ``gain`` (P, M) (one UAV: no
+    interference; else each divided by its interference plus noise over sigma^2): the index
     into ``betas`` (V, M) of the transmit shares maximising the cluster's sum rate under
     R_min, and that sum rate (P,) (docs/model.md §17; ``snr_scale`` = P_u G / sigma^2). With
     perfect SIC and R_min = 0 the sum rate is W log2(1 + sum_i a_i), rising with every share:
     the vector of the largest shares, found without trying the others; else every vector is
-    tried (ties to the first; index 0 and -inf where none meets R_min)."""
+    tried (ties to the first; index 0 and -inf where none meets R_min). ``others_bps`` (V,)
+    (best response of several UAVs, §9): what each vector leaves the other UAVs' clusters on
+    the block (their sum rate, -inf where one misses R_min), added before the best is
+    chosen (every vector then tried) and included in the value returned."""
     residual, bandwidth_hz = scenario.radio.sic_residual, scenario.radio.bandwidth_hz
     min_se = scenario.reward.min_se
-    if not residual and not min_se:
+    if not residual and not min_se and others_bps is None:
         top = int(np.argmax(betas.sum(axis=1)))        # every share at its largest
         received = snr_scale * betas[top] * gain
         rate = bandwidth_hz * np.log2(1.0 + received.sum(axis=1))
@@ -226,9 +231,12 @@ def best_uplink_vectors(gain: FloatArray, betas: FloatArray, scenario: Scenario,
         spectral = np.log2(1.0 + ordered / (heard + 1.0))
         total = spectral.sum(axis=2)
         total[(spectral < min_se).any(axis=2)] = -np.inf
+        if others_bps is not None:
+            total = bandwidth_hz * total + others_bps
         best = np.argmax(total, axis=1)
         index[block] = best
-        rate[block] = bandwidth_hz * total[np.arange(len(best)), best]
+        value = total[np.arange(len(best)), best]
+        rate[block] = value if others_bps is not None else bandwidth_hz * value
     return index, rate
 
 

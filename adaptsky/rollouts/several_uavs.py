@@ -22,29 +22,41 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from adaptsky.rollouts.cluster_oracle import cluster_oracle
 from adaptsky.rollouts.objective import constrained_sum_rate
 from adaptsky.rollouts.oracle import oracle, require_deterministic_gains
 from adaptsky.rollouts.search import (
     POINTS_PER_CHUNK,
     Best,
     best_in_chunks,
+    best_share_vectors,
     best_shares,
+    best_uplink_vectors,
     grid_points,
+    lattice,
     outside_buildings,
     point_gains,
     response_rounds,
+    share_vectors,
 )
 from adaptsky.rollouts.soa import soa_per_uav_configuration, soa_positions
 from adaptsky.scenario.models import Scenario
+from adaptsky.sim.chain import LayoutClusters
 from adaptsky.sim.interference import interference_sum_w, interferers, oma_rates_bps, sic_rates
 from adaptsky.sim.lattice import axis_lattice, share_lattice
 from adaptsky.sim.network import NetworkBatch
 
 FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.intp]
 DEFAULT_ROUNDS = 10
 EXPECTED_ROUNDS = 3.0
 """Rounds a layout is taken to need until some layout is done (then their mean), for the
 share of a layout done that progress reports: a round's end is known only when it gains."""
+
+RESPONSE_MAX_VALUES = 10**9
+"""The most (lattice point, share vector) pairs one UAV's response may value for clusters of
+M > 2 or the uplink (every vector at every point: about a minute and a half of CPU per 10^8
+on this project's machine); beyond, best response is refused in one line."""
 
 OnSearch = Callable[[float, str], None]
 """Hears, after each chunk of a UAV's lattice, the layouts done (a fraction within one) and
@@ -67,6 +79,22 @@ class SearchResult:
     rounds: NDArray[np.int64]
     converged: NDArray[np.bool_]
     seconds_per_layout: float
+
+
+def response_refusal(scenario: Scenario) -> str | None:
+    """Where one UAV's best response of several would value more than
+    :data:`RESPONSE_MAX_VALUES` (point, vector) pairs (clusters of M > 2, the uplink), the
+    one-line refusal, else None."""
+    if scenario.uav.count == 1 or (scenario.cluster_size == 2 and not scenario.uplink):
+        return None
+    xs, ys, hs, _ = lattice(scenario)
+    points = len(xs) * len(ys) * len(hs)
+    vectors = len(share_lattice(scenario)) ** scenario.shares_per_cluster
+    if points * vectors <= RESPONSE_MAX_VALUES:
+        return None
+    return (f"scenario '{scenario.name}': best response would value {points:,} lattice points "
+            f"x {vectors:,} share vectors per cluster in each UAV's response (at most "
+            f"{RESPONSE_MAX_VALUES:,} pairs); raise uav.power_step or uav.step_m")
 
 
 def soa_per_uav(scenario: Scenario, users_m: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -95,17 +123,25 @@ class BestResponseSearch:
         # each user's cluster partner and whether it is the first user (alpha_k is its share):
         # NOMA's rates of pairs (OMA's of clusters of any size need neither)
         self.cluster_size = scenario.cluster_size
-        if self.cluster_size == 2:
+        self.uplink = scenario.uplink
+        radio = scenario.radio
+        self.full_reuse = radio.reuse == "full"
+        # clusters of M > 2 and the uplink: their SIC chains (docs/model.md §15, §17)
+        self.chains = None
+        if not oma and (self.cluster_size > 2 or self.uplink):
+            self.chains = LayoutClusters.of(a, layout, scenario.shares_per_uav,
+                                            scenario.shares_per_cluster,
+                                            self.uplink and self.full_reuse)
+            self.components, self.vectors = share_vectors(scenario)
+        elif self.cluster_size == 2:
             self.partner = a.partner[layout]
             self.is_first = a.is_first[layout]
         self.interferer = interferers(a)[layout]      # (U, N)
-        radio = scenario.radio
         self.tx_power_w, self.antenna_gain = radio.tx_power_w, radio.antenna_gain
-        self.power = radio.tx_power_w * radio.antenna_gain       # P_T G
+        self.power = scenario.sender_power_w * radio.antenna_gain   # P_T G (uplink: P_u G)
         self.noise_w = radio.noise_w
         self.bandwidth_hz = radio.bandwidth_hz
         self.min_rate_bps = scenario.min_rate_bps
-        self.full_reuse = radio.reuse == "full"
         uav, half_m = scenario.uav, scenario.area.side_m / 2
         self.alphas = share_lattice(scenario)
         self.heights = [axis_lattice(h, uav.step_m[2], uav.min_height_m, uav.max_height_m)
@@ -125,6 +161,8 @@ class BestResponseSearch:
     def rates(self, gain: FloatArray, alpha_first: FloatArray) -> FloatArray:
         """Every user's rate (..., N) with the gains (..., U, N) of every UAV and the shares
         (..., U, K) (NOMA, SIC by effective gain), or OMA's rates."""
+        if self.chains is not None:
+            return self._chain_rates(gain, alpha_first)
         serving_gain, interference = self._serving(gain)
         if self.oma:
             return oma_rates_bps(serving_gain, interference, tx_power_w=self.tx_power_w,
@@ -136,6 +174,22 @@ class BestResponseSearch:
                          power_w=self.power, noise_w=self.noise_w,
                          bandwidth_hz=self.bandwidth_hz,
                          sic_residual=self.scenario.radio.sic_residual)[0]
+
+    def _chain_rates(self, gain: FloatArray, shares: FloatArray) -> FloatArray:
+        """:meth:`rates` of clusters of M > 2 or of the uplink, by their SIC chains."""
+        assert self.chains is not None
+        batch = gain.shape[:-2]
+        gain = gain.reshape(-1, *gain.shape[-2:])                          # (P, U, N)
+        shares = shares.reshape(len(gain), -1)                             # (P, U S)
+        common = {"noise_w": self.noise_w, "bandwidth_hz": self.bandwidth_hz,
+                  "sic_residual": self.scenario.radio.sic_residual, "power_w": self.power}
+        if self.uplink:
+            rates = self.chains.uplink_rates(gain, shares, **common)
+        else:
+            serving_gain, interference = self._serving(gain)
+            rates = self.chains.rates(serving_gain, interference if self.full_reuse else None,
+                                      shares, **common)
+        return rates.reshape(*batch, -1)
 
     def _serving(self, gain: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Each user's serving gain (..., N) and interference I_i (..., N), W
@@ -187,7 +241,11 @@ class BestResponseSearch:
         gain = np.broadcast_to(fixed_gain, (len(points_m), *fixed_gain.shape)).copy()
         gain[:, u] = self.gains(points_m)
         shares = np.broadcast_to(alpha_first, (len(points_m), *alpha_first.shape)).copy()
-        if not self.oma:
+        if self.uplink:
+            shares[:, u] = self._best_uplink_shares(u, gain, alpha_first)
+        elif self.chains is not None:
+            shares[:, u] = self._best_share_vectors(u, gain)
+        elif not self.oma:
             shares[:, u] = self._best_shares(u, gain)
         rates = self.rates(gain, shares)
         feasible = (rates >= self.min_rate_bps).all(axis=-1)
@@ -209,6 +267,68 @@ class BestResponseSearch:
         return shares
 
 
+    def _best_share_vectors(self, u: int, gain: FloatArray) -> FloatArray:
+        """UAV ``u``'s best components (P, S) on the grid for clusters of M > 2, cluster by
+        cluster (its shares change no interference): the kernel's best share vector on the
+        members' effective SNRs (docs/model.md §15)."""
+        serving_gain, interference = self._serving(gain)
+        effective = self.power / (interference + self.noise_w) * serving_gain
+        chosen = np.full((len(gain), self.scenario.shares_per_uav), self.scenario.uav.start_alpha)
+        for members, width in self._clusters_of(u):
+            index, _ = best_share_vectors(effective[:, members], self.vectors, self.scenario,
+                                          1.0)
+            chosen[:, width] = self.components[index]
+        return chosen
+
+    def _best_uplink_shares(self, u: int, gain: FloatArray, fixed: FloatArray
+                            ) -> FloatArray:
+        """UAV ``u``'s users' best transmit shares (P, S) on the grid, the others' at
+        ``fixed`` (U, S) (docs/model.md §17). A cluster's shares change what the other UAVs
+        hear on its block, not where ``u`` is: so each cluster takes the vector of the
+        largest sum of its own rate (at each point, hearing the other UAVs' users on its
+        block) and the other UAVs' rates on that block (one number per vector), exact for
+        the network's objective."""
+        heard_w = np.zeros(gain.shape[0])
+        chosen = np.full((len(gain), self.scenario.shares_per_uav), self.scenario.uav.start_alpha)
+        for members, width in self._clusters_of(u):
+            others = None
+            if self.chains is not None and self.chains.cross is not None:
+                senders = self.chains.cross[members[0]]         # other UAVs' users on the block
+                sent_w = self.power * self._shares_of_users(fixed)[senders]
+                heard_w = gain[:, u, senders] @ sent_w                      # (P,), W
+                others = self._block_rates(u, members, width, senders, gain[0], fixed)
+            own = gain[:, u, members] / (1.0 + heard_w / self.noise_w)[:, None]
+            index, _ = best_uplink_vectors(own, self.vectors, self.scenario,
+                                           self.power / self.noise_w, others)
+            chosen[:, width] = self.components[index]
+        return chosen
+
+    def _block_rates(self, u: int, members: IntArray, width: slice, senders: NDArray[np.bool_],
+                     gain: FloatArray, fixed: FloatArray) -> FloatArray:
+        """The sum rate (V,) of the other UAVs' users on the block of UAV ``u``'s cluster
+        ``members`` with its transmit shares at each grid vector (their gains ``gain`` (U, N)
+        and shares ``fixed``), -inf where one misses R_min."""
+        shares = np.broadcast_to(fixed, (len(self.vectors), *fixed.shape)).copy()
+        shares[:, u, width] = self.vectors
+        rates = self._chain_rates(np.broadcast_to(gain, (len(shares), *gain.shape)), shares)
+        on_block = rates[:, senders]
+        return np.where((on_block >= self.min_rate_bps).all(axis=1), on_block.sum(axis=1),
+                        -np.inf)
+
+    def _clusters_of(self, u: int) -> Iterator[tuple[IntArray, slice]]:
+        """UAV ``u``'s clusters: each one's users and the slice of its components in the
+        UAV's row."""
+        per_cluster = self.scenario.shares_per_cluster
+        for k in np.flatnonzero(self.association.has_cluster[u]):
+            yield (self.association.members[self.layout, u, k],
+                   slice(k * per_cluster, (k + 1) * per_cluster))
+
+    def _shares_of_users(self, shares: FloatArray) -> FloatArray:
+        """Every user's transmit share (N,) in the uplink from every UAV's (U, S)."""
+        assert self.chains is not None
+        return shares.reshape(-1)[self.chains.components].reshape(-1)[self.chains.places]
+
+
 def layout_share(rounds_done: float, expected: float) -> float:
     """The share of a layout done (below 1) after ``rounds_done`` rounds (a fraction within
     one) where a layout is taken to need ``expected`` rounds: 0.9 of it over those, the rest
@@ -227,9 +347,9 @@ def _search(scenario: Scenario, users_m: FloatArray, rounds: int, oma: bool,
         raise ValueError(f"rounds must be >= 1, got {rounds}")
     started = time.process_time()
     env = NetworkBatch(scenario, num_envs=len(users_m), users_m=users_m)
-    if scenario.cluster_size == 2:
+    if scenario.cluster_size == 2 and not scenario.uplink:
         start_uav, start_alpha = soa_per_uav_configuration(env)
-    else:   # OMA splits no power: SoA's positions, the start's components in their place
+    else:   # SoA's positions, the start's components (SoA plans the downlink's pairs)
         start_uav = soa_positions(env)
         start_alpha = np.full((*start_uav.shape[:2], scenario.shares_per_uav),
                               scenario.uav.start_alpha)
@@ -283,7 +403,9 @@ def best_response(scenario: Scenario, users_m: FloatArray, *, rounds: int = DEFA
     (one search, converged)."""
     if scenario.uav.count == 1:
         started = time.process_time()
-        found = oracle(scenario, users_m, on_layout, on_search)
+        search = (oracle if scenario.cluster_size == 2 and not scenario.uplink
+                  else cluster_oracle)
+        found = search(scenario, users_m, on_layout, on_search)
         seconds = (time.process_time() - started) / max(1, len(users_m))
         count = len(users_m)
         return SearchResult(found.objective_bps, found.uav_m[:, None], found.alpha_first[:, None],

@@ -151,7 +151,7 @@ def test_groups_of_several_uavs_that_do_not_divide_are_one_line(tmp_path, capsys
             in line)
 
 
-@pytest.mark.parametrize("method", ["soa", "tracking", "best-response", "centroid"])
+@pytest.mark.parametrize("method", ["soa", "tracking", "centroid"])
 def test_references_of_pairs_refuse_clusters_of_three_in_one_line(capsys, method):
     scenario = ROOT / "scenarios" / "three_user_clusters_mmwave.toml"
     assert main(["baseline", str(scenario), "--method", method]) == 1
