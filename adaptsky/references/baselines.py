@@ -12,7 +12,7 @@ from adaptsky.references.reference import Reference
 from adaptsky.rollouts import several_uavs
 from adaptsky.rollouts.metrics import Method
 from adaptsky.rollouts.rollout import hold, random_controls_policy, rollout
-from adaptsky.rollouts.soa import soa_configuration
+from adaptsky.rollouts.soa import ESTIMATES_NOTE, estimated_split, soa_configuration
 from adaptsky.rollouts.tracking import track
 from adaptsky.scenario import Scenario
 from adaptsky.sim.controls import controls_of
@@ -45,8 +45,15 @@ class Soa(Reference):
             uav_m, alpha_first = soa_configuration(env)
         else:
             uav_m, alpha_first = several_uavs.soa_per_uav(scenario, users_m)
-        trace = hold(scenario, uav_m, alpha_first, steps, users_m, seed, on_progress)
-        return Method.of(self.name, scenario, trace, {})
+        if scenario.channel.csi.model == "perfect":
+            trace = hold(scenario, uav_m, alpha_first, steps, users_m, seed, on_progress)
+            return Method.of(self.name, scenario, trace, {})
+        # imperfect channel knowledge: every step's split from the latest estimates
+        one = scenario.uav.count == 1
+        trace = hold(scenario, uav_m,
+                     lambda env: estimated_split(env)[:, 0] if one else estimated_split(env),
+                     steps, users_m, seed, on_progress)
+        return Method.of(self.name, scenario, trace, {"note": ESTIMATES_NOTE})
 
 
 @dataclass(frozen=True)
@@ -55,5 +62,6 @@ class Tracking(Reference):
 
     def run(self, scenario: Scenario, steps: int, users_m: np.ndarray, seed: int = 0,
             on_progress: Tick | None = None) -> Method:
+        details = {} if scenario.channel.csi.model == "perfect" else {"note": ESTIMATES_NOTE}
         return Method.of(self.name, scenario,
-                         track(scenario, steps, users_m, seed, on_progress), {})
+                         track(scenario, steps, users_m, seed, on_progress), details)

@@ -77,20 +77,23 @@ def rollout(scenario: Scenario, policy: Policy, steps: int, users_m: FloatArray,
     return Trace.of(states, walked)
 
 
-def hold(scenario: Scenario, uav_m: FloatArray, alpha_first: FloatArray, steps: int,
+def hold(scenario: Scenario, uav_m: FloatArray,
+         alpha_first: FloatArray | Callable[[NetworkBatch], FloatArray], steps: int,
          users_m: FloatArray, seed: int = 0, on_step: Tick | None = None, oma: bool = False
          ) -> Trace:
     """Keep the UAV at ``uav_m`` (L, 3) with shares ``alpha_first`` (L, K) for ``steps``
     steps, or for U > 1 every UAV at ``uav_m`` (L, U, 3) with ``alpha_first`` (L, U, K_u),
     while the users move as they do under a policy with the same ``seed`` (the same
-    headings and LoS draws, step by step: ``hold_step``). With ``oma`` the rates are OMA's
-    (:func:`oma_rates`) at each step's gains, not NOMA's."""
+    headings and LoS draws, step by step: ``hold_step``); ``alpha_first`` may instead plan
+    each step's shares from the environment before it (SoA on channel estimates). With
+    ``oma`` the rates are OMA's (:func:`oma_rates`) at each step's gains, not NOMA's."""
     env = _env(scenario, users_m, seed)
     env.reset()
     states = []
     walked: list[FloatArray] | None = [] if users_move(scenario) else None
     for step in range(steps):
-        state = env.hold_step(uav_m, alpha_first)
+        shares = alpha_first(env) if callable(alpha_first) else alpha_first
+        state = env.hold_step(uav_m, shares)
         if oma:     # OMA's rates, and every user's share of its cluster's power: 1/M
             state = replace(state, rate_bps=oma_rates(scenario, state),
                             alpha=np.full(state.alpha.shape, 1 / scenario.cluster_size))

@@ -8,7 +8,9 @@ cluster the user with the smaller LoS gain is weak and gets the least power that
     alpha_w = min(1, (2^(R_min/W) - 1) / 2^(R_min/W) * (1 + sigma^2 / (P_T G g_w))),
 
 the strong user the rest (R_min = 0 gives the weak user nothing). Rates are then evaluated
-under the scenario's true channel.
+under the scenario's true channel. Under imperfect channel knowledge (docs/model.md §16) SoA
+decides on the estimates instead: at every step the split of the latest estimated gains
+g_hat of its links, the channel the agent observes (:func:`estimated_split`).
 """
 
 from __future__ import annotations
@@ -22,6 +24,9 @@ from adaptsky.sim.blockage import above_buildings
 from adaptsky.sim.network import NetworkBatch
 
 FloatArray = NDArray[np.float64]
+ESTIMATES_NOTE = ("decides its split on the channel estimates (every step the split of the "
+                  "latest estimated gains, as the agent observes them)")
+"""What SoA and tracking are under imperfect channel knowledge (docs/model.md §16)."""
 
 
 def soa_configuration(env: NetworkBatch) -> tuple[FloatArray, FloatArray]:
@@ -62,10 +67,27 @@ def soa_split(env: NetworkBatch, uav_m: FloatArray, users_m: FloatArray) -> Floa
     """SoA's first users' shares (B, U, K_max) with the UAVs at ``uav_m`` (B, U, 3) and the
     users at ``users_m`` (B, N, 2): planned from the LoS gains without interference (module
     doc); a UAV with fewer clusters than K_max keeps ``start_alpha`` in its unused slots."""
-    scenario, association = env.scenario, env.association
     gain = env.channel.gain_los(env.geometry(uav_m, users_m)).reshape(
         len(users_m), env.num_uavs, env.num_users)
-    rows = np.arange(len(users_m))[:, None, None]
+    return split_of_gains(env, gain)
+
+
+def estimated_split(env: NetworkBatch) -> FloatArray:
+    """SoA's first users' shares (B, U, K_max) planned from the env's latest estimates of
+    its links (docs/model.md §16), the split of the module doc on g_hat: what SoA and
+    tracking decide on under imperfect channel knowledge."""
+    gains_hat = env.estimated_gains
+    if gains_hat is None:
+        raise ValueError("the environment draws no channel estimates (channel.csi.model = "
+                         "'perfect')")
+    return split_of_gains(env, gains_hat)
+
+
+def split_of_gains(env: NetworkBatch, gain: FloatArray) -> FloatArray:
+    """The split of the module doc (B, U, K_max) from every link's gain ``gain`` (B, U, N)
+    (a UAV with fewer clusters than K_max keeps ``start_alpha`` in its unused slots)."""
+    scenario, association = env.scenario, env.association
+    rows = np.arange(len(gain))[:, None, None]
     uavs = np.arange(env.num_uavs)[None, :, None]
     gain_first = gain[rows, uavs, association.first_user]
     gain_second = gain[rows, uavs, association.second_user]

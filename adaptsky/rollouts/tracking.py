@@ -1,6 +1,7 @@
 """The tracking baseline (docs/evaluation.md, baselines): a heuristic for moving users. Every
 step each UAV flies at its full step toward its group's current 2D centroid, at its own height,
-and splits its clusters' power as SoA does from the LoS gains there (docs/model.md §6).
+and splits its clusters' power as SoA does from the LoS gains there (docs/model.md §6); under
+imperfect channel knowledge from the latest estimates of its links instead (§16).
 
 A UAV at (x, y, h) with step (dx, dy) and its group's centroid (cx, cy) of the users' positions
 at the start of the step goes to (x + clip(cx - x, -dx, dx), y + clip(cy - y, -dy, dy), h):
@@ -14,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from adaptsky.rollouts.rollout import Tick, Trace
-from adaptsky.rollouts.soa import group_centroids, soa_split
+from adaptsky.rollouts.soa import estimated_split, group_centroids, soa_split
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.network import NetworkBatch
 from adaptsky.sim.state import users_move
@@ -31,6 +32,8 @@ def tracking_target(env: NetworkBatch) -> tuple[FloatArray, FloatArray]:
     offset = group_centroids(env, users_m) - uav_m[..., :2]
     target = uav_m.copy()
     target[..., :2] += np.clip(offset, -step_xy, step_xy)
+    if env.estimated_gains is not None:
+        return target, estimated_split(env)
     return target, soa_split(env, target, users_m)
 
 

@@ -361,6 +361,12 @@ class NetworkBatch:
         return self.association.serving_uav, self.association.cluster
 
     @property
+    def estimated_gains(self) -> FloatArray | None:
+        """The latest step's estimate g_hat of every link (B, U, N) under imperfect channel
+        knowledge (docs/model.md §16: what the agent observed last), else None."""
+        return None if self._csi is None else self._gains_hat
+
+    @property
     def first_user(self) -> NDArray[np.intp]:
         """The first user of every cluster: (B, K) for one UAV, (B, U, K_max) for several."""
         return self._squeezed(self.association.first_user)

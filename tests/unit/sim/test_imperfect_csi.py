@@ -15,7 +15,7 @@ from adaptsky.sim import noma
 from adaptsky.sim.csi import CsiStage
 from adaptsky.sim.interference import sic_rates
 from adaptsky.sim.network import NetworkBatch
-from tests.conftest import make_scenario
+from tests.conftest import ROOT, make_scenario
 from tests.helpers.cli import refusal_of_scenario
 
 DRAWS = 200_000
@@ -150,3 +150,47 @@ def test_the_order_by_the_estimate_loses_rate_on_average():
 ])
 def test_csi_keys_are_checked_in_one_line(tmp_path, capsys, csi, words):
     assert words in refusal_of_scenario(tmp_path, capsys, f"[channel.csi]\n{csi}")
+
+
+def scalar_soa_shares(scenario, g_hat, pairs):
+    """Every user's share (N,) by SoA's split of docs/model.md §6 on the gains ``g_hat`` (N,),
+    with scalars: alpha_w = min(1, (2^R - 1) / 2^R (1 + sigma^2 / (P_T G g_w))) for the weak
+    user of each pair, the rest for the strong one."""
+    radio, threshold = scenario.radio, 2.0 ** scenario.reward.min_se
+    shares = [0.0] * len(g_hat)
+    for i, j in pairs:
+        weak, strong = (i, j) if g_hat[i] < g_hat[j] else (j, i)
+        alpha_weak = min(1.0, (threshold - 1) / threshold * (
+            1 + radio.noise_w / (radio.tx_power_w * radio.antenna_gain * g_hat[weak])))
+        shares[weak], shares[strong] = alpha_weak, 1.0 - alpha_weak
+    return shares
+
+
+@pytest.mark.parametrize("method", ["soa", "tracking"])
+def test_soa_and_tracking_split_on_the_latest_estimates(method):
+    """Under imperfect knowledge SoA and tracking decide on g_hat (docs/model.md §16): every
+    step's split is SoA's of §6 (scalars) on the estimates the environment drew the step
+    before, replayed in a twin environment with the same seed; with perfect knowledge SoA's
+    split is held as planned."""
+    from adaptsky.references.registry import run_baseline
+    from adaptsky.scenario import load_scenario
+    from adaptsky.scenario.variants import with_values
+
+    scenario = with_values(load_scenario(ROOT / "scenarios" / "imperfect_csi_sub6.toml"),
+                           "reward", {"min_se": 0.5}, "test")
+    layouts = np.asarray(scenario.users.positions_m)[None]
+    found = run_baseline(scenario, method, 12, layouts)
+    assert "estimates" in found.details["note"]
+    twin = NetworkBatch(scenario, seed=0, users_m=layouts)
+    twin.reset()
+    pairs = list(zip(twin.first_user[0], twin.second_user[0], strict=True))
+    for step in range(12):
+        g_hat = twin.estimated_gains[0, 0]
+        assert not np.allclose(g_hat, twin.state.gain[0], rtol=1e-3, atol=0)   # not the truth
+        expected = scalar_soa_shares(scenario, g_hat, pairs)
+        np.testing.assert_allclose(found.trace.alpha[step, 0], expected, rtol=1e-12)
+        twin.fly_step(found.trace.uav_m[step], found.trace.alpha[step][:, [i for i, _ in pairs]])
+    assert np.ptp(found.trace.alpha[:, 0], axis=0).max() > 0    # decided anew at each step
+    perfect = with_values(scenario, "channel", {"csi": {"model": "perfect"}}, "test")
+    held = run_baseline(perfect, "soa", 12, layouts).trace.alpha[:, 0]
+    assert np.ptp(held, axis=0).max() == 0
