@@ -131,6 +131,17 @@ class EpisodeData:
             found.setdefault(key, []).append(user)
         return [(u, k, users) for (u, k), users in sorted(found.items())]
 
+    def share_lines(self) -> list[tuple[int, int, int, list[int]]]:
+        """The shares a figure draws, as (UAV u, cluster k, user, the cluster's users): each
+        cluster's members but the last where its shares split the cluster's power (they sum
+        to 1 at every step: the downlink's, docs/model.md §15; a pair's first user alone),
+        every member where they do not (the uplink's transmit shares, §17)."""
+        lines = []
+        for u, k, users in self.pairs():
+            split = np.allclose(self.alpha[:, users].sum(axis=1), 1.0)
+            lines += [(u, k, user, users) for user in (users[:-1] if split else users)]
+        return lines
+
     def until(self, steps: int) -> EpisodeData:
         """The first ``steps`` rows (views, no copy)."""
         return replace(self, uav_m=self.uav_m[:steps], alpha=self.alpha[:steps],

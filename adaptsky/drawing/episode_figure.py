@@ -196,10 +196,11 @@ class _Block:
         return moving
 
     def columns(self) -> list[FloatArray]:
-        """What each panel draws: heights (T, U), the shares of each cluster's first listed
-        user (T, C), rates (T, N), propulsion powers (T, U)."""
+        """What each panel draws: heights (T, U), the shares of
+        :meth:`~adaptsky.drawing.episode.EpisodeData.share_lines` (T, C) (a pair's first
+        listed user's), rates (T, N), propulsion powers (T, U)."""
         episode = self.episode
-        shown = [users[0] for _, _, users in episode.pairs()]
+        shown = [user for _, _, user, _ in episode.share_lines()]
         columns = [episode.uav_m[:, :, 2], episode.alpha[:, shown], episode.rate_bps]
         return columns if episode.power_w is None else [*columns, episode.power_w]
 
@@ -433,12 +434,15 @@ class EpisodeFigure:
         panels = [self._panel(axes[0], heights, "height $h$ (m)", uav_colours,
                               [f"UAV {u + 1}" for u in range(num_uavs)] if num_uavs > 1
                               else None)]
-        pairs = episode.pairs()
+        lines = episode.share_lines()
         colours = cluster_colours(episode)
+        few = len(episode.pairs()) <= 4
         alpha = self._panel(  # several UAVs: UAV u's colour, lighter for its later clusters
-            axes[1], shares, r"power split $\alpha$", [colours[u, k] for u, k, _ in pairs],
-            [rf"$\alpha_{{{members[0] + 1}}}$ ({'users ' if len(pairs) <= 4 else ''}"
-             f"{', '.join(str(i + 1) for i in members)})" for _, _, members in pairs])
+            axes[1], shares, r"power split $\alpha$" if len(lines) == len(episode.pairs())
+            else r"power shares $\alpha$", [colours[u, k] for u, k, _, _ in lines],
+            [rf"$\alpha_{{{user + 1}}}$" + (
+                f" ({'users ' if few else ''}{', '.join(str(i + 1) for i in members)})"
+                if user == members[0] else "") for _, _, user, members in lines])
         alpha.axes.set_ylim(-0.03, 1.03)  # a share of 0 or 1 shows beside the frame
         alpha.fixed = True
         panels.append(alpha)

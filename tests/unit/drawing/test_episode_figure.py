@@ -195,3 +195,22 @@ def test_update_grows_the_episode_and_widens_a_panel_it_leaves():
     assert figure.blocks[0].step_text.get_text() == "step 5/5"
     with pytest.raises(ValueError, match="make a new figure"):
         figure.update([buffer.episode(users, roles, np.array([0, 1]))])
+
+
+def test_clusters_of_three_draw_every_free_share():
+    """A cluster of M users draws M - 1 shares where they split its power (the downlink's,
+    summing to 1) and all M where they do not (the uplink's transmit shares)."""
+    rng = np.random.default_rng(1)
+    steps, users = 6, 6
+    split = rng.dirichlet([1.0, 1.0, 1.0], size=(steps, 2)).reshape(steps, users)
+    common = dict(users_m=rng.uniform(-40, 40, (users, 2)),
+                  uav_m=np.tile([0.0, 0.0, 50.0], (steps, 1)),
+                  rate_bps=np.full((steps, users), 1e9),
+                  serving_uav=np.zeros(users, dtype=int), cluster=np.arange(users) // 3)
+    downlink = EpisodeData(alpha=split, **common)
+    assert [user for *_, user, _ in downlink.share_lines()] == [0, 1, 3, 4]
+    uplink = EpisodeData(alpha=rng.uniform(0.1, 1.0, (steps, users)), **common)
+    assert [user for *_, user, _ in uplink.share_lines()] == [0, 1, 2, 3, 4, 5]
+    figure = EpisodeFigure([downlink], side_m=100.0, dpi=DPI)
+    shares = figure.blocks[0].columns()[1]
+    np.testing.assert_array_equal(shares, split[:, [0, 1, 3, 4]])
