@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from adaptsky.envs.world_observation import WorldObserver
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.association import Association
 from adaptsky.sim.observation import (
@@ -30,6 +31,8 @@ from adaptsky.sim.observation import (
     FEATURES_PER_USER,
     MULTI_FEATURES_PER_USER,
     MultiObserver,
+    WorldData,
+    float32_outward,
     local_observation_bounds,
     multi_observation_bounds,
     observation_bounds,
@@ -69,8 +72,15 @@ def observation_bounds_of(scenario: Scenario, gains: tuple[float, float] | None 
         low, high = local_observation_bounds(scenario, gains, scaled=scaled)
         return np.tile(low, scenario.uav.count), np.tile(high, scenario.uav.count)
     if scenario.uav.count == 1:
-        return observation_bounds(scenario, gains, scaled=scaled)
-    return multi_observation_bounds(scenario, gains, scaled=scaled)
+        low, high = observation_bounds(scenario, gains, scaled=scaled)
+    else:
+        low, high = multi_observation_bounds(scenario, gains, scaled=scaled)
+    world = WorldObserver.of(scenario)
+    if world is None:
+        return low, high
+    world_low, world_high = world.bounds(scenario)
+    return (np.concatenate([low, float32_outward(world_low, -np.inf)]),
+            np.concatenate([high, float32_outward(world_high, np.inf)]))
 
 
 def users_in_order(association: Association, user_order: str) -> IntArray | None:
@@ -90,13 +100,25 @@ class AgentView:
     """The observation adapter of an agent: users in ``user_order`` ("listed" or
     "clusters"), with ``local`` (several UAVs only) every UAV's local observation of
     ``num_slots`` = 2 K_max user slots, its values ``scaled`` (``agent.observation``) or
-    raw. The simulator calls :meth:`gather` once per association
+    raw, and the observations of the world it asked for (``agent.observe``:
+    :mod:`adaptsky.envs.world_observation`), appended. The simulator calls :meth:`gather`
+    once per association and :meth:`world` at every step
     (:class:`~adaptsky.sim.observation.ObservationView`)."""
 
     user_order: str
     local: bool
     num_slots: int
     scaled: bool = True
+    world_observer: WorldObserver | None = None
+
+    @property
+    def observes_world(self) -> bool:
+        return self.world_observer is not None
+
+    def world(self, data: WorldData, association: Association) -> NDArray[np.float32]:
+        """The observations of the world (B, E), users in this view's order."""
+        assert self.world_observer is not None and not self.local
+        return self.world_observer(data, users_in_order(association, self.user_order))
 
     @classmethod
     def of(cls, scenario: Scenario) -> AgentView | None:
@@ -105,9 +127,10 @@ class AgentView:
         user_order = user_order_of(scenario)
         local = observes_locally(scenario) and scenario.uav.count > 1
         scaled = scaled_of(scenario)
-        if user_order == "listed" and not local and scaled:
+        world = WorldObserver.of(scenario)
+        if user_order == "listed" and not local and scaled and world is None:
             return None
-        return cls(user_order, local, scenario.users_per_uav, scaled)
+        return cls(user_order, local, scenario.users_per_uav, scaled, world)
 
     def gather(self, association: Association) -> IntArray | None:
         """Where every component of the agent's observation (B, W) comes from in the

@@ -49,6 +49,7 @@ from pettingzoo import ParallelEnv
 from adaptsky.envs.action_spaces import per_component_kind, uav_action_space
 from adaptsky.envs.gym_env import RENDER_FPS, RENDER_MODES, NomaUavEnv, resolve_scenario
 from adaptsky.envs.observations import LocalObserver, scaled_of, user_order_of, users_in_order
+from adaptsky.envs.world_observation import WorldObserver
 from adaptsky.scenario import Scenario
 from adaptsky.sim.observation import local_observation_bounds
 
@@ -75,6 +76,10 @@ class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
             raise ValueError(f"reward_split must be 'team', 'per-uav' or 'difference' (None: "
                              f"the scenario's agent.reward_split), got {reward_split!r}")
         scenario = resolve_scenario(scenario)
+        if observation == "local" and WorldObserver.of(scenario) is not None:
+            raise ValueError("observation='local' carries no observations of the world yet "
+                             f"(agent.observe = {list(scenario.agent.observe)}); use "
+                             "observation='global' or remove agent.observe")
         # the scenario's agent's split where it has one (BDQ, MAPPO, IPPO), else one reward for all
         self.reward_split: str = (getattr(scenario.agent, "reward_split", "team")
                                   if reward_split is None else reward_split)

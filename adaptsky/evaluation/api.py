@@ -40,8 +40,10 @@ SEARCH_KEYS = ("objective_bps", "rounds", "converged")
 SEARCH_SECONDS = ("seconds_per_layout", "seconds_per_step")
 """A search's process time: per layout, or per step for the per-step searches (users that
 move)."""
-# what a policy's inputs are scaled by: they must match between training and evaluation
-OBSERVATION_SCALING = ("agent.observation", "agent.user_order", "area.side_m",
+# what a policy's inputs are and are scaled by: they must match between training and
+# evaluation
+OBSERVATION_SCALING = ("agent.observation", "agent.user_order", "agent.observe",
+                       "agent.raster_cells", "agent.raster_cell_m", "area.side_m",
                        "uav.max_height_m")
 
 
@@ -200,13 +202,16 @@ def _check_compatible(run_path: Path, trained: Scenario, scenario: Scenario) -> 
     if trained.uav.actions != scenario.uav.actions:
         raise EvaluationError(f"{run_path}: the policy's actions are '{trained.uav.actions}' "
                               f"but the evaluation scenario's are '{scenario.uav.actions}'")
-    for key in OBSERVATION_SCALING:
+    keys = OBSERVATION_SCALING
+    if "velocity" in trained.agent.observe:    # the users' velocities in UAV steps
+        keys = (*keys, "uav.step_m", "uav.step_s")
+    for key in keys:
         was, now = _setting(trained, key), _setting(scenario, key)
         if was != now:
             raise EvaluationError(
-                f"{run_path}: the evaluation scenario scales observations differently: {key} "
+                f"{run_path}: the evaluation scenario observes differently: {key} "
                 f"is {now!r}, the policy was trained with {was!r}; evaluate on a scenario "
-                f"with the same {', '.join(OBSERVATION_SCALING)}")
+                f"with the same {', '.join(keys)}")
 
 
 def _policy_method(name: str, scenario: Scenario, policy: Policy, steps: int,

@@ -52,6 +52,14 @@ class DqnAgent(Section):
     user_order: Literal["listed", "clusters"] = Field(
         "listed", description="users in the observation: as the layout lists them, or cluster "
         "by cluster (first and second user of cluster 1, then cluster 2...)")
+    observe: list[Literal["los", "heights", "velocity"]] = Field(
+        [], max_length=3, description="observations of the world appended to the agent's "
+        "(docs/environment.md): 'los' each user's serving link's LoS state, 'heights' a "
+        "raster of building heights around each UAV, 'velocity' the users' velocities")
+    raster_cells: int = Field(5, ge=1, le=31, description="'heights': the raster's cells "
+                              "per side (odd: the UAV above the middle cell)")
+    raster_cell_m: float = Field(10.0, gt=0, le=1000.0, description="'heights': a raster "
+                                 "cell's side, m")
     reward_scale: float = Field(1.0, gt=0, le=1e6, description="rewards are multiplied by "
                                 "this before they are stored for learning (extension)")
     n_step: int = Field(1, ge=1, le=100, description="n-step returns (extension); 1 is "
@@ -75,6 +83,38 @@ class DqnAgent(Section):
     def _memory_holds_a_batch(self) -> DqnAgent:
         _check_memory_holds_a_batch(self.memory_size, self.batch_size)
         return self
+
+    @model_validator(mode="after")
+    def _world_keys(self) -> DqnAgent:
+        check_world_keys(self)
+        return self
+
+
+def world_observation_size(agent: Section, num_users: int, num_uavs: int) -> int:
+    """The components ``agent.observe`` appends to the agent's observation (docs/
+    environment.md, "Observations of the world"): N for 'los', 2 N for 'velocity', U R^2 for
+    'heights' (R = ``raster_cells``); 0 for an agent that observes none."""
+    observe = set(getattr(agent, "observe", ()))
+    return (num_users * ("los" in observe) + 2 * num_users * ("velocity" in observe)
+            + num_uavs * int(getattr(agent, "raster_cells", 0)) ** 2 * ("heights" in observe))
+
+
+def check_world_keys(agent: Section) -> None:
+    """``agent.observe`` lists each observation of the world once; the raster's keys set
+    other than their defaults go with 'heights' (a setting silently ignored is a bug), its
+    cells odd."""
+    observe = list(getattr(agent, "observe", []))
+    if len(set(observe)) != len(observe):
+        raise ValueError(f"observe: {observe} lists an observation twice; list each once")
+    given = [key for key in ("raster_cells", "raster_cell_m")    # (a resolved file lists
+             if getattr(agent, key) != type(agent).model_fields[key].default]   # defaults)
+    if given and "heights" not in observe:
+        raise ValueError(f"{', '.join(given)} given without 'heights' in observe, which "
+                         f"{'reads it' if len(given) == 1 else 'read them'}; add 'heights' "
+                         "or remove it")
+    if getattr(agent, "raster_cells", 1) % 2 == 0:
+        raise ValueError(f"raster_cells: {agent.raster_cells} is even; the raster is centred "
+                         "on the UAV, give an odd number")
 
 
 def with_preset(model: type[Section], data: Any, family: str) -> Any:
@@ -126,6 +166,15 @@ class BdqAgent(Section):
     target_update_episodes: int = _as_dqn("target_update_episodes")
     observation: Literal["scaled", "raw"] = _as_dqn("observation")
     user_order: Literal["listed", "clusters"] = _as_dqn("user_order")
+    observe: list[Literal["los", "heights", "velocity"]] = _as_dqn("observe")
+    raster_cells: int = _as_dqn("raster_cells")
+    raster_cell_m: float = _as_dqn("raster_cell_m")
+
+    @model_validator(mode="after")
+    def _world_keys(self) -> Any:
+        check_world_keys(self)
+        return self
+
     reward_scale: float = _as_dqn("reward_scale")
     n_step: int = _as_dqn("n_step")
     target_tau: float = _as_dqn("target_tau")
@@ -192,6 +241,15 @@ class PpoAgent(Section):
                                 "deviation of the Gaussian head")
     observation: Literal["scaled", "raw"] = _as_dqn("observation")
     user_order: Literal["listed", "clusters"] = _as_dqn("user_order")
+    observe: list[Literal["los", "heights", "velocity"]] = _as_dqn("observe")
+    raster_cells: int = _as_dqn("raster_cells")
+    raster_cell_m: float = _as_dqn("raster_cell_m")
+
+    @model_validator(mode="after")
+    def _world_keys(self) -> Any:
+        check_world_keys(self)
+        return self
+
     reward_scale: float = _as_dqn("reward_scale")
 
     @model_validator(mode="before")
@@ -237,6 +295,15 @@ class SacAgent(Section):
                          "autotune is false")
     observation: Literal["scaled", "raw"] = _as_dqn("observation")
     user_order: Literal["listed", "clusters"] = _as_dqn("user_order")
+    observe: list[Literal["los", "heights", "velocity"]] = _as_dqn("observe")
+    raster_cells: int = _as_dqn("raster_cells")
+    raster_cell_m: float = _as_dqn("raster_cell_m")
+
+    @model_validator(mode="after")
+    def _world_keys(self) -> Any:
+        check_world_keys(self)
+        return self
+
     reward_scale: float = _as_dqn("reward_scale")
 
     @model_validator(mode="before")

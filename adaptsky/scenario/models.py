@@ -723,6 +723,28 @@ class Scenario(Section):
         return self
 
     @model_validator(mode="after")
+    def _world_observations(self) -> Scenario:
+        """``agent.observe`` asks only for what the world has, for an agent that sees the
+        whole network (docs/environment.md, "Observations of the world")."""
+        observe = list(getattr(self.agent, "observe", []))
+        if not observe:
+            return self
+        if getattr(self.agent, "local_view", False):
+            raise ValueError(f"agent.observe: '{self.agent.algorithm}' acts on every UAV's "
+                             "local observation, which carries no observations of the world "
+                             "yet; remove agent.observe or use an agent that sees the whole "
+                             "network (dqn, bdq, ppo, sac)")
+        if "heights" in observe and self.world.buildings == "none":
+            raise ValueError("agent.observe: 'heights' reads the buildings, but "
+                             "world.buildings = 'none'; remove it or add buildings")
+        moving = (self.users.speed_m_per_step > 0 or self.users.mobility.model != "static")
+        if "velocity" in observe and not moving:
+            raise ValueError("agent.observe: 'velocity' reads the users' moves, but the users "
+                             "stand (users.mobility.model = 'static'); remove it or let them "
+                             "move")
+        return self
+
+    @model_validator(mode="after")
     def _direction(self) -> Scenario:
         """The uplink's keys with the uplink only, and what it does not model yet
         (docs/model.md §17)."""

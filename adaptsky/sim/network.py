@@ -76,6 +76,7 @@ from adaptsky.sim.observation import (
     MultiObserver,
     ObservationView,
     Observer,
+    WorldData,
     flat_gather,
     gathered,
     observation_size,
@@ -249,6 +250,8 @@ class NetworkBatch:
         else:
             self._observer = MultiObserver(scenario, scaled)
         self._view = view
+        self._observes_world = view is not None and view.observes_world
+        self._moved_m = np.zeros((num_envs, self.num_users, 2))
         if users_m is None:
             users_m = user_layouts(scenario, num_envs)
         self._associate(users_m)
@@ -496,6 +499,8 @@ class NetworkBatch:
         if self._reassociate_steps is not None:
             self._pair(self.layouts_m)               # the start's association again
         self._to_start(alpha_first, uav_m)
+        if self._observes_world:
+            self._moved_m = np.zeros((self.num_envs, self.num_users, 2))
         self.state = self._evaluate(self.sim_state)
         return self._obs, self.state
 
@@ -586,6 +591,8 @@ class NetworkBatch:
         self.sim_state = moved
         if moved.t != before.t:
             self._reassociated(moved)
+            if self._observes_world:     # the users' move over the step, for the view's
+                self._moved_m = np.asarray(moved.users_m) - np.asarray(before.users_m)
         energy_j = (self._energy.of_move(self._squeezed(before.uav_m),
                                          self._squeezed(moved.uav_m)) if flown else None)
         self.state = self._evaluate(moved, energy_j, draws)
@@ -742,6 +749,8 @@ class NetworkBatch:
             rewards = self._energy.rewarded(rewards, energy_j)
         self._obs = self._observe(config, users_m, alpha, seen_gain, seen_interference,
                                   features)
+        if self._observes_world:
+            self._obs = self._with_world(uav_m, link_los, link_p_los)
         return NetworkState._new(self._squeezed(uav_m).copy(), alpha, gain, interference,
                                  link_los, link_p_los, strong, rate_bps, total, fairness,
                                  rewards, energy_j)
@@ -839,6 +848,18 @@ class NetworkBatch:
             network = self._observer.from_offsets(uav_xy[0] - users[0], uav_xy[1] - users[1],
                                                   config[..., :3], alpha, gain, interference)
         return network if self._view_flat is None else gathered(network, *self._view_flat)
+
+    def _with_world(self, uav_m: FloatArray, link_los: NDArray[np.bool_] | None,
+                    link_p_los: FloatArray) -> NDArray[np.float32]:
+        """The agent's observations with its view's observations of the world appended
+        (docs/environment.md, "Observations of the world")."""
+        assert self._view is not None
+        los = (np.asarray(link_p_los, dtype=np.float64) if link_los is None
+               else np.asarray(link_los, dtype=np.float64))
+        data = WorldData(uav_m.reshape(self.num_envs, self.num_uavs, 3),
+                         np.broadcast_to(los, (self.num_envs, self.num_users)), self._moved_m,
+                         self.scenario.uav.step_s, self.city)
+        return np.concatenate([self._obs, self._view.world(data, self.association)], axis=1)
 
     def observation(self) -> NDArray[np.float32]:
         """The observations of the last evaluated state (B, size), float32."""

@@ -25,6 +25,7 @@ Users come in the order the layout lists them (the paper's); an agent with
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
@@ -32,6 +33,7 @@ from numpy.typing import NDArray
 
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.association import Association
+from adaptsky.sim.city import City
 
 FloatArray = NDArray[np.float64]
 GAIN_DB_CENTER = -100.0
@@ -119,7 +121,7 @@ def observation_bounds(scenario: Scenario, gains: tuple[float, float] | None = N
     n_users = scenario.num_users
     low = np.array([-delta, -delta, 0.0, gain_low] * n_users + [height[0]])
     high = np.array([delta, delta, 1.0, gain_high] * n_users + [height[1]])
-    return _float32_outward(low, -np.inf), _float32_outward(high, np.inf)
+    return float32_outward(low, -np.inf), float32_outward(high, np.inf)
 
 
 def _scaled_gain(gain: float) -> float:
@@ -130,7 +132,7 @@ def _scaled_gain(gain: float) -> float:
                  / np.array(GAIN_DB_SCALE))
 
 
-def _float32_outward(values: NDArray[np.float64], towards: float) -> NDArray[np.float32]:
+def float32_outward(values: NDArray[np.float64], towards: float) -> NDArray[np.float32]:
     """``values`` in float32, each moved one float32 step towards ``towards`` where rounding
     moved it the other way (a bound then still holds every rounded observation)."""
     rounded = values.astype(np.float32)
@@ -230,7 +232,22 @@ def multi_observation_bounds(scenario: Scenario, gains: tuple[float, float] | No
                                                               height[0]] * u)
     high = np.array([delta, delta, 1.0, gain_high, inr_high] * n + [position, position,
                                                                    height[1]] * u)
-    return _float32_outward(low, -np.inf), _float32_outward(high, np.inf)
+    return float32_outward(low, -np.inf), float32_outward(high, np.inf)
+
+
+@dataclass(frozen=True)
+class WorldData:
+    """What the simulator hands an agent's observations of the world (docs/environment.md,
+    "Observations of the world"): the UAVs ``uav_m`` (B, U, 3), each user's serving link's
+    LoS state ``serving_los`` (B, N) (1 or 0; its probability where LoS is not drawn), each
+    user's displacement over the last step ``moved_m`` (B, N, 2) (0 after a reset), the step's
+    duration ``step_s`` and the buildings ``city`` (None: none)."""
+
+    uav_m: FloatArray
+    serving_los: FloatArray
+    moved_m: FloatArray
+    step_s: float
+    city: City | None
 
 
 class ObservationView(Protocol):
@@ -242,8 +259,14 @@ class ObservationView(Protocol):
     (position ``size``), or None where the agent sees the network's as it is."""
 
     scaled: bool
+    observes_world: bool
+    """Whether :meth:`world` adds features (then called at every step)."""
 
     def gather(self, association: Association) -> NDArray[np.intp] | None: ...
+
+    def world(self, data: WorldData, association: Association) -> NDArray[np.float32]:
+        """The observations of the world (B, E), appended after the agent's others."""
+        ...
 
 
 def flat_gather(gather: NDArray[np.intp], size: int) -> tuple[NDArray[np.intp], bool]:

@@ -72,7 +72,8 @@ class Case:
     @property
     def name(self) -> str:
         extra = [self.actions] if self.actions else []
-        extra += [f"{key}={value}" for key, value in self.agent]
+        extra += [f"{key}={'+'.join(value) if isinstance(value, tuple) else value}"
+                  for key, value in self.agent]
         return "-".join([self.learner, self.world, *extra])
 
 
@@ -91,6 +92,10 @@ NAMED = [
     Case("mappo", "two-uavs-moving", agent=(("reward_split", "per-uav"),)),
     Case("ippo", "two-uavs-moving", actions="continuous"),
     Case("dqn", "csi-clusters-of-three"),
+    # observations of the world (docs/environment.md): a city's LoS and heights, users' moves
+    Case("ppo", "city-fading-geometric-los", agent=(("observe", ("los", "heights")),)),
+    Case("dqn", "moving-users", agent=(("observe", ("velocity",)),
+                                       ("user_order", "clusters"))),
 ]
 
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from itertools import pairwise
 from typing import Literal
 
+from adaptsky.scenario.agents import world_observation_size
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.observation import local_observation_size, observation_size
 
@@ -54,4 +55,5 @@ def observation_size_of(scenario: Scenario) -> int:
     UAV, 5 N + 3 U for several)."""
     if getattr(scenario.agent, "local_view", False):
         return scenario.uav.count * local_observation_size(scenario)
-    return observation_size(scenario.num_users, scenario.uav.count)
+    return (observation_size(scenario.num_users, scenario.uav.count)
+            + world_observation_size(scenario.agent, scenario.num_users, scenario.uav.count))
