@@ -216,7 +216,10 @@ ADDED_SECTION_DEFAULTS = {("uav", "count"): 1, ("uav", "start_positions_m"): Non
                           # NOMA clusters of M users (docs/model.md §15): pairs; perfect
                           # channel knowledge (§16); the downlink (§17)
                           ("users", "cluster_size"): 2, ("channel", "csi"): {"model": "perfect"},
-                          ("radio", "direction"): "downlink", ("users", "tx_power_dbm"): None}
+                          ("radio", "direction"): "downlink", ("users", "tx_power_dbm"): None,
+                          # observations of the world (docs/environment.md): none
+                          ("agent", "observe"): [], ("agent", "raster_cells"): 5,
+                          ("agent", "raster_cell_m"): 10.0}
 # tables a newer adaptsky adds: left out where every key in them is at its default
 ADDED_TABLES = {"world", "metrics"}
 # names a newer adaptsky adds beside the numbers it had (JSON keys, HDF5 datasets with their
