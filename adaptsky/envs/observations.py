@@ -69,7 +69,7 @@ def observation_bounds_of(scenario: Scenario, gains: tuple[float, float] | None 
     layout or the several-UAV one)."""
     scaled = scaled_of(scenario)
     if observes_locally(scenario):
-        low, high = local_observation_bounds(scenario, gains, scaled=scaled)
+        low, high = local_bounds_of(scenario, gains)
         return np.tile(low, scenario.uav.count), np.tile(high, scenario.uav.count)
     if scenario.uav.count == 1:
         low, high = observation_bounds(scenario, gains, scaled=scaled)
@@ -79,6 +79,19 @@ def observation_bounds_of(scenario: Scenario, gains: tuple[float, float] | None 
     if world is None:
         return low, high
     world_low, world_high = world.bounds(scenario)
+    return (np.concatenate([low, float32_outward(world_low, -np.inf)]),
+            np.concatenate([high, float32_outward(world_high, np.inf)]))
+
+
+def local_bounds_of(scenario: Scenario, gains: tuple[float, float] | None = None
+                    ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """The bounds of one UAV's local observation (``gains`` as for
+    :func:`observation_bounds_of`), with its observations of the world where it asks."""
+    low, high = local_observation_bounds(scenario, gains, scaled=scaled_of(scenario))
+    world = WorldObserver.of(scenario)
+    if world is None:
+        return low, high
+    world_low, world_high = world.bounds(scenario, scenario.users_per_uav, 1)
     return (np.concatenate([low, float32_outward(world_low, -np.inf)]),
             np.concatenate([high, float32_outward(world_high, np.inf)]))
 
@@ -115,10 +128,20 @@ class AgentView:
     def observes_world(self) -> bool:
         return self.world_observer is not None
 
-    def world(self, data: WorldData, association: Association) -> NDArray[np.float32]:
-        """The observations of the world (B, E), users in this view's order."""
-        assert self.world_observer is not None and not self.local
-        return self.world_observer(data, users_in_order(association, self.user_order))
+    def with_world(self, observations: NDArray[np.float32], data: WorldData,
+                   association: Association) -> NDArray[np.float32]:
+        """``observations`` (B, W) with the observations of the world appended: after the
+        whole (B, W + E), users in this view's order; or, for local observations (B, U L),
+        after each UAV's own (B, U (L + E_local)): its users' slots, then its raster."""
+        assert self.world_observer is not None
+        if not self.local:
+            order = users_in_order(association, self.user_order)
+            return np.concatenate([observations, self.world_observer(data, order)], axis=1)
+        slots = local_user_slots(association, self.user_order, self.num_slots)
+        num_envs, num_uavs = slots.shape[:2]
+        return np.concatenate([observations.reshape(num_envs, num_uavs, -1),
+                               self.world_observer.local(data, slots)],
+                              axis=2).reshape(num_envs, -1)
 
     @classmethod
     def of(cls, scenario: Scenario) -> AgentView | None:
@@ -186,6 +209,21 @@ class LocalObserver:
             serving_uav = np.take_along_axis(serving_uav, order, axis=1)
         gather = local_gather(serving_uav, self.num_uavs, self.num_slots)
         return local_view(network, gather).reshape(len(network), self.num_uavs, -1)
+
+
+def local_user_slots(association: Association, user_order: str, num_slots: int) -> IntArray:
+    """The users (B, U, S) of every UAV's local slots in ``user_order`` (N: a padded
+    slot), as :class:`LocalObserver` lays them out."""
+    order = users_in_order(association, user_order)
+    serving = (association.serving_uav if order is None
+               else np.take_along_axis(association.serving_uav, order, axis=1))
+    slots = _user_slots(serving, association.first_user.shape[1], num_slots)
+    if order is None:
+        return slots
+    num_users = order.shape[1]          # the slots hold places in the order: back to users
+    users = np.take_along_axis(order, np.minimum(slots, num_users - 1).reshape(len(order), -1),
+                               axis=1).reshape(slots.shape)
+    return np.where(slots < num_users, users, slots)
 
 
 def local_gather(serving_uav: IntArray, num_uavs: int, num_slots: int) -> IntArray:

@@ -48,10 +48,15 @@ from pettingzoo import ParallelEnv
 
 from adaptsky.envs.action_spaces import per_component_kind, uav_action_space
 from adaptsky.envs.gym_env import RENDER_FPS, RENDER_MODES, NomaUavEnv, resolve_scenario
-from adaptsky.envs.observations import LocalObserver, scaled_of, user_order_of, users_in_order
+from adaptsky.envs.observations import (
+    LocalObserver,
+    local_bounds_of,
+    local_user_slots,
+    user_order_of,
+    users_in_order,
+)
 from adaptsky.envs.world_observation import WorldObserver
 from adaptsky.scenario import Scenario
-from adaptsky.sim.observation import local_observation_bounds
 
 AgentID = str
 OBSERVATIONS = ("global", "local")
@@ -76,10 +81,6 @@ class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
             raise ValueError(f"reward_split must be 'team', 'per-uav' or 'difference' (None: "
                              f"the scenario's agent.reward_split), got {reward_split!r}")
         scenario = resolve_scenario(scenario)
-        if observation == "local" and WorldObserver.of(scenario) is not None:
-            raise ValueError("observation='local' carries no observations of the world yet "
-                             f"(agent.observe = {list(scenario.agent.observe)}); use "
-                             "observation='global' or remove agent.observe")
         # the scenario's agent's split where it has one (BDQ, MAPPO, IPPO), else one reward for all
         self.reward_split: str = (getattr(scenario.agent, "reward_split", "team")
                                   if reward_split is None else reward_split)
@@ -98,9 +99,9 @@ class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
         box = self.env.observation_space
         self.state_space = spaces.Box(box.low, box.high, dtype=np.float32)
         self._local = LocalObserver(self.scenario) if observation == "local" else None
+        self._world = WorldObserver.of(self.scenario)
         low, high = ((box.low, box.high) if self._local is None else
-                     local_observation_bounds(self.scenario, self.env.batch.gain_bounds(),
-                                              scaled=scaled_of(self.scenario)))
+                     local_bounds_of(self.scenario, self.env.batch.gain_bounds()))
         self.observation_spaces = {agent: spaces.Box(low, high, dtype=np.float32)
                                    for agent in self.possible_agents}
         self.action_spaces = {
@@ -181,6 +182,12 @@ class NomaUavParallelEnv(ParallelEnv[AgentID, np.ndarray, np.ndarray]):
         local = self._local(state.uav_m.reshape(1, batch.num_uavs, 3), batch.users_m,
                             batch.association.serving_uav, state.alpha, state.gain,
                             state.interference_w, order)[0]
+        if self._world is not None:     # its users' slots and its raster (agent.observe)
+            assert batch.world_data is not None
+            slots = local_user_slots(batch.association, user_order_of(self.scenario),
+                                     self.scenario.users_per_uav)
+            local = np.concatenate([local, self._world.local(batch.world_data, slots)[0]],
+                                   axis=1)
         return {agent: local[u] for u, agent in enumerate(self.possible_agents)
                 if agent in agents}
 

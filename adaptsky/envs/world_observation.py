@@ -73,13 +73,36 @@ class WorldObserver:
             if name == "los":
                 parts.append(_in_order(data.serving_los, order))
             elif name == "velocity":
-                step = data.moved_m / (self.step_m if self.scaled else data.step_s)
+                step = self._velocity(data)
                 step = step if order is None else np.take_along_axis(step, order[..., None],
                                                                      axis=1)
                 parts.append(step.reshape(len(step), -1))
             else:
                 parts.append(self._heights(data))
         return np.concatenate(parts, axis=1).astype(np.float32)
+
+    def local(self, data: WorldData, slots: NDArray[np.intp]) -> NDArray[np.float32]:
+        """Every UAV's own features (B, U, E_local), float32, for its local observation
+        (docs/environment.md, "Local observations"): its users' slots ``slots`` (B, U, S)
+        (N: a padded slot, whose features are 0), then its own raster."""
+        num_envs, num_uavs, num_slots = slots.shape
+        rows = np.arange(num_envs)[:, None, None]
+        padded = slots >= data.serving_los.shape[1]
+        user = np.where(padded, 0, slots)
+        parts = []
+        for name in self.features:
+            if name == "los":
+                parts.append(np.where(padded, 0.0, data.serving_los[rows, user]))
+            elif name == "velocity":
+                step = np.where(padded[..., None], 0.0, self._velocity(data)[rows, user])
+                parts.append(step.reshape(num_envs, num_uavs, 2 * num_slots))
+            else:
+                parts.append(self._heights(data).reshape(num_envs, num_uavs, -1))
+        return np.concatenate(parts, axis=2).astype(np.float32)
+
+    def _velocity(self, data: WorldData) -> FloatArray:
+        """Every user's [v_x, v_y] (B, N, 2), scaled or raw (module doc)."""
+        return data.moved_m / (self.step_m if self.scaled else data.step_s)
 
     def _heights(self, data: WorldData) -> FloatArray:
         """Every UAV's raster (B, U R^2) (module doc)."""
@@ -95,11 +118,14 @@ class WorldObserver:
             roofs = roofs / self.max_height_m
         return roofs.reshape(num_envs, -1)
 
-    def bounds(self, scenario: Scenario) -> tuple[FloatArray, FloatArray]:
-        """Lower and upper bounds (E,) of the features: LoS in [0, 1], a velocity at most
-        the fastest user's (the largest speed the scenario allows: the area's diagonal in a
-        step where no speed bounds it), a roof between 0 and the tallest the world holds."""
-        num_users, num_uavs = scenario.num_users, scenario.uav.count
+    def bounds(self, scenario: Scenario, users: int | None = None, uavs: int | None = None
+               ) -> tuple[FloatArray, FloatArray]:
+        """Lower and upper bounds (E,) of the features of ``users`` users and ``uavs`` UAVs
+        (None: the scenario's; a local observation's: S slots and one UAV): LoS in [0, 1], a
+        velocity at most the area's diagonal in one step, a roof between 0 and the tallest
+        the world holds."""
+        num_users = scenario.num_users if users is None else users
+        num_uavs = scenario.uav.count if uavs is None else uavs
         low, high = [], []
         for name in self.features:
             if name == "los":

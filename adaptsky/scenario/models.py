@@ -724,16 +724,11 @@ class Scenario(Section):
 
     @model_validator(mode="after")
     def _world_observations(self) -> Scenario:
-        """``agent.observe`` asks only for what the world has, for an agent that sees the
-        whole network (docs/environment.md, "Observations of the world")."""
+        """``agent.observe`` asks only for what the world has (docs/environment.md,
+        "Observations of the world")."""
         observe = list(getattr(self.agent, "observe", []))
         if not observe:
             return self
-        if getattr(self.agent, "local_view", False):
-            raise ValueError(f"agent.observe: '{self.agent.algorithm}' acts on every UAV's "
-                             "local observation, which carries no observations of the world "
-                             "yet; remove agent.observe or use an agent that sees the whole "
-                             "network (dqn, bdq, ppo, sac)")
         if "heights" in observe and self.world.buildings == "none":
             raise ValueError("agent.observe: 'heights' reads the buildings, but "
                              "world.buildings = 'none'; remove it or add buildings")

@@ -251,6 +251,7 @@ class NetworkBatch:
             self._observer = MultiObserver(scenario, scaled)
         self._view = view
         self._observes_world = view is not None and view.observes_world
+        self.world_data: WorldData | None = None   # the last state's, where the view asks
         self._moved_m = np.zeros((num_envs, self.num_users, 2))
         if users_m is None:
             users_m = user_layouts(scenario, num_envs)
@@ -856,10 +857,10 @@ class NetworkBatch:
         assert self._view is not None
         los = (np.asarray(link_p_los, dtype=np.float64) if link_los is None
                else np.asarray(link_los, dtype=np.float64))
-        data = WorldData(uav_m.reshape(self.num_envs, self.num_uavs, 3),
-                         np.broadcast_to(los, (self.num_envs, self.num_users)), self._moved_m,
-                         self.scenario.uav.step_s, self.city)
-        return np.concatenate([self._obs, self._view.world(data, self.association)], axis=1)
+        self.world_data = WorldData(uav_m.reshape(self.num_envs, self.num_uavs, 3),
+                                    np.broadcast_to(los, (self.num_envs, self.num_users)),
+                                    self._moved_m, self.scenario.uav.step_s, self.city)
+        return self._view.with_world(self._obs, self.world_data, self.association)
 
     def observation(self) -> NDArray[np.float32]:
         """The observations of the last evaluated state (B, size), float32."""

@@ -260,12 +260,14 @@ class ObservationView(Protocol):
 
     scaled: bool
     observes_world: bool
-    """Whether :meth:`world` adds features (then called at every step)."""
+    """Whether :meth:`with_world` adds features (then called at every step)."""
 
     def gather(self, association: Association) -> NDArray[np.intp] | None: ...
 
-    def world(self, data: WorldData, association: Association) -> NDArray[np.float32]:
-        """The observations of the world (B, E), appended after the agent's others."""
+    def with_world(self, observations: NDArray[np.float32], data: WorldData,
+                   association: Association) -> NDArray[np.float32]:
+        """The agent's ``observations`` (after :meth:`gather`) with its observations of the
+        world added."""
         ...
 
 

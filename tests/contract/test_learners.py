@@ -96,6 +96,7 @@ NAMED = [
     Case("ppo", "city-fading-geometric-los", agent=(("observe", ("los", "heights")),)),
     Case("dqn", "moving-users", agent=(("observe", ("velocity",)),
                                        ("user_order", "clusters"))),
+    Case("mappo", "two-uavs-moving", agent=(("observe", ("velocity",)),)),
 ]
 
 

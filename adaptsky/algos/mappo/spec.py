@@ -9,13 +9,12 @@ from typing import Any
 
 from adaptsky.algos.ppo.spec import PpoSpec
 from adaptsky.algos.protocol import Algorithm, Policy
-from adaptsky.algos.shared.shapes import HeadShape
+from adaptsky.algos.shared.shapes import HeadShape, local_input_size
 from adaptsky.arrays import Tree
 from adaptsky.errors import ScenarioError
 from adaptsky.scenario.agents import MappoAgent
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.actions import DENSE_MODES, ActionSet
-from adaptsky.sim.observation import local_observation_size
 
 
 def _config(scenario: Scenario) -> MappoAgent:
@@ -44,7 +43,7 @@ def uav_head(scenario: Scenario) -> tuple[HeadShape, int | None]:
 
 def input_sizes(scenario: Scenario) -> tuple[int, int]:
     """The actor's inputs L + U and the critic's: U L + U (MAPPO), L + U (IPPO)."""
-    local, num_uavs = local_observation_size(scenario), scenario.uav.count
+    local, num_uavs = local_input_size(scenario), scenario.uav.count
     centralised = _config(scenario).algorithm == "mappo"
     return local + num_uavs, (num_uavs * local if centralised else local) + num_uavs
 

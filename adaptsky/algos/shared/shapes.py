@@ -54,6 +54,13 @@ def observation_size_of(scenario: Scenario) -> int:
     IPPO; docs/environment.md, "Local observations"), else the network's (4 N + 1 for one
     UAV, 5 N + 3 U for several)."""
     if getattr(scenario.agent, "local_view", False):
-        return scenario.uav.count * local_observation_size(scenario)
+        return scenario.uav.count * local_input_size(scenario)
     return (observation_size(scenario.num_users, scenario.uav.count)
             + world_observation_size(scenario.agent, scenario.num_users, scenario.uav.count))
+
+
+def local_input_size(scenario: Scenario) -> int:
+    """One UAV's local observation L (docs/environment.md, "Local observations") and its
+    observations of the world (``agent.observe``: its S user slots and its raster)."""
+    return (local_observation_size(scenario)
+            + world_observation_size(scenario.agent, scenario.users_per_uav, 1))

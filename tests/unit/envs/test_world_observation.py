@@ -108,8 +108,6 @@ def test_the_gymnasium_space_holds_the_world():
     ('[agent]\nobserve = ["los"]\nraster_cell_m = 4.0\nraster_cells = 3',
      "raster_cells, raster_cell_m given without 'heights'"),
     ('[agent]\nobserve = ["lidar"]', "observe"),
-    ('[uav]\ncount = 2\n[agent]\nalgorithm = "mappo"\nobserve = ["los"]',
-     "'mappo' acts on every UAV's local observation"),
 ])
 def test_refusals_are_one_line(tmp_path, capsys, body, words):
     assert words in refusal_of_scenario(tmp_path, capsys, body)
@@ -122,14 +120,35 @@ def test_an_even_raster_is_refused(tmp_path, capsys):
     assert "raster_cells: 4 is even" in refusal_of_scenario(tmp_path, capsys, body)
 
 
-def test_pettingzoo_sees_the_world_globally_and_refuses_it_locally():
+def test_pettingzoo_sees_the_world_globally_and_each_uav_its_own_locally():
+    """Globally every agent sees the whole observation with the world's features; locally
+    each UAV sees its own users' velocities in its slots (the global ones of those users),
+    after its local observation."""
+    from adaptsky.envs.observations import local_user_slots
     from adaptsky.envs.parallel_env import NomaUavParallelEnv
+    from adaptsky.sim.observation import local_observation_size
 
     scenario = with_values(load_scenario(SCENARIOS / "two_uavs_moving_mmwave.toml"), "agent",
                            {"observe": ["velocity"]}, "test")
-    env = NomaUavParallelEnv(scenario)
-    observations, _ = env.reset(seed=0)
+    global_env = NomaUavParallelEnv(scenario)
+    observations, _ = global_env.reset(seed=0)
     width = observation_size_of(scenario)
     assert all(obs.shape == (width,) for obs in observations.values())
-    with pytest.raises(ValueError, match="observation='local' carries no observations of the"):
-        NomaUavParallelEnv(scenario, observation="local")
+    local_env = NomaUavParallelEnv(scenario, observation="local")
+    local_env.reset(seed=0)
+    actions = {agent: local_env.action_spaces[agent].sample() for agent in local_env.agents}
+    global_env.step(actions)
+    observations, *_ = local_env.step(actions)
+    association = local_env.env.batch.association
+    order = association.members[0].reshape(-1)           # the tuned agent's cluster order
+    assert scenario.agent.user_order == "clusters"
+    velocity = np.empty((scenario.num_users, 2))
+    velocity[order] = global_env.state()[-2 * scenario.num_users:].reshape(-1, 2)
+    assert np.abs(velocity).max() > 0
+    slots = local_user_slots(association, "clusters", scenario.users_per_uav)[0]
+    size = local_observation_size(scenario)
+    for u, agent in enumerate(local_env.possible_agents):
+        obs = observations[agent]
+        assert obs.shape == (size + 2 * scenario.users_per_uav,)
+        assert local_env.observation_spaces[agent].contains(obs)
+        np.testing.assert_array_equal(obs[size:].reshape(-1, 2), velocity[slots[u]])
