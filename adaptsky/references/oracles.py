@@ -96,9 +96,10 @@ class Oracle(Reference):
                 or _uplink_refusal(scenario))
 
     def per_layout(self, scenario: Scenario) -> bool:
-        # (training's greedy evaluations take it from best response's cached search, which
-        # searches the downlink's pairs)
-        return _paper_noma(scenario)
+        # training's greedy evaluations take it from best response's cached search (for one
+        # UAV the oracle's: the pairs' or, for clusters of M > 2 and the uplink, the cluster
+        # oracle's)
+        return True
 
     def work(self, scenario: Scenario, steps: int, users_m: np.ndarray) -> tuple[int, str]:
         return len(users_m), "layout"
