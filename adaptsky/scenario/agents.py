@@ -84,11 +84,6 @@ class DqnAgent(Section):
         _check_memory_holds_a_batch(self.memory_size, self.batch_size)
         return self
 
-    @model_validator(mode="after")
-    def _world_keys(self) -> DqnAgent:
-        check_world_keys(self)
-        return self
-
 
 def world_observation_size(agent: Section, num_users: int, num_uavs: int) -> int:
     """The components ``agent.observe`` appends to the agent's observation (docs/
@@ -105,15 +100,18 @@ def check_world_keys(agent: Section) -> None:
     cells odd."""
     observe = list(getattr(agent, "observe", []))
     if len(set(observe)) != len(observe):
-        raise ValueError(f"observe: {observe} lists an observation twice; list each once")
+        raise ValueError(f"agent.observe: {observe} lists an observation twice; list each "
+                         "once")
     given = [key for key in ("raster_cells", "raster_cell_m")    # (a resolved file lists
              if getattr(agent, key) != type(agent).model_fields[key].default]   # defaults)
     if given and "heights" not in observe:
-        raise ValueError(f"{', '.join(given)} given without 'heights' in observe, which "
+        raise ValueError(f"agent.{', agent.'.join(given)} given without 'heights' in "
+                         f"agent.observe, which "
                          f"{'reads it' if len(given) == 1 else 'read them'}; add 'heights' "
                          "or remove it")
     if getattr(agent, "raster_cells", 1) % 2 == 0:
-        raise ValueError(f"raster_cells: {agent.raster_cells} is even; the raster is centred "
+        raise ValueError(f"agent.raster_cells: {agent.raster_cells} is even; the raster is "
+                         "centred "
                          "on the UAV, give an odd number")
 
 
@@ -169,11 +167,6 @@ class BdqAgent(Section):
     observe: list[Literal["los", "heights", "velocity"]] = _as_dqn("observe")
     raster_cells: int = _as_dqn("raster_cells")
     raster_cell_m: float = _as_dqn("raster_cell_m")
-
-    @model_validator(mode="after")
-    def _world_keys(self) -> Any:
-        check_world_keys(self)
-        return self
 
     reward_scale: float = _as_dqn("reward_scale")
     n_step: int = _as_dqn("n_step")
@@ -245,11 +238,6 @@ class PpoAgent(Section):
     raster_cells: int = _as_dqn("raster_cells")
     raster_cell_m: float = _as_dqn("raster_cell_m")
 
-    @model_validator(mode="after")
-    def _world_keys(self) -> Any:
-        check_world_keys(self)
-        return self
-
     reward_scale: float = _as_dqn("reward_scale")
 
     @model_validator(mode="before")
@@ -298,11 +286,6 @@ class SacAgent(Section):
     observe: list[Literal["los", "heights", "velocity"]] = _as_dqn("observe")
     raster_cells: int = _as_dqn("raster_cells")
     raster_cell_m: float = _as_dqn("raster_cell_m")
-
-    @model_validator(mode="after")
-    def _world_keys(self) -> Any:
-        check_world_keys(self)
-        return self
 
     reward_scale: float = _as_dqn("reward_scale")
 

@@ -104,9 +104,9 @@ def test_the_gymnasium_space_holds_the_world():
     ('[agent]\nobserve = ["heights"]', "'heights' reads the buildings, but world.buildings"),
     ('[agent]\nobserve = ["velocity"]', "'velocity' reads the users' moves, but the users"),
     ('[agent]\nobserve = ["los", "los"]', "lists an observation twice"),
-    ('[agent]\nraster_cells = 3', "raster_cells given without 'heights' in observe"),
+    ('[agent]\nraster_cells = 3', "agent.raster_cells given without 'heights' in agent.observe"),
     ('[agent]\nobserve = ["los"]\nraster_cell_m = 4.0\nraster_cells = 3',
-     "raster_cells, raster_cell_m given without 'heights'"),
+     "agent.raster_cells, agent.raster_cell_m given without 'heights'"),
     ('[agent]\nobserve = ["lidar"]', "observe"),
 ])
 def test_refusals_are_one_line(tmp_path, capsys, body, words):
