@@ -55,8 +55,9 @@ share of a layout done that progress reports: a round's end is known only when i
 
 RESPONSE_MAX_VALUES = 10**9
 """The most (lattice point, share vector) pairs one UAV's response may value for clusters of
-M > 2 or the uplink (every vector at every point: about a minute and a half of CPU per 10^8
-on this project's machine); beyond, best response is refused in one line."""
+M > 2 or the uplink (every vector at every point); beyond, best response is refused in one
+line. Measured on two_uavs_mmwave.toml (5 m lattice, 0.1 grid): about 2.5 s of CPU per 10^8
+pairs for clusters of four, about 18 s for the uplink's pairs (docs/model.md §15, §17)."""
 
 OnSearch = Callable[[float, str], None]
 """Hears, after each chunk of a UAV's lattice, the layouts done (a fraction within one) and
@@ -265,7 +266,6 @@ class BestResponseSearch:
         shares = np.full((len(gain), len(valid)), self.alphas[0])
         shares[:, valid] = np.where(np.isnan(alpha), self.alphas[0], alpha)
         return shares
-
 
     def _best_share_vectors(self, u: int, gain: FloatArray) -> FloatArray:
         """UAV ``u``'s best components (P, S) on the grid for clusters of M > 2, cluster by
