@@ -115,6 +115,22 @@ def check_world_keys(agent: Section) -> None:
                          "on the UAV, give an odd number")
 
 
+def check_network_keys(agent: Section) -> None:
+    """``agent.set_sizes`` other than its default goes with ``network = "set"``; the set
+    encoder reads the whole network's observation (MAPPO's and IPPO's per-UAV actors do not
+    take it yet)."""
+    network = getattr(agent, "network", "mlp")
+    sizes = getattr(agent, "set_sizes", None)
+    if sizes is not None and network != "set" and sizes != type(agent).model_fields[
+            "set_sizes"].default:
+        raise ValueError("agent.set_sizes given with agent.network = 'mlp', which reads no "
+                         "set; set agent.network = 'set' or remove it")
+    if network == "set" and getattr(agent, "local_view", False):
+        raise ValueError(f"agent.network: 'set' is not built for '{agent.algorithm}' yet "
+                         "(its actor acts on each UAV's local observation); use 'mlp', or "
+                         "'ppo' with one actor for the whole network")
+
+
 def with_preset(model: type[Section], data: Any, family: str) -> Any:
     """``data`` (an ``[agent]`` table) with the values of its ``preset`` (or the family's
     default preset) under the keys it gives, for the keys ``model`` has."""
@@ -167,7 +183,6 @@ class BdqAgent(Section):
     observe: list[Literal["los", "heights", "velocity"]] = _as_dqn("observe")
     raster_cells: int = _as_dqn("raster_cells")
     raster_cell_m: float = _as_dqn("raster_cell_m")
-
     reward_scale: float = _as_dqn("reward_scale")
     n_step: int = _as_dqn("n_step")
     target_tau: float = _as_dqn("target_tau")
@@ -232,12 +247,18 @@ class PpoAgent(Section):
                               "to [-10, 10] (CleanRL's continuous PPO)")
     init_log_std: float = Field(0.0, ge=-20, le=2, description="initial log standard "
                                 "deviation of the Gaussian head")
+    network: Literal["mlp", "set"] = Field(
+        "mlp", description="what reads the observation: 'mlp' the whole vector, 'set' a "
+        "network shared by the users, pooled by mean and max, beside the rest "
+        "(docs/agent.md, 'The set encoder')")
+    set_sizes: list[LayerSize] = Field([64], min_length=1, max_length=100, description="'set':"
+                                       " the layers of the network each user's features go "
+                                       "through, the activation after each")
     observation: Literal["scaled", "raw"] = _as_dqn("observation")
     user_order: Literal["listed", "clusters"] = _as_dqn("user_order")
     observe: list[Literal["los", "heights", "velocity"]] = _as_dqn("observe")
     raster_cells: int = _as_dqn("raster_cells")
     raster_cell_m: float = _as_dqn("raster_cell_m")
-
     reward_scale: float = _as_dqn("reward_scale")
 
     @model_validator(mode="before")
@@ -286,7 +307,6 @@ class SacAgent(Section):
     observe: list[Literal["los", "heights", "velocity"]] = _as_dqn("observe")
     raster_cells: int = _as_dqn("raster_cells")
     raster_cell_m: float = _as_dqn("raster_cell_m")
-
     reward_scale: float = _as_dqn("reward_scale")
 
     @model_validator(mode="before")

@@ -12,7 +12,12 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 
-from adaptsky.scenario.agents import AgentConfig, DqnAgent, check_world_keys
+from adaptsky.scenario.agents import (
+    AgentConfig,
+    DqnAgent,
+    check_network_keys,
+    check_world_keys,
+)
 from adaptsky.scenario.ground import MIN_OPEN_SHARE, open_ground_share
 from adaptsky.scenario.sections import (  # noqa: F401 (names of the scenario model)
     AREA_MAX_SIDE_M,
@@ -727,6 +732,7 @@ class Scenario(Section):
         """``agent.observe`` asks only for what the world has (docs/environment.md,
         "Observations of the world")."""
         check_world_keys(self.agent)
+        check_network_keys(self.agent)
         observe = list(getattr(self.agent, "observe", []))
         if not observe:
             return self

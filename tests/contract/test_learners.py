@@ -93,7 +93,9 @@ NAMED = [
     Case("ippo", "two-uavs-moving", actions="continuous"),
     Case("dqn", "csi-clusters-of-three"),
     # observations of the world (docs/environment.md): a city's LoS and heights, users' moves
-    Case("ppo", "city-fading-geometric-los", agent=(("observe", ("los", "heights")),)),
+    # ... read by PPO's set encoder (docs/agent.md)
+    Case("ppo", "city-fading-geometric-los", agent=(("observe", ("los", "heights")),
+                                                    ("network", "set"))),
     Case("dqn", "moving-users", agent=(("observe", ("velocity",)),
                                        ("user_order", "clusters"))),
     Case("mappo", "two-uavs-moving", agent=(("observe", ("velocity",)),)),

@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 from adaptsky.algos.on_policy import OnPolicyLearner
 from adaptsky.algos.ppo.stacked import StackedActorCritic
 from adaptsky.algos.shared.heads import ActionHead
+from adaptsky.algos.shared.set_layout import SetEncoder
 from adaptsky.algos.shared.shapes import HeadShape
 from adaptsky.scenario.agents import PpoAgent
 
@@ -35,12 +36,14 @@ class PpoLearner(OnPolicyLearner):
 
     def __init__(self, config: PpoAgent, head: HeadShape, observation_size: int,
                  seeds: list[int], rngs: list[np.random.Generator], steps: int, episodes: int,
-                 device: Any = "cpu", critic_size: int | None = None) -> None:
+                 device: Any = "cpu", critic_size: int | None = None,
+                 encoder: SetEncoder | None = None) -> None:
         """``observation_size``: the actor's inputs; ``critic_size`` the critic's where they
-        differ (its inputs then come from :meth:`_inputs`)."""
+        differ (its inputs then come from :meth:`_inputs`); ``encoder``: the set encoder
+        (``agent.network = "set"``)."""
         self.net = StackedActorCritic(observation_size, config.hidden_sizes, head, seeds,
                                       config.activation, config.init_log_std, device,
-                                      critic_size)
+                                      critic_size, encoder)
         self.head = ActionHead(head)
         self.episodes = episodes
         super().__init__(config, rngs, steps, observation_size, critic_size,

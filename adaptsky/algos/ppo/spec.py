@@ -10,6 +10,7 @@ from typing import Any, ClassVar
 from adaptsky.algos.ppo.parameters import critic_shapes, policy_shapes
 from adaptsky.algos.protocol import Algorithm, LayoutCheck, Node, Policy
 from adaptsky.algos.shared.checkpoint import ADAM_STEP, FLOAT32, check_adam, check_weights
+from adaptsky.algos.shared.set_layout import set_encoder_of
 from adaptsky.algos.shared.shapes import HeadShape, observation_size_of, parameter_count
 from adaptsky.arrays import Field, Tree
 from adaptsky.errors import ScenarioError
@@ -93,8 +94,9 @@ class PpoSpec:
                                                   dict[str, tuple[int, ...]]]:
         """The policy's and the critic's parameters, torch-named and shaped."""
         (actor, critic), hidden = self.inputs(scenario), _config(scenario).hidden_sizes
-        return (policy_shapes(actor, hidden, self.head(scenario)),
-                critic_shapes(critic or actor, hidden))
+        encoder = set_encoder_of(scenario)
+        return (policy_shapes(actor, hidden, self.head(scenario), encoder),
+                critic_shapes(critic or actor, hidden, encoder))
 
     # ---- the checkpoint -------------------------------------------------------------------
 
@@ -150,7 +152,8 @@ class PpoSpec:
 
         train = scenario.train
         return PpoLearner(_config(scenario), head_of(scenario), observation_size, seeds,
-                          rngs, train.steps, train.episodes, device)  # type: ignore[return-value]
+                          rngs, train.steps, train.episodes, device,
+                          encoder=set_encoder_of(scenario))  # type: ignore[return-value]
 
     def greedy_policy(self, scenario: Scenario, policy: Tree) -> Policy:
         from adaptsky.algos.ppo.stacked import StackedActorCritic
@@ -158,7 +161,7 @@ class PpoSpec:
 
         agent, head = _config(scenario), head_of(scenario)
         net = StackedActorCritic(observation_size_of(scenario), agent.hidden_sizes, head,
-                                 [0], agent.activation)
+                                 [0], agent.activation, encoder=set_encoder_of(scenario))
         net.load_policy(0, policy)
         actions = ActionHead(head)
         return lambda observations: actions.env_actions(actions.mode(

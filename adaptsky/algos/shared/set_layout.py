@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from adaptsky.algos.shared.shapes import Shapes, mlp_shapes
 from adaptsky.scenario.models import Scenario
 from adaptsky.sim.observation import (
     FEATURES_PER_UAV,
@@ -70,3 +71,29 @@ def set_layout(scenario: Scenario) -> SetLayout:
                            at + np.arange(rasters * cells)])
     return SetLayout(np.concatenate(columns, axis=1).astype(np.intp), rest.astype(np.intp),
                      at + rasters * cells)
+
+
+@dataclass(frozen=True)
+class SetEncoder:
+    """The set encoder of ``agent.network = "set"`` (docs/agent.md, "The set encoder"): each
+    user's F features of ``layout`` through one network of ``sizes`` shared by the users
+    (the activation after every layer), pooled by mean and max over the users, beside the
+    rest of the observation: the input (:attr:`width` = 2 H + G) of the MLP after it."""
+
+    layout: SetLayout
+    sizes: tuple[int, ...]
+
+    @property
+    def width(self) -> int:
+        return 2 * self.sizes[-1] + len(self.layout.rest)
+
+    def shapes(self, prefix: str) -> Shapes:
+        """The shared network's parameters, ``<prefix>.0.weight`` (out, in) ..."""
+        return mlp_shapes(prefix, [self.layout.per_user.shape[1], *self.sizes])
+
+
+def set_encoder_of(scenario: Scenario) -> SetEncoder | None:
+    """``scenario``'s agent's set encoder, None where its networks read the whole vector."""
+    if getattr(scenario.agent, "network", "mlp") != "set":
+        return None
+    return SetEncoder(set_layout(scenario), tuple(scenario.agent.set_sizes))

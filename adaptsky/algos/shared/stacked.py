@@ -188,6 +188,28 @@ class StackedParameters:
                 x = hidden(x)
         return x
 
+    def set_encoded(self, prefix: str, x: torch.Tensor, per_user: torch.Tensor,
+                    rest: torch.Tensor, hidden: Activation) -> torch.Tensor:
+        """The set encoder ``prefix`` (docs/agent.md, "The set encoder") of x (S, n, obs):
+        each user's features x[..., per_user] (slots, F) through the MLP ``prefix`` with
+        ``hidden`` after every layer, pooled by mean and max over the users, beside
+        x[..., rest]: (S, n, 2 H + G)."""
+        stack, rows = x.shape[:2]
+        slots, features = per_user.shape
+        users = x[..., per_user].reshape(stack, rows * slots, features)
+        encoded = hidden(self.mlp(prefix, users, hidden)).reshape(stack, rows, slots, -1)
+        return torch.cat([encoded.mean(dim=2), encoded.amax(dim=2), x[..., rest]], dim=-1)
+
+    def host_set_encoded(self, prefix: str, x: np.ndarray, per_user: np.ndarray,
+                         rest: np.ndarray, hidden: HostActivation) -> np.ndarray:
+        """:meth:`set_encoded` in numpy over the weights' memory (CPU)."""
+        stack, rows = x.shape[:2]
+        slots, features = per_user.shape
+        users = x[..., per_user].reshape(stack, rows * slots, features)
+        encoded = hidden(self.host_mlp(prefix, users, hidden)).reshape(stack, rows, slots, -1)
+        return np.concatenate([encoded.mean(axis=2), encoded.max(axis=2), x[..., rest]],
+                              axis=-1)
+
     def host_mlp(self, prefix: str, x: np.ndarray, hidden: HostActivation) -> np.ndarray:
         """:meth:`mlp` in numpy over the weights' memory (CPU)."""
         flat = self.params.detach().cpu().numpy()

@@ -1,0 +1,82 @@
+"""The set encoder (``agent.network = "set"``; docs/agent.md, "The set encoder"): PPO's actor
+and critic read each user's features through one shared network, pooled by mean and max, so
+listing the users in another order leaves what they output as it is (to float rounding of the
+mean), where an MLP's changes; the numpy greedy path computes what torch does; the encoder's
+parameters are named and checked in run files; its keys are refused where they mean nothing."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from adaptsky.algos.ppo.spec import head_of
+from adaptsky.algos.ppo.stacked import StackedActorCritic
+from adaptsky.algos.shared.set_layout import set_encoder_of
+from adaptsky.algos.shared.shapes import observation_size_of
+from adaptsky.envs.observations import AgentView
+from adaptsky.scenario import load_scenario
+from adaptsky.scenario.variants import with_values
+from adaptsky.sim.network import NetworkBatch
+from tests.conftest import SCENARIOS
+from tests.helpers.cli import refusal_of_scenario
+
+
+def ppo(network: str, **agent):
+    scenario = load_scenario(SCENARIOS / "nyc_mmwave_any_layout.toml")
+    return with_values(scenario, "agent", {"algorithm": "ppo", "network": network, **agent},
+                       "test", replace=True)
+
+
+def nets(scenario):
+    return StackedActorCritic(observation_size_of(scenario), scenario.agent.hidden_sizes,
+                              head_of(scenario), [0, 1], scenario.agent.activation,
+                              encoder=set_encoder_of(scenario))
+
+
+def observations(scenario, count=5):
+    env = NetworkBatch(scenario, num_envs=count, seed=0, view=AgentView.of(scenario),
+                       users_m=NetworkBatch(scenario, num_envs=count, seed=3).layouts_m)
+    obs, _ = env.reset()
+    return obs
+
+
+@pytest.mark.parametrize("network", ["set", "mlp"])
+def test_the_users_order_leaves_the_set_encoders_outputs(network):
+    scenario = ppo(network)
+    net = nets(scenario)
+    obs = observations(scenario)                             # (5, 4 N + 1)
+    num_users = scenario.num_users
+    permutation = np.random.default_rng(0).permutation(num_users)
+    assert (permutation != np.arange(num_users)).any()
+    per_user = obs[:, :4 * num_users].reshape(len(obs), num_users, 4)
+    permuted = obs.copy()
+    permuted[:, :4 * num_users] = per_user[:, permutation].reshape(len(obs), -1)
+    x = torch.from_numpy(np.stack([obs, obs]))
+    y = torch.from_numpy(np.stack([permuted, permuted]))
+    with torch.no_grad():
+        same = [torch.allclose(f(x), f(y), rtol=1e-5, atol=1e-6) for f in (net.actor, net.critic)]
+    assert same == ([True, True] if network == "set" else [False, False])
+
+
+def test_numpy_greedy_path_is_torchs():
+    scenario = ppo("set", set_sizes=[32, 16])
+    net = nets(scenario)
+    obs = np.stack([observations(scenario)] * 2)
+    with torch.no_grad():
+        device = net.actor(torch.from_numpy(obs)).numpy()
+    np.testing.assert_allclose(net.host_actor(obs), device, rtol=1e-5, atol=1e-6)
+    assert {"actor_set.0.weight", "actor_set.2.weight"} <= set(net.policy_names)
+    assert net.slots["actor_set.2.weight"].shape == (16, 32)
+    encoder = set_encoder_of(scenario)
+    assert encoder.width == 2 * 16 + 1 and net.slots["actor.0.weight"].shape[1] == 33
+
+
+@pytest.mark.parametrize("body, words", [
+    ('[agent]\nalgorithm = "ppo"\nset_sizes = [32]', "agent.set_sizes given with "
+                                                       "agent.network = 'mlp'"),
+    ('[uav]\ncount = 2\n[agent]\nalgorithm = "mappo"\nnetwork = "set"',
+     "agent.network: 'set' is not built for 'mappo' yet"),
+])
+def test_refusals_are_one_line(tmp_path, capsys, body, words):
+    assert words in refusal_of_scenario(tmp_path, capsys, body)
