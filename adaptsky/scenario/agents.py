@@ -307,6 +307,8 @@ class SacAgent(Section):
     observe: list[Literal["los", "heights", "velocity"]] = _as_dqn("observe")
     raster_cells: int = _as_dqn("raster_cells")
     raster_cell_m: float = _as_dqn("raster_cell_m")
+    network: Literal["mlp", "set"] = copy(PpoAgent.model_fields["network"])
+    set_sizes: list[LayerSize] = copy(PpoAgent.model_fields["set_sizes"])
     reward_scale: float = _as_dqn("reward_scale")
 
     @model_validator(mode="before")

@@ -89,6 +89,8 @@ NAMED = [
     Case("ppo", "open-ground", actions="continuous"),                    # the Gaussian head
     Case("ppo", "open-ground", agent=(("action_head", "branches"),), slow=True),
     Case("sac", "sampled-los-fresh", actions="continuous"),
+    Case("sac", "moving-users", actions="continuous", agent=(("network", "set"),
+                                                             ("observe", ("velocity",)))),
     Case("mappo", "two-uavs-moving", agent=(("reward_split", "per-uav"),)),
     Case("ippo", "two-uavs-moving", actions="continuous"),
     Case("dqn", "csi-clusters-of-three"),

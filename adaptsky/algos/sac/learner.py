@@ -26,6 +26,7 @@ from adaptsky.algos.off_policy import OffPolicyLearner
 from adaptsky.algos.replay import Batch, StackedReplay
 from adaptsky.algos.sac.parameters import Q_NETWORKS
 from adaptsky.algos.sac.stacked import StackedSac, host_greedy
+from adaptsky.algos.shared.set_layout import SetEncoder
 from adaptsky.algos.shared.stacked import padded, padded_rows
 from adaptsky.scenario.agents import SacAgent
 
@@ -52,12 +53,12 @@ class SacLearner(OffPolicyLearner):
     ``rngs[s]`` draws member s's actions, replay samples and noise."""
 
     def __init__(self, config: SacAgent, observation_size: int, components: int,
-                 seeds: list[int], rngs: list[np.random.Generator], device: Any = "cpu"
-                 ) -> None:
-        self.config, self.components = config, components
+                 seeds: list[int], rngs: list[np.random.Generator], device: Any = "cpu",
+                 encoder: SetEncoder | None = None) -> None:
+        self.config, self.components, self.encoder = config, components, encoder
         log_alpha = 0.0 if config.autotune else math.log(config.alpha)
         self.net = StackedSac(observation_size, config.hidden_sizes, components, seeds,
-                              log_alpha, device)
+                              log_alpha, device, encoder)
         self.device = self.net.device
         super().__init__(rngs, self.net, ControlReplay(len(seeds), config.memory_size,
                                                        observation_size, self.device,
@@ -94,7 +95,7 @@ class SacLearner(OffPolicyLearner):
         """tanh(mu) (S, n, D) for observations (S, n, obs)."""
         obs = np.asarray(observations, dtype=np.float32)
         if self.device.type == "cpu":
-            return host_greedy(self.net.actor, obs, self.components)
+            return host_greedy(self.net.actor, obs, self.components, self.encoder)
         with torch.no_grad():
             return self.net.greedy(torch.tensor(obs, device=self.device)).cpu().numpy()
 

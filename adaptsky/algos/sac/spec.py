@@ -25,6 +25,7 @@ from adaptsky.algos.shared.checkpoint import (
     check_weights,
     replay_network_parts,
 )
+from adaptsky.algos.shared.set_layout import set_encoder_of
 from adaptsky.algos.shared.shapes import observation_size_of, parameter_count
 from adaptsky.arrays import Field, Tree
 from adaptsky.scenario.agents import SacAgent
@@ -74,9 +75,9 @@ class SacSpec:
         """The parameters of the actor, each Q network and the temperature, torch-named and
         shaped, by checkpoint group."""
         obs, hidden = observation_size_of(scenario), _config(scenario).hidden_sizes
-        count = components(scenario)
-        return {"actor": actor_shapes(obs, hidden, count),
-                **{q: q_shapes(q, obs, hidden, count) for q in Q_NETWORKS},
+        count, encoder = components(scenario), set_encoder_of(scenario)
+        return {"actor": actor_shapes(obs, hidden, count, encoder),
+                **{q: q_shapes(q, obs, hidden, count, encoder) for q in Q_NETWORKS},
                 "alpha": TEMPERATURE_SHAPES}
 
     # ---- the checkpoint -------------------------------------------------------------------
@@ -113,8 +114,10 @@ class SacSpec:
         the Q networks' six."""
         agent = _config(scenario)
         obs, count = observation_size_of(scenario), components(scenario)
-        actor = float(parameter_count(actor_shapes(obs, agent.hidden_sizes, count)))
-        critics = float(parameter_count(critic_shapes(obs, agent.hidden_sizes, count)))
+        encoder = set_encoder_of(scenario)
+        actor = float(parameter_count(actor_shapes(obs, agent.hidden_sizes, count, encoder)))
+        critics = float(parameter_count(critic_shapes(obs, agent.hidden_sizes, count,
+                                                      encoder)))
         hidden = float(sum(agent.hidden_sizes))
         return {
             "replay": replay_network_parts(scenario, seeds, workers, 1.0, count)["replay"],
@@ -132,18 +135,18 @@ class SacSpec:
 
         assert num_actions == components(scenario), (num_actions, components(scenario))
         return SacLearner(_config(scenario), observation_size, num_actions, seeds, rngs,
-                          device)  # type: ignore[return-value]
+                          device, set_encoder_of(scenario))  # type: ignore[return-value]
 
     def greedy_policy(self, scenario: Scenario, policy: Tree) -> Policy:
         from adaptsky.algos.sac.stacked import host_greedy  # torch
         from adaptsky.algos.shared.stacked import StackedParameters
 
-        count = components(scenario)
+        count, encoder = components(scenario), set_encoder_of(scenario)
         shapes = actor_shapes(observation_size_of(scenario), _config(scenario).hidden_sizes,
-                              count)
+                              count, encoder)
         actor = StackedParameters(shapes, [policy])
         return lambda observations: host_greedy(  # type: ignore[return-value]
-            actor, observations[None].astype("float32"), count)[0]
+            actor, observations[None].astype("float32"), count, encoder)[0]
 
 
 SAC = SacSpec()

@@ -22,6 +22,7 @@ from adaptsky.algos.sac.parameters import (
     critic_shapes,
 )
 from adaptsky.algos.shared.heads import ActionHead
+from adaptsky.algos.shared.set_layout import SetEncoder
 from adaptsky.algos.shared.shapes import HeadShape
 from adaptsky.algos.shared.stacked import Shapes, StackedParameters, activation, linear_layers
 
@@ -33,7 +34,8 @@ def initial_named(shapes: Shapes, seed: int) -> dict[str, np.ndarray]:
     """One member's initial actor and Q networks, torch-named (module docstring)."""
     torch.manual_seed(seed)
     named: dict[str, np.ndarray] = {}
-    for prefix in ("actor", *Q_NETWORKS):
+    for prefix in ("actor_set", "actor", *(f"{q}{set_}" for q in Q_NETWORKS
+                                            for set_ in ("_set", ""))):
         for weight, bias in linear_layers(shapes, prefix):
             layer = nn.Linear(shapes[weight][1], shapes[weight][0])
             named[weight] = layer.weight.detach().numpy().copy()
@@ -56,9 +58,14 @@ def squashed(out: torch.Tensor, noise: torch.Tensor) -> tuple[torch.Tensor, torc
     return actions, log_prob - torch.log(1 - actions * actions + SQUASH_EPS).sum(dim=-1)
 
 
-def host_greedy(actor: StackedParameters, observations: np.ndarray, components: int
-                ) -> np.ndarray:
-    """tanh(mu) (S, n, D) for observations (S, n, obs), in numpy (CPU)."""
+def host_greedy(actor: StackedParameters, observations: np.ndarray, components: int,
+                encoder: SetEncoder | None = None) -> np.ndarray:
+    """tanh(mu) (S, n, D) for observations (S, n, obs), in numpy (CPU), through the set
+    ``encoder`` where the actor has one."""
+    if encoder is not None:
+        observations = actor.host_set_encoded("actor_set", observations,
+                                              encoder.layout.per_user, encoder.layout.rest,
+                                              _HOST_RELU)
     out = actor.host_mlp("actor", observations, _HOST_RELU)
     return np.tanh(out[..., :components]).astype(np.float32)
 
@@ -69,10 +76,11 @@ class StackedSac:
 
     def __init__(self, observation_size: int, hidden_sizes: list[int], components: int,
                  seeds: list[int], log_alpha: float = 0.0,
-                 device: str | torch.device = "cpu") -> None:
-        self.size, self.components = len(seeds), components
-        actor = actor_shapes(observation_size, hidden_sizes, components)
-        critics = critic_shapes(observation_size, hidden_sizes, components)
+                 device: str | torch.device = "cpu", encoder: SetEncoder | None = None
+                 ) -> None:
+        self.size, self.components, self.encoder = len(seeds), components, encoder
+        actor = actor_shapes(observation_size, hidden_sizes, components, encoder)
+        critics = critic_shapes(observation_size, hidden_sizes, components, encoder)
         named = [initial_named({**actor, **critics}, seed) for seed in seeds]
         self.actor = StackedParameters(actor, named, device=device)
         self.critics = StackedParameters(critics, named, device=device)
@@ -81,24 +89,39 @@ class StackedSac:
         self.temperature = StackedParameters(TEMPERATURE_SHAPES, [start] * self.size,
                                              device=device)
         self.device = self.actor.device
+        if encoder is not None:
+            self._per_user = torch.as_tensor(encoder.layout.per_user, device=self.device)
+            self._rest = torch.as_tensor(encoder.layout.rest, device=self.device)
 
     # ---- forward --------------------------------------------------------------------------
 
     def sample(self, observations: torch.Tensor, noise: torch.Tensor
                ) -> tuple[torch.Tensor, torch.Tensor]:
         """:func:`squashed` actions (S, n, D) and log pi (S, n) for observations (S, n, obs)."""
-        return squashed(self.actor.mlp("actor", observations, _RELU), noise)
+        return squashed(self._actor(observations), noise)
 
     def greedy(self, observations: torch.Tensor) -> torch.Tensor:
         """tanh(mu) (S, n, D) for observations (S, n, obs)."""
-        out = self.actor.mlp("actor", observations, _RELU)
-        return torch.tanh(out[..., :self.components])
+        return torch.tanh(self._actor(observations)[..., :self.components])
+
+    def _actor(self, observations: torch.Tensor) -> torch.Tensor:
+        """The actor's outputs (S, n, 2 D), through its set encoder where it has one."""
+        return self.actor.mlp("actor", self._read(self.actor, "actor", observations), _RELU)
+
+    def _read(self, net: StackedParameters, prefix: str, observations: torch.Tensor,
+              flat: torch.Tensor | None = None) -> torch.Tensor:
+        """What the MLP ``prefix`` of ``net`` reads: the observations, or their set
+        encoding (over ``flat``, as :meth:`StackedParameters.mlp`)."""
+        if self.encoder is None:
+            return observations
+        return net.set_encoded(f"{prefix}_set", observations, self._per_user, self._rest,
+                               _RELU, flat)
 
     def q(self, name: str, observations: torch.Tensor, actions: torch.Tensor,
           flat: torch.Tensor | None = None) -> torch.Tensor:
         """Q network ``name``'s values (S, n) over ``flat`` (default the critics' parameters;
         :attr:`targets`)."""
-        x = torch.cat([observations, actions], dim=2)
+        x = torch.cat([self._read(self.critics, name, observations, flat), actions], dim=2)
         return self.critics.mlp(name, x, _RELU, flat)[..., 0]
 
     def min_q(self, observations: torch.Tensor, actions: torch.Tensor,
@@ -129,7 +152,8 @@ class StackedSac:
         rows = {"": critics.row(critics.params, member),
                 "_target": critics.row(self.targets, member)}
         return {"actor": self.actor.named(member),
-                **{q + kind: critics.named_from_row(row, critics.names(q))
+                **{q + kind: critics.named_from_row(row, critics.names(q)
+                                                    + critics.names(f"{q}_set"))
                    for kind, row in rows.items() for q in Q_NETWORKS},
                 "alpha": self.temperature.named(member),
                 "actor_optimizer": self.actor.optimizer_arrays(member),

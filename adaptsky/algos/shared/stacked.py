@@ -189,15 +189,16 @@ class StackedParameters:
         return x
 
     def set_encoded(self, prefix: str, x: torch.Tensor, per_user: torch.Tensor,
-                    rest: torch.Tensor, hidden: Activation) -> torch.Tensor:
+                    rest: torch.Tensor, hidden: Activation, flat: torch.Tensor | None = None
+                    ) -> torch.Tensor:
         """The set encoder ``prefix`` (docs/agent.md, "The set encoder") of x (S, n, obs):
         each user's features x[..., per_user] (slots, F) through the MLP ``prefix`` with
         ``hidden`` after every layer, pooled by mean and max over the users, beside
-        x[..., rest]: (S, n, 2 H + G)."""
+        x[..., rest]: (S, n, 2 H + G); over ``flat`` as :meth:`mlp`."""
         stack, rows = x.shape[:2]
         slots, features = per_user.shape
         users = x[..., per_user].reshape(stack, rows * slots, features)
-        encoded = hidden(self.mlp(prefix, users, hidden)).reshape(stack, rows, slots, -1)
+        encoded = hidden(self.mlp(prefix, users, hidden, flat)).reshape(stack, rows, slots, -1)
         return torch.cat([encoded.mean(dim=2), encoded.amax(dim=2), x[..., rest]], dim=-1)
 
     def host_set_encoded(self, prefix: str, x: np.ndarray, per_user: np.ndarray,

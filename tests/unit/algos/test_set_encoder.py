@@ -80,3 +80,34 @@ def test_numpy_greedy_path_is_torchs():
 ])
 def test_refusals_are_one_line(tmp_path, capsys, body, words):
     assert words in refusal_of_scenario(tmp_path, capsys, body)
+
+
+def test_sacs_actor_and_q_networks_read_the_set_alike_in_any_order():
+    """SAC's actor and both Q networks, each through its own set encoder: the users' order
+    leaves them (to rounding); the numpy greedy path is torch's; the checkpoint's Q groups
+    carry their encoders."""
+    from adaptsky.algos.sac.stacked import StackedSac, host_greedy
+
+    scenario = with_values(ppo("set"), "agent", {"algorithm": "sac", "network": "set",
+                                                 "set_sizes": [32]}, "test", replace=True)
+    scenario = with_values(scenario, "uav", {"actions": "continuous"}, "test")
+    encoder = set_encoder_of(scenario)
+    net = StackedSac(observation_size_of(scenario), scenario.agent.hidden_sizes, 3, [0, 1],
+                     encoder=encoder)
+    obs = observations(scenario)
+    num_users = scenario.num_users
+    permuted = obs.copy()
+    per_user = obs[:, :4 * num_users].reshape(len(obs), num_users, 4)
+    permuted[:, :4 * num_users] = per_user[:, ::-1].reshape(len(obs), -1)
+    x, y = (torch.from_numpy(np.stack([o, o])) for o in (obs, permuted))
+    actions = torch.zeros(2, len(obs), 3)
+    with torch.no_grad():
+        assert torch.allclose(net.greedy(x), net.greedy(y), rtol=1e-5, atol=1e-6)
+        assert torch.allclose(net.min_q(x, actions), net.min_q(y, actions), rtol=1e-5,
+                              atol=1e-5)
+        device = net.greedy(x).numpy()
+    np.testing.assert_allclose(host_greedy(net.actor, np.stack([obs, obs]), 3, encoder),
+                               device, rtol=1e-5, atol=1e-6)
+    state = net.state_arrays(0)
+    assert {"q1_set.0.weight", "q1.0.weight"} <= set(state["q1"])
+    assert {"q2_set.0.weight", "q2.0.weight"} <= set(state["q2_target"])
