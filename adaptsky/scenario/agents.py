@@ -52,6 +52,13 @@ class DqnAgent(Section):
     user_order: Literal["listed", "clusters"] = Field(
         "listed", description="users in the observation: as the layout lists them, or cluster "
         "by cluster (first and second user of cluster 1, then cluster 2...)")
+    network: Literal["mlp", "set"] = Field(
+        "mlp", description="what reads the observation: 'mlp' the whole vector, 'set' a "
+        "network shared by the users, pooled by mean and max, beside the rest "
+        "(docs/agent.md, 'The set encoder')")
+    set_sizes: list[LayerSize] = Field([64], min_length=1, max_length=100, description="'set':"
+                                       " the layers of the network each user's features go "
+                                       "through, the activation after each")
     observe: list[Literal["los", "heights", "velocity"]] = Field(
         [], max_length=3, description="observations of the world appended to the agent's "
         "(docs/environment.md): 'los' each user's serving link's LoS state, 'heights' a "
@@ -247,13 +254,8 @@ class PpoAgent(Section):
                               "to [-10, 10] (CleanRL's continuous PPO)")
     init_log_std: float = Field(0.0, ge=-20, le=2, description="initial log standard "
                                 "deviation of the Gaussian head")
-    network: Literal["mlp", "set"] = Field(
-        "mlp", description="what reads the observation: 'mlp' the whole vector, 'set' a "
-        "network shared by the users, pooled by mean and max, beside the rest "
-        "(docs/agent.md, 'The set encoder')")
-    set_sizes: list[LayerSize] = Field([64], min_length=1, max_length=100, description="'set':"
-                                       " the layers of the network each user's features go "
-                                       "through, the activation after each")
+    network: Literal["mlp", "set"] = _as_dqn("network")
+    set_sizes: list[LayerSize] = _as_dqn("set_sizes")
     observation: Literal["scaled", "raw"] = _as_dqn("observation")
     user_order: Literal["listed", "clusters"] = _as_dqn("user_order")
     observe: list[Literal["los", "heights", "velocity"]] = _as_dqn("observe")
@@ -307,8 +309,8 @@ class SacAgent(Section):
     observe: list[Literal["los", "heights", "velocity"]] = _as_dqn("observe")
     raster_cells: int = _as_dqn("raster_cells")
     raster_cell_m: float = _as_dqn("raster_cell_m")
-    network: Literal["mlp", "set"] = copy(PpoAgent.model_fields["network"])
-    set_sizes: list[LayerSize] = copy(PpoAgent.model_fields["set_sizes"])
+    network: Literal["mlp", "set"] = _as_dqn("network")
+    set_sizes: list[LayerSize] = _as_dqn("set_sizes")
     reward_scale: float = _as_dqn("reward_scale")
 
     @model_validator(mode="before")

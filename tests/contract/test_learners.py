@@ -94,6 +94,8 @@ NAMED = [
     Case("mappo", "two-uavs-moving", agent=(("reward_split", "per-uav"),)),
     Case("ippo", "two-uavs-moving", actions="continuous"),
     Case("dqn", "csi-clusters-of-three"),
+    # the dueling DQN through its set encoder (written-out backward), fresh layouts
+    Case("dqn", "sampled-los-fresh", agent=(("network", "set"),)),
     # observations of the world (docs/environment.md): a city's LoS and heights, users' moves
     # ... read by PPO's set encoder (docs/agent.md)
     Case("ppo", "city-fading-geometric-los", agent=(("observe", ("los", "heights")),

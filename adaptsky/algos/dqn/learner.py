@@ -15,6 +15,7 @@ from adaptsky.algos.dqn.stacked import StackedDqn
 from adaptsky.algos.off_policy import OffPolicyLearner
 from adaptsky.algos.replay import StackedReplay
 from adaptsky.algos.schedule import epsilon
+from adaptsky.algos.shared.set_layout import SetEncoder
 from adaptsky.scenario.agents import BdqAgent, DqnAgent
 
 
@@ -24,8 +25,8 @@ class DqnLearner(OffPolicyLearner):
 
     def __init__(self, config: DqnAgent | BdqAgent, observation_size: int, num_actions: int,
                  seeds: list[int], rngs: list[np.random.Generator], device: Any = "cpu",
-                 graphs: bool | None = None) -> None:
-        self.config, self.num_actions = config, num_actions
+                 graphs: bool | None = None, encoder: SetEncoder | None = None) -> None:
+        self.config, self.num_actions, self.encoder = config, num_actions, encoder
         agent = self._networks(observation_size, seeds, device)
         memory = StackedReplay(len(seeds), config.memory_size, observation_size, agent.device,
                                agent.action_width, agent.values)
@@ -39,7 +40,8 @@ class DqnLearner(OffPolicyLearner):
     def _networks(self, observation_size: int, seeds: list[int], device: Any) -> StackedDqn:
         """The stacked networks of the members."""
         assert isinstance(self.config, DqnAgent)
-        return StackedDqn(self.config, observation_size, self.num_actions, seeds, device)
+        return StackedDqn(self.config, observation_size, self.num_actions, seeds, device,
+                          self.encoder)
 
     def begin_episode(self, global_step: int) -> None:
         super().begin_episode(global_step)

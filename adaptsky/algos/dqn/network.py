@@ -10,6 +10,7 @@ from torch import nn
 from torch.nn import functional
 
 from adaptsky.algos.dqn.forward import head_output
+from adaptsky.algos.shared.set_layout import SetEncoder
 
 
 def mlp(sizes: list[int]) -> nn.Sequential:
@@ -30,16 +31,20 @@ class QNetwork(nn.Module):
     """
 
     def __init__(self, observation_size: int, num_actions: int, hidden_sizes: list[int],
-                 dueling: bool, values: int = 1) -> None:
+                 dueling: bool, values: int = 1, encoder: SetEncoder | None = None) -> None:
         super().__init__()
         self.dueling = dueling
-        self.torso = mlp([observation_size, *hidden_sizes])
+        self.encoder = encoder
+        self.torso = mlp([observation_size if encoder is None else encoder.width,
+                          *hidden_sizes])
         last = hidden_sizes[-1]
         if dueling:
             self.value = nn.Linear(last, values)
             self.advantage = nn.Linear(last, num_actions)
         else:
             self.q = nn.Linear(last, num_actions)
+        if encoder is not None:   # the users' shared network (docs/agent.md), drawn last
+            self.set = mlp([encoder.layout.per_user.shape[1], *encoder.sizes])
 
     def layers(self) -> list[tuple[torch.Tensor, torch.Tensor]]:
         """(weight (out, in), bias) of every linear layer, the head last ([V | A] if
@@ -52,6 +57,11 @@ class QNetwork(nn.Module):
                          torch.cat([self.value.bias, self.advantage.bias]))]
 
     def forward(self, observations: torch.Tensor) -> torch.Tensor:
+        if self.encoder is not None:   # each user's features, pooled by mean and max
+            layout = self.encoder.layout
+            users = self.set(observations[:, layout.per_user])       # (n, slots, H)
+            observations = torch.cat([users.mean(dim=1), users.amax(dim=1),
+                                      observations[:, layout.rest]], dim=-1)
         out = head_output(self.layers(), observations, functional.linear, torch.relu)
         if not self.dueling:
             return out

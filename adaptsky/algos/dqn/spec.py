@@ -16,6 +16,7 @@ from adaptsky.algos.shared.checkpoint import (
     replay_network_parts,
     replay_rows,
 )
+from adaptsky.algos.shared.set_layout import set_encoder_of
 from adaptsky.algos.shared.shapes import observation_size_of
 from adaptsky.arrays import Field, Tree
 from adaptsky.scenario.agents import DqnAgent
@@ -38,7 +39,7 @@ def network(scenario: Scenario) -> dict[str, tuple[int, ...]]:
     agent = _config(scenario)
     actions = ActionSet.of(scenario).count
     return network_shapes(observation_size_of(scenario), actions, agent.hidden_sizes,
-                          agent.dueling)
+                          agent.dueling, encoder=set_encoder_of(scenario))
 
 
 class DqnSpec:
@@ -137,14 +138,14 @@ class DqnSpec:
         from adaptsky.algos.dqn.learner import DqnLearner  # torch
 
         return DqnLearner(_config(scenario), observation_size, num_actions, seeds, rngs,
-                          device, graphs)
+                          device, graphs, set_encoder_of(scenario))
 
     def greedy_policy(self, scenario: Scenario, policy: Tree) -> Policy:
         from adaptsky.algos.dqn.stacked import StackedDqn  # torch
 
         num_actions = ActionSet.of(scenario).count
         agent = StackedDqn(_config(scenario), observation_size_of(scenario),
-                           num_actions, seeds=[0])
+                           num_actions, seeds=[0], encoder=set_encoder_of(scenario))
         agent.load_policy(0, policy)
         return lambda observations: agent.greedy(observations[None])[0]
 

@@ -19,7 +19,7 @@ from every device and every stack size read alike.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from itertools import pairwise
 from typing import Any
 
@@ -29,8 +29,20 @@ import torch
 from adaptsky.algos.dqn.forward import head_output
 from adaptsky.algos.dqn.network import QNetwork
 from adaptsky.algos.dqn.parameters import network_shapes
+from adaptsky.algos.shared.set_layout import SetEncoder
 from adaptsky.algos.shared.stacked import ADAM_BETAS, ADAM_EPS, StackedParameters
 from adaptsky.scenario.agents import BdqAgent, DqnAgent
+
+
+@dataclass
+class SetKept:
+    """What the set encoder's backward pass needs of its forward one: each shared layer's
+    input and output (S, n slots, width) and where each unit's maximum over the users is
+    (S, n, H)."""
+
+    inputs: list[torch.Tensor] = field(default_factory=list)
+    outputs: list[torch.Tensor] = field(default_factory=list)
+    argmax: torch.Tensor | None = None
 
 
 @dataclass(frozen=True)
@@ -94,20 +106,24 @@ class StackedDqn:
     """Value outputs of a dueling head, and reward columns of a replay row."""
 
     def __init__(self, config: DqnAgent | BdqAgent, observation_size: int, num_actions: int,
-                 seeds: list[int], device: str | torch.device = "cpu") -> None:
+                 seeds: list[int], device: str | torch.device = "cpu",
+                 encoder: SetEncoder | None = None) -> None:
         self.config = config
         self.dueling = self._dueling_head(config)
         self.num_actions = num_actions
         self.observation_size = observation_size
+        self.encoder = encoder
         self.size = len(seeds)
         self.device = torch.device(device)
-        self.layers = layer_plan(observation_size, num_actions, config.hidden_sizes,
-                                 self.dueling, self.values)
-        self.names = list(network_shapes(observation_size, num_actions,
-                                         config.hidden_sizes, self.dueling, self.values))
+        self.layers = layer_plan(observation_size if encoder is None else encoder.width,
+                                 num_actions, config.hidden_sizes, self.dueling, self.values)
+        self.names = list(network_shapes(observation_size, num_actions, config.hidden_sizes,
+                                         self.dueling, self.values, encoder))
         shapes = {f"layer.{index}.{kind}": shape for index, layer in enumerate(self.layers)
                   for kind, shape in (("weight", (layer.size_out, layer.size_in)),
                                       ("bias", (layer.size_out,)))}
+        if encoder is not None:     # the users' shared network, after the layers in a row
+            shapes |= encoder.shapes("set")
         self.net = StackedParameters(shapes, [self._initial_layers(seed) for seed in seeds],
                                      ADAM_EPS, device, fused=True)
         self.params, self.exp_avg, self.exp_avg_sq = (self.net.params, self.net.exp_avg,
@@ -125,6 +141,12 @@ class StackedDqn:
         self.loss_sum = torch.zeros(self.size, dtype=torch.float64, device=self.device)
         self._policy = self.net.views("layer", self.params)
         self._target = self.net.views("layer", self.target)
+        self._set_kept: SetKept | None = None    # the last update's set encoder forward
+        self._policy_set = self.net.views("set", self.params)      # (empty without one)
+        self._target_set = self.net.views("set", self.target)
+        if encoder is not None:
+            self._per_user = torch.as_tensor(encoder.layout.per_user, device=self.device)
+            self._rest = torch.as_tensor(encoder.layout.rest, device=self.device)
         # Q = [V | A] @ M: M[0, j] = 1, M[1 + k, j] = [k = j] - 1 / A (the dueling head as one
         # small matmul; its transpose carries the gradient back)
         self._dueling = self._head_matrix().to(self.device)
@@ -132,6 +154,7 @@ class StackedDqn:
         self._dueling_back = self._dueling.T.expand(self.size, -1, -1)
         self._host = ([(weight.numpy(), bias.numpy()) for weight, bias in self._policy]
                       if self.device.type == "cpu" else None)
+        self._host_set = [(weight.numpy(), bias.numpy()) for weight, bias in self._policy_set]
 
     @staticmethod
     def _dueling_head(config: DqnAgent | BdqAgent) -> bool:
@@ -148,15 +171,42 @@ class StackedDqn:
         """The layers of ``QNetwork`` under ``torch.manual_seed(seed)``."""
         torch.manual_seed(seed)
         net = QNetwork(self.observation_size, self.num_actions, self.config.hidden_sizes,
-                       self.dueling, self.values)
+                       self.dueling, self.values, self.encoder)
         return self._layer_arrays({k: v.numpy() for k, v in net.state_dict().items()})
 
     # ---- forward and greedy action ------------------------------------------------------
 
     def _forward(self, views: list[tuple[torch.Tensor, torch.Tensor]], x: torch.Tensor,
-                 keep: list[torch.Tensor] | None = None) -> torch.Tensor:
-        """Q (S, n, A) for observations x (S, n, obs); ``keep`` collects each layer's input."""
+                 keep: list[torch.Tensor] | None = None,
+                 set_views: list[tuple[torch.Tensor, torch.Tensor]] | None = None,
+                 set_keep: SetKept | None = None) -> torch.Tensor:
+        """Q (S, n, A) for observations x (S, n, obs); ``keep`` collects each layer's input;
+        with a set encoder (its layers ``set_views``) x is encoded first, ``set_keep``
+        collecting what its backward pass needs."""
+        if self.encoder is not None:
+            x = self._encoded(set_views or self._policy_set, x, set_keep)
         return self._head(head_output(views, x, _baddbmm, _relu_, keep))
+
+    def _encoded(self, views: list[tuple[torch.Tensor, torch.Tensor]], x: torch.Tensor,
+                 keep: SetKept | None = None) -> torch.Tensor:
+        """The set encoding (S, n, 2 H + G) of observations x (S, n, obs) (docs/agent.md,
+        "The set encoder"): each user's features through the shared ReLU layers ``views``,
+        their mean and maximum over the users, then the rest of x."""
+        assert self.encoder is not None
+        stack, rows = x.shape[:2]
+        slots, features = self._per_user.shape
+        h = x[..., self._per_user].reshape(stack, rows * slots, features)
+        for weight, bias in views:
+            if keep is not None:
+                keep.inputs.append(h)
+            h = _relu_(torch.baddbmm(bias, h, weight))
+            if keep is not None:
+                keep.outputs.append(h)
+        users = h.view(stack, rows, slots, -1)
+        largest, where = users.max(dim=2)
+        if keep is not None:
+            keep.argmax = where
+        return torch.cat([users.mean(dim=2), largest, x[..., self._rest]], dim=-1)
 
     def _head(self, out: torch.Tensor) -> torch.Tensor:
         """Q from the head's output: itself, or V + A - mean_a A (per sample) if dueling."""
@@ -165,7 +215,7 @@ class StackedDqn:
     def q_values(self, observations: torch.Tensor) -> torch.Tensor:
         """Q (S, n, A) of the policy network for observations (S, n, obs) on the device."""
         with torch.no_grad():
-            return self._forward(self._policy, observations)
+            return self._forward(self._policy, observations, set_views=self._policy_set)
 
     def greedy(self, observations: np.ndarray) -> np.ndarray:
         """argmax_a Q(s, a) per member for host observations (S, n, obs) -> (S, n).
@@ -176,8 +226,23 @@ class StackedDqn:
         if self._host is None:
             x = torch.from_numpy(observations).to(self.device)
             return self.device_greedy(x).cpu().numpy()
+        if self.encoder is not None:
+            observations = self._host_encoded(observations)
         return self._host_greedy(head_output(self._host, observations, _matmul_add,
                                              _relu_host))
+
+    def _host_encoded(self, x: np.ndarray) -> np.ndarray:
+        """:meth:`_encoded` in numpy over the policy's memory (CPU)."""
+        assert self.encoder is not None
+        layout = self.encoder.layout
+        stack, rows = x.shape[:2]
+        slots, features = layout.per_user.shape
+        h = x[..., layout.per_user].reshape(stack, rows * slots, features)
+        for weight, bias in self._host_set:
+            h = _relu_host(_matmul_add(h, weight, bias))
+        users = h.reshape(stack, rows, slots, -1)
+        return np.concatenate([users.mean(axis=2), users.max(axis=2), x[..., layout.rest]],
+                              axis=-1)
 
     def device_greedy(self, observations: torch.Tensor) -> torch.Tensor:
         """Greedy actions (S, n) for observations (S, n, obs) on the device."""
@@ -205,16 +270,17 @@ class StackedDqn:
         """
         config = self.config
         with torch.no_grad():
-            next_q = self._forward(self._target, next_observations)
+            next_q = self._forward(self._target, next_observations, set_views=self._target_set)
             if config.double_dqn:
-                best = self._forward(self._policy, next_observations).argmax(dim=-1,
-                                                                            keepdim=True)
+                best = self._forward(self._policy, next_observations,
+                                     set_views=self._policy_set).argmax(dim=-1, keepdim=True)
                 next_value = next_q.gather(-1, best).squeeze(-1)
             else:
                 next_value = next_q.amax(dim=-1)
             target = rewards + self._discount * not_terminal * next_value
             inputs: list[torch.Tensor] = []
-            q = self._forward(self._policy, observations, inputs)
+            self._set_kept = kept = SetKept() if self.encoder is not None else None
+            q = self._forward(self._policy, observations, inputs, self._policy_set, kept)
             chosen = actions.unsqueeze(-1)
             error = q.gather(-1, chosen).squeeze(-1) - target
             d_chosen = self._loss_gradient(error)
@@ -260,7 +326,34 @@ class StackedDqn:
                 weight, _ = self._policy[index]
                 d_in = torch.bmm(d_out, weight.transpose(1, 2))
                 d_out = torch.ops.aten.threshold_backward(d_in, x, 0.0)  # ReLU'
-        torch.cat([*reversed(pieces), self._grad_padding], dim=1, out=self.grads)
+        encoder: list[torch.Tensor] = []
+        if self.encoder is not None:     # on into the set encoder, from the torso's input
+            weight, _ = self._policy[0]
+            encoder = self._set_backward(torch.bmm(d_out, weight.transpose(1, 2)))
+        torch.cat([*reversed(pieces), *encoder, self._grad_padding], dim=1, out=self.grads)
+
+    def _set_backward(self, d_encoded: torch.Tensor) -> list[torch.Tensor]:
+        """The set encoder's gradients (weight, bias of each layer, in order) from dLoss /
+        d(its output) (S, B, 2 H + G): the mean's share to every user, the maximum's to the
+        user that holds it, then back through the shared ReLU layers."""
+        kept = self._set_kept
+        assert kept is not None and kept.argmax is not None
+        stack, rows, slots, width = (*kept.argmax.shape[:2], self._per_user.shape[0],
+                                     kept.argmax.shape[2])
+        d_users = (d_encoded[..., :width] / slots).unsqueeze(2).expand(
+            stack, rows, slots, width).contiguous()
+        d_users.scatter_add_(2, kept.argmax.unsqueeze(2),
+                             d_encoded[..., width:2 * width].unsqueeze(2))
+        d_out = d_users.view(stack, rows * slots, width)
+        pieces: list[torch.Tensor] = []
+        for index in range(len(kept.inputs) - 1, -1, -1):
+            d_out = torch.ops.aten.threshold_backward(d_out, kept.outputs[index], 0.0)
+            x = kept.inputs[index]
+            pieces += [d_out.sum(dim=1), torch.bmm(x.transpose(1, 2), d_out).view(stack, -1)]
+            if index:
+                weight, _ = self._policy_set[index]
+                d_out = torch.bmm(d_out, weight.transpose(1, 2))
+        return list(reversed(pieces))
 
     def _adam(self) -> None:
         """Per-member gradient-norm clipping, then Adam (the fused kernel)."""
@@ -293,13 +386,14 @@ class StackedDqn:
     def _layer_arrays(self, state: dict[str, Any]) -> dict[str, np.ndarray]:
         """The layers ``layer.<i>`` ((out, in) weights) from QNetwork-named arrays: the dueling
         head's value and advantage as one layer, V first."""
-        pairs = [(state[w], state[b]) for w, b in zip(self.names[0::2], self.names[1::2],
-                                                      strict=True)]
+        names = [name for name in self.names if not name.startswith("set.")]
+        pairs = [(state[w], state[b]) for w, b in zip(names[0::2], names[1::2], strict=True)]
         if self.dueling:
             (value_w, value_b), (adv_w, adv_b) = pairs[-2:]
             pairs[-2:] = [(np.concatenate([value_w, adv_w]), np.concatenate([value_b, adv_b]))]
-        return {f"layer.{index}.{kind}": array for index, pair in enumerate(pairs)
-                for kind, array in zip(("weight", "bias"), pair, strict=True)}
+        return {**{f"layer.{index}.{kind}": array for index, pair in enumerate(pairs)
+                   for kind, array in zip(("weight", "bias"), pair, strict=True)},
+                **{name: state[name] for name in self.names if name.startswith("set.")}}
 
     def row_from_state(self, state: dict[str, Any]) -> np.ndarray:
         """A flat row from QNetwork-named arrays ((out, in) weights)."""
@@ -307,17 +401,20 @@ class StackedDqn:
 
     def state_from_row(self, row: np.ndarray) -> dict[str, np.ndarray]:
         """QNetwork-named arrays from a flat row (inverse of :meth:`row_from_state`)."""
-        arrays = list(self.net.named_from_row(row).values())
+        named = self.net.named_from_row(row)
+        arrays = [array for name, array in named.items() if name.startswith("layer.")]
         if self.dueling:
             head_w, head_b = arrays[-2:]
             v = self.values
             arrays[-2:] = [head_w[:v], head_b[:v], head_w[v:], head_b[v:]]
-        return dict(zip(self.names, arrays, strict=True))
+        names = [name for name in self.names if not name.startswith("set.")]
+        return {**dict(zip(names, arrays, strict=True)),
+                **{name: array for name, array in named.items() if name.startswith("set.")}}
 
     def state_arrays(self, member: int) -> dict[str, Any]:
         """One member's weights and Adam state, named as ``QNetwork`` and ``torch.optim.Adam``
         name them, as numpy arrays and JSON text (no pickle)."""
-        rows = [buffer[member, :self.layers[-1].end].cpu().numpy() for buffer in
+        rows = [buffer[member, :self.net.used].cpu().numpy() for buffer in
                 (self.params, self.target, self.exp_avg, self.exp_avg_sq)]
         step = np.float32(self.step.item())
         moments = [self.state_from_row(row) for row in rows[2:]]
@@ -335,11 +432,11 @@ class StackedDqn:
 
     def policy_arrays(self, member: int) -> dict[str, np.ndarray]:
         """One member's policy weights, named as ``QNetwork`` names them (a copy)."""
-        return self.state_from_row(self.params[member, :self.layers[-1].end].cpu().numpy())
+        return self.state_from_row(self.params[member, :self.net.used].cpu().numpy())
 
     def load_policy(self, member: int, policy: dict[str, Any]) -> None:
         """Put QNetwork-named policy weights into one member (greedy evaluation)."""
-        self.params[member, :self.layers[-1].end] = torch.from_numpy(
+        self.params[member, :self.net.used] = torch.from_numpy(
             self.row_from_state(policy))
 
     def load_state_arrays(self, member: int, state: dict[str, Any]) -> None:
@@ -350,7 +447,7 @@ class StackedDqn:
         buffers = [(self.params, state["policy"]), (self.target, state["target"])]
         if moments is not None:
             buffers += [(self.exp_avg, moments[0]), (self.exp_avg_sq, moments[1])]
-        used = self.layers[-1].end
+        used = self.net.used
         for buffer, named in buffers:
             buffer[member, :used] = torch.from_numpy(self.row_from_state(named))
         self.step.fill_(float(np.asarray(optimizer["0"]["step"])) if optimizer else 0.0)

@@ -111,3 +111,45 @@ def test_sacs_actor_and_q_networks_read_the_set_alike_in_any_order():
     state = net.state_arrays(0)
     assert {"q1_set.0.weight", "q1.0.weight"} <= set(state["q1"])
     assert {"q2_set.0.weight", "q2.0.weight"} <= set(state["q2_target"])
+
+
+def test_the_dqns_written_out_backward_through_the_set_encoder_is_autograds():
+    """The DQN's TD gradient of eq. 12, written out by hand through the torso, the pooling
+    (the mean's share to every user, the maximum's to its user) and the users' shared
+    layers, equals torch's autograd through ``QNetwork`` with the same weights and batch."""
+    from adaptsky.algos.dqn.network import QNetwork
+    from adaptsky.algos.dqn.stacked import SetKept, StackedDqn
+    from adaptsky.sim.actions import ActionSet
+
+    scenario = with_values(load_scenario(SCENARIOS / "nyc_mmwave_any_layout.toml"), "agent",
+                           {"network": "set", "set_sizes": [16, 8]}, "test")
+    encoder, obs_size = set_encoder_of(scenario), observation_size_of(scenario)
+    actions = ActionSet.of(scenario).count
+    agent = StackedDqn(scenario.agent, obs_size, actions, [3], encoder=encoder)
+    rng = np.random.default_rng(0)
+    batch = 12
+    obs = torch.from_numpy(rng.normal(size=(1, batch, obs_size)).astype(np.float32))
+    chosen = torch.from_numpy(rng.integers(actions, size=(1, batch, 1)))
+    target = torch.from_numpy(rng.normal(size=(1, batch)).astype(np.float32))
+    with torch.no_grad():
+        inputs: list[torch.Tensor] = []
+        agent._set_kept = kept = SetKept()
+        q = agent._forward(agent._policy, obs, inputs, agent._policy_set, kept)
+        d_chosen = agent._loss_gradient(q.gather(-1, chosen).squeeze(-1) - target)
+        agent._backward(inputs, agent._d_head(chosen, d_chosen.unsqueeze(-1)))
+    written = agent.grads[0, :agent.net.used].numpy()
+
+    net = QNetwork(obs_size, actions, scenario.agent.hidden_sizes, True, 1, encoder)
+    net.load_state_dict({name: torch.from_numpy(array) for name, array
+                         in agent.policy_arrays(0).items()})
+    q_auto = net(obs[0])
+    loss = (q_auto.gather(-1, chosen[0]).squeeze(-1) - target[0]).square().mean()
+    loss.backward()
+    autograd = agent.row_from_state({name: parameter.grad.numpy()
+                                     for name, parameter in net.named_parameters()})
+    assert np.abs(autograd).max() > 0
+    np.testing.assert_allclose(written, autograd, rtol=1e-4, atol=1e-6)
+    np.testing.assert_allclose(q.numpy()[0], q_auto.detach().numpy(), rtol=1e-5, atol=1e-6)
+    # the encoder's own parameters learn (their gradient is not 0)
+    named = agent.state_from_row(written)
+    assert np.abs(named["set.0.weight"]).max() > 0 and np.abs(named["set.2.weight"]).max() > 0
