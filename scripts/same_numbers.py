@@ -219,7 +219,9 @@ ADDED_SECTION_DEFAULTS = {("uav", "count"): 1, ("uav", "start_positions_m"): Non
                           ("radio", "direction"): "downlink", ("users", "tx_power_dbm"): None,
                           # observations of the world (docs/environment.md): none
                           ("agent", "observe"): [], ("agent", "raster_cells"): 5,
-                          ("agent", "raster_cell_m"): 10.0}
+                          ("agent", "raster_cell_m"): 10.0,
+                          # the networks read the whole observation (docs/agent.md)
+                          ("agent", "network"): "mlp", ("agent", "set_sizes"): [64]}
 # tables a newer adaptsky adds: left out where every key in them is at its default
 ADDED_TABLES = {"world", "metrics"}
 # names a newer adaptsky adds beside the numbers it had (JSON keys, HDF5 datasets with their
