@@ -187,6 +187,8 @@ class BdqAgent(Section):
     target_update_episodes: int = _as_dqn("target_update_episodes")
     observation: Literal["scaled", "raw"] = _as_dqn("observation")
     user_order: Literal["listed", "clusters"] = _as_dqn("user_order")
+    network: Literal["mlp", "set"] = _as_dqn("network")
+    set_sizes: list[LayerSize] = _as_dqn("set_sizes")
     observe: list[Literal["los", "heights", "velocity"]] = _as_dqn("observe")
     raster_cells: int = _as_dqn("raster_cells")
     raster_cell_m: float = _as_dqn("raster_cell_m")

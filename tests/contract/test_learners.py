@@ -85,6 +85,7 @@ NAMED = [
     Case("bdq", "moving-users"),
     Case("bdq", "two-uavs-sampled-los"),
     Case("bdq", "two-uavs-moving", agent=(("reward_split", "per-uav"),)),
+    Case("bdq", "two-uavs-sampled-los", agent=(("network", "set"),)),      # the set encoder
     Case("ppo", "moving-users-fading"),                                  # the dense head
     Case("ppo", "open-ground", actions="continuous"),                    # the Gaussian head
     Case("ppo", "open-ground", agent=(("action_head", "branches"),), slow=True),

@@ -11,6 +11,7 @@ import numpy as np
 
 from adaptsky.algos.bdq.stacked import StackedBdq
 from adaptsky.algos.dqn.learner import DqnLearner
+from adaptsky.algos.shared.set_layout import SetEncoder
 from adaptsky.scenario.agents import BdqAgent, DqnAgent
 from adaptsky.sim.actions import ActionSet
 
@@ -21,13 +22,14 @@ class BdqLearner(DqnLearner):
 
     def __init__(self, config: BdqAgent, observation_size: int, action_set: ActionSet,
                  seeds: list[int], rngs: list[np.random.Generator], device: Any = "cpu",
-                 graphs: bool | None = None) -> None:
+                 graphs: bool | None = None, encoder: SetEncoder | None = None) -> None:
         self.action_set = action_set
         super().__init__(config, observation_size, action_set.count, seeds, rngs, device,
-                         graphs)
+                         graphs, encoder)
         self.reward_split = config.reward_split
 
     def _networks(self, observation_size: int, seeds: list[int], device: Any) -> StackedBdq:
         config: DqnAgent | BdqAgent = self.config
         assert isinstance(config, BdqAgent)
-        return StackedBdq(config, observation_size, self.action_set, seeds, device)
+        return StackedBdq(config, observation_size, self.action_set, seeds, device,
+                          self.encoder)

@@ -12,6 +12,7 @@ from adaptsky.algos.dqn.parameters import network_shapes
 from adaptsky.algos.dqn.spec import ADAM_STATE, DqnSpec
 from adaptsky.algos.protocol import Algorithm, Policy
 from adaptsky.algos.shared.checkpoint import REPLAY, replay_network_parts
+from adaptsky.algos.shared.set_layout import set_encoder_of
 from adaptsky.algos.shared.shapes import observation_size_of
 from adaptsky.arrays import Field, Tree
 from adaptsky.scenario.agents import BdqAgent
@@ -62,7 +63,8 @@ class BdqSpec(DqnSpec):
         return network_shapes(observation_size_of(scenario),
                               actions.num_components * actions.base,
                               _config(scenario).hidden_sizes, dueling=True,
-                              values=reward_groups(scenario))
+                              values=reward_groups(scenario),
+                              encoder=set_encoder_of(scenario))
 
     def replay_fields_of(self, scenario: Scenario) -> tuple[Field, ...]:
         """The replay's fields: rewards (R, G) where the branches learn G > 1 parts."""
@@ -92,13 +94,13 @@ class BdqSpec(DqnSpec):
         actions = action_set(scenario)
         assert num_actions == actions.count, (num_actions, actions.count)
         return BdqLearner(_config(scenario), observation_size, actions, seeds, rngs, device,
-                          graphs)
+                          graphs, set_encoder_of(scenario))
 
     def greedy_policy(self, scenario: Scenario, policy: Tree) -> Policy:
         from adaptsky.algos.bdq.stacked import StackedBdq  # torch
 
         agent = StackedBdq(_config(scenario), observation_size_of(scenario),
-                           action_set(scenario), seeds=[0])
+                           action_set(scenario), seeds=[0], encoder=set_encoder_of(scenario))
         agent.load_policy(0, policy)
         return lambda observations: agent.greedy(observations[None])[0]
 

@@ -20,7 +20,8 @@ import numpy as np
 import torch
 
 from adaptsky.algos.bdq.groups import value_groups
-from adaptsky.algos.dqn.stacked import StackedDqn
+from adaptsky.algos.dqn.stacked import SetKept, StackedDqn
+from adaptsky.algos.shared.set_layout import SetEncoder
 from adaptsky.scenario.agents import BdqAgent, DqnAgent
 from adaptsky.sim.actions import ActionSet
 
@@ -31,13 +32,14 @@ class StackedBdq(StackedDqn):
     advantages under ``torch.manual_seed(seed)``."""
 
     def __init__(self, config: BdqAgent, observation_size: int, action_set: ActionSet,
-                 seeds: list[int], device: str | torch.device = "cpu") -> None:
+                 seeds: list[int], device: str | torch.device = "cpu",
+                 encoder: SetEncoder | None = None) -> None:
         self.branches, self.sub_actions = action_set.num_components, action_set.base
         self.action_width = self.branches
         self.values = value_groups(config, action_set)
         self._powers = self.sub_actions ** np.arange(self.branches, dtype=np.int64)
         super().__init__(config, observation_size, self.branches * self.sub_actions, seeds,
-                         device)
+                         device, encoder)
         self._powers_device = torch.from_numpy(self._powers).to(self.device)
 
     @staticmethod
@@ -104,7 +106,8 @@ class StackedBdq(StackedDqn):
                 target = rewards + (self._discount * not_terminal).unsqueeze(-1) * next_value
                 target = target.repeat_interleave(self.branches // groups, dim=-1)
             inputs: list[torch.Tensor] = []
-            q = self._forward(self._policy, observations, inputs)
+            self._set_kept = kept = SetKept() if self.encoder is not None else None
+            q = self._forward(self._policy, observations, inputs, set_keep=kept)
             offsets = torch.arange(self.branches, device=self.device) * self.sub_actions
             chosen = actions + offsets  # the column of Q_d(s, a_d) in [Q_1 | ... | Q_D]
             error = q.gather(-1, chosen) - (target if self.values > 1 else

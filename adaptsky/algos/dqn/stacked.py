@@ -183,8 +183,10 @@ class StackedDqn:
         """Q (S, n, A) for observations x (S, n, obs); ``keep`` collects each layer's input;
         with a set encoder (its layers ``set_views``) x is encoded first, ``set_keep``
         collecting what its backward pass needs."""
-        if self.encoder is not None:
-            x = self._encoded(set_views or self._policy_set, x, set_keep)
+        if self.encoder is not None:    # the target's encoder with the target's layers
+            if set_views is None:
+                set_views = self._target_set if views is self._target else self._policy_set
+            x = self._encoded(set_views, x, set_keep)
         return self._head(head_output(views, x, _baddbmm, _relu_, keep))
 
     def _encoded(self, views: list[tuple[torch.Tensor, torch.Tensor]], x: torch.Tensor,

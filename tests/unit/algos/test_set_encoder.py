@@ -153,3 +153,23 @@ def test_the_dqns_written_out_backward_through_the_set_encoder_is_autograds():
     # the encoder's own parameters learn (their gradient is not 0)
     named = agent.state_from_row(written)
     assert np.abs(named["set.0.weight"]).max() > 0 and np.abs(named["set.2.weight"]).max() > 0
+
+
+def test_the_target_network_reads_through_the_targets_encoder():
+    """Q^- of eq. 12 is the target's whole network, its set encoder included: changing only
+    the target's encoder changes the target's Q values and not the policy's."""
+    from adaptsky.algos.dqn.stacked import StackedDqn
+    from adaptsky.sim.actions import ActionSet
+
+    scenario = with_values(load_scenario(SCENARIOS / "nyc_mmwave_any_layout.toml"), "agent",
+                           {"network": "set"}, "test")
+    encoder, obs_size = set_encoder_of(scenario), observation_size_of(scenario)
+    agent = StackedDqn(scenario.agent, obs_size, ActionSet.of(scenario).count, [0],
+                       encoder=encoder)
+    obs = torch.from_numpy(np.stack([observations(scenario)]))
+    with torch.no_grad():
+        policy_q = agent._forward(agent._policy, obs)
+        assert torch.equal(agent._forward(agent._target, obs), policy_q)   # a copy at first
+        agent._target_set[0][0].mul_(0.5)                # the target's first shared layer
+        assert not torch.equal(agent._forward(agent._target, obs), policy_q)
+        assert torch.equal(agent._forward(agent._policy, obs), policy_q)
