@@ -32,6 +32,7 @@ from adaptsky.sim.observation import (
     MULTI_FEATURES_PER_USER,
     MultiObserver,
     WorldData,
+    WorldReader,
     float32_outward,
     local_observation_bounds,
     multi_observation_bounds,
@@ -75,12 +76,7 @@ def observation_bounds_of(scenario: Scenario, gains: tuple[float, float] | None 
         low, high = observation_bounds(scenario, gains, scaled=scaled)
     else:
         low, high = multi_observation_bounds(scenario, gains, scaled=scaled)
-    world = WorldObserver.of(scenario)
-    if world is None:
-        return low, high
-    world_low, world_high = world.bounds(scenario)
-    return (np.concatenate([low, float32_outward(world_low, -np.inf)]),
-            np.concatenate([high, float32_outward(world_high, np.inf)]))
+    return _with_world_bounds(scenario, low, high, scenario.num_users, scenario.uav.count)
 
 
 def local_bounds_of(scenario: Scenario, gains: tuple[float, float] | None = None
@@ -88,10 +84,18 @@ def local_bounds_of(scenario: Scenario, gains: tuple[float, float] | None = None
     """The bounds of one UAV's local observation (``gains`` as for
     :func:`observation_bounds_of`), with its observations of the world where it asks."""
     low, high = local_observation_bounds(scenario, gains, scaled=scaled_of(scenario))
+    return _with_world_bounds(scenario, low, high, scenario.users_per_uav, 1)
+
+
+def _with_world_bounds(scenario: Scenario, low: NDArray[np.float32], high: NDArray[np.float32],
+                       users: int, uavs: int
+                       ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """``low`` and ``high`` with the bounds of the agent's observations of the world of
+    ``users`` user slots and ``uavs`` rasters appended, rounded outward to float32."""
     world = WorldObserver.of(scenario)
     if world is None:
         return low, high
-    world_low, world_high = world.bounds(scenario, scenario.users_per_uav, 1)
+    world_low, world_high = world.bounds(scenario, users, uavs)
     return (np.concatenate([low, float32_outward(world_low, -np.inf)]),
             np.concatenate([high, float32_outward(world_high, np.inf)]))
 
@@ -128,20 +132,24 @@ class AgentView:
     def observes_world(self) -> bool:
         return self.world_observer is not None
 
-    def with_world(self, observations: NDArray[np.float32], data: WorldData,
-                   association: Association) -> NDArray[np.float32]:
-        """``observations`` (B, W) with the observations of the world appended: after the
-        whole (B, W + E), users in this view's order; or, for local observations (B, U L),
-        after each UAV's own (B, U (L + E_local)): its users' slots, then its raster."""
-        assert self.world_observer is not None
+    def world_reader(self, association: Association) -> WorldReader:
+        """What appends the observations of the world to the agent's ``observations``
+        (B, W), made once per ``association``: after the whole (B, W + E), users in this
+        view's order; or, for local observations (B, U L), after each UAV's own
+        (B, U (L + E_local)): its users' slots, then its raster."""
+        observer = self.world_observer
+        assert observer is not None
         if not self.local:
             order = users_in_order(association, self.user_order)
-            return np.concatenate([observations, self.world_observer(data, order)], axis=1)
+            return lambda observations, data: np.concatenate(
+                [observations, observer(data, order)], axis=1)
         slots = local_user_slots(association, self.user_order, self.num_slots)
         num_envs, num_uavs = slots.shape[:2]
-        return np.concatenate([observations.reshape(num_envs, num_uavs, -1),
-                               self.world_observer.local(data, slots)],
-                              axis=2).reshape(num_envs, -1)
+
+        def read(observations: NDArray[np.float32], data: WorldData) -> NDArray[np.float32]:
+            return np.concatenate([observations.reshape(num_envs, num_uavs, -1),
+                                   observer.local(data, slots)], axis=2).reshape(num_envs, -1)
+        return read
 
     @classmethod
     def of(cls, scenario: Scenario) -> AgentView | None:

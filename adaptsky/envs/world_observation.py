@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 from adaptsky.scenario.models import Scenario
 from adaptsky.scenario.sections import MAX_HEIGHT_M
+from adaptsky.sim.blockage import roofs_m
 from adaptsky.sim.observation import WorldData
 
 FloatArray = NDArray[np.float64]
@@ -110,22 +111,17 @@ class WorldObserver:
         num_envs, num_uavs = data.uav_m.shape[:2]
         if data.city is None or not data.city.count:
             return np.zeros((num_envs, num_uavs * self.cells ** 2))
-        f = data.city.footprints_m
-        x, y = points[..., 0, None], points[..., 1, None]
-        under = (x >= f[:, 0]) & (x <= f[:, 1]) & (y >= f[:, 2]) & (y <= f[:, 3])
-        roofs = np.where(under, data.city.heights_m[:, None, None, :], 0.0).max(axis=-1)
+        roofs = roofs_m(points, data.city)                                  # (B, U, R^2)
         if self.scaled:
             roofs = roofs / self.max_height_m
         return roofs.reshape(num_envs, -1)
 
-    def bounds(self, scenario: Scenario, users: int | None = None, uavs: int | None = None
+    def bounds(self, scenario: Scenario, num_users: int, num_uavs: int
                ) -> tuple[FloatArray, FloatArray]:
-        """Lower and upper bounds (E,) of the features of ``users`` users and ``uavs`` UAVs
-        (None: the scenario's; a local observation's: S slots and one UAV): LoS in [0, 1], a
-        velocity at most the area's diagonal in one step, a roof between 0 and the tallest
-        the world holds."""
-        num_users = scenario.num_users if users is None else users
-        num_uavs = scenario.uav.count if uavs is None else uavs
+        """Lower and upper bounds (E,) of the features of ``num_users`` users and
+        ``num_uavs`` rasters (the network's: N and U; a local observation's: S slots and its
+        own): LoS in [0, 1], a velocity at most the area's diagonal in one step, a roof
+        between 0 and the tallest the world holds."""
         low, high = [], []
         for name in self.features:
             if name == "los":

@@ -16,7 +16,7 @@ import numpy as np
 from adaptsky.progress import Tick
 from adaptsky.references.reference import Label, Reference, refusal_of
 from adaptsky.references.searches import best_response_bps
-from adaptsky.rollouts.cluster_oracle import cluster_oracle
+from adaptsky.rollouts.cluster_oracle import exact_oracle
 from adaptsky.rollouts.fading_genie import FADING_GENIE_NOTE, per_step_fading_oracle
 from adaptsky.rollouts.fading_oracle import (
     STATIC_CEILING_NOTE,
@@ -26,7 +26,7 @@ from adaptsky.rollouts.fading_oracle import (
 )
 from adaptsky.rollouts.genie import GENIE_NOTE, per_step_oracle
 from adaptsky.rollouts.metrics import Method
-from adaptsky.rollouts.oracle import oracle, require_deterministic_gains, require_static_users
+from adaptsky.rollouts.oracle import require_deterministic_gains, require_static_users
 from adaptsky.rollouts.rollout import held_trace, hold
 from adaptsky.rollouts.search import UPLINK_MAX_VECTORS
 from adaptsky.scenario import Scenario
@@ -46,12 +46,6 @@ def _one_uav(scenario: Scenario, name: str) -> str | None:
         return (f"the oracle is defined for one UAV; use best-response (scenario "
                 f"'{scenario.name}' has {count} UAVs)")
     return None
-
-
-def _paper_noma(scenario: Scenario) -> bool:
-    """Whether the scenario's NOMA is the paper's, downlink pairs: the pairs' oracle (closed
-    form) applies, else :mod:`adaptsky.rollouts.cluster_oracle` (docs/model.md §15, §17)."""
-    return scenario.cluster_size == 2 and not scenario.uplink
 
 
 def _uplink_refusal(scenario: Scenario) -> str | None:
@@ -114,8 +108,7 @@ class Oracle(Reference):
     def run(self, scenario: Scenario, steps: int, users_m: np.ndarray, seed: int = 0,
             on_progress: Tick | None = None) -> Method:
         start = time.process_time()
-        search = oracle if _paper_noma(scenario) else cluster_oracle
-        best = search(scenario, users_m, on_progress, on_progress)
+        best = exact_oracle(scenario, users_m, on_progress, on_progress)
         details = {"seconds_per_layout": (time.process_time() - start) / len(users_m),
                    "objective_bps": best.objective_bps}
         if scenario.channel.csi.model != "perfect":

@@ -107,8 +107,7 @@ class BestResponse(_LatticeSearch):
     uplink = True
 
     def applies(self, scenario: Scenario) -> str | None:
-        if ((scenario.cluster_size > 2 or scenario.uplink)
-                and scenario.channel.fading.model != "none"):
+        if scenario.sic_chains and scenario.channel.fading.model != "none":
             what = ("the uplink" if scenario.uplink
                     else f"clusters of {scenario.cluster_size} users")
             return (f"channel.fading: '{self.name}' chooses shares over fading draws for the "

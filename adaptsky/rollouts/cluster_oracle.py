@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from adaptsky.channels.contract import declares_monotone_gains
-from adaptsky.rollouts.oracle import OracleResult, require_deterministic_gains
+from adaptsky.rollouts.oracle import OracleResult, oracle, require_deterministic_gains
 from adaptsky.rollouts.search import (
     Best,
     LatticeBoxes,
@@ -124,3 +124,13 @@ def cluster_oracle(scenario: Scenario, users_m: FloatArray,
             on_layout(layout + 1)
     state = env.evaluate_at(best_uav, best_components)
     return OracleResult(objective, best_uav, best_components, state.rate_bps)
+
+
+def exact_oracle(scenario: Scenario, users_m: FloatArray,
+                 on_layout: Callable[[int], None] | None = None,
+                 on_search: Callable[[float, str], None] | None = None) -> OracleResult:
+    """The oracle of one UAV for ``scenario``'s NOMA: the pairs' closed form
+    (:func:`~adaptsky.rollouts.oracle.oracle`) for the paper's downlink pairs, else
+    :func:`cluster_oracle` (SIC chains: clusters of M > 2, the uplink)."""
+    search = cluster_oracle if scenario.sic_chains else oracle
+    return search(scenario, users_m, on_layout, on_search)

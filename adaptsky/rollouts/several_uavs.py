@@ -22,9 +22,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from adaptsky.rollouts.cluster_oracle import cluster_oracle
+from adaptsky.rollouts.cluster_oracle import exact_oracle
 from adaptsky.rollouts.objective import constrained_sum_rate
-from adaptsky.rollouts.oracle import oracle, require_deterministic_gains
+from adaptsky.rollouts.oracle import require_deterministic_gains
 from adaptsky.rollouts.search import (
     POINTS_PER_CHUNK,
     Best,
@@ -65,6 +65,20 @@ where the search is: 'round 2, UAV 3/3: 40%' (of that UAV's lattice searched).""
 
 
 @dataclass(frozen=True)
+class UplinkBlock:
+    """One uplink cluster of the responding UAV: its users ``members`` and the slice
+    ``width`` of its components; under full reuse with other UAVs, the other UAVs' users on
+    its block ``senders`` (N,), their power sent ``sent_w`` and the other UAVs' sum rate on
+    the block with each grid vector of this cluster ``others_bps`` (V,) (else None)."""
+
+    members: IntArray
+    width: slice
+    senders: NDArray[np.bool_] | None = None
+    sent_w: FloatArray | None = None
+    others_bps: FloatArray | None = None
+
+
+@dataclass(frozen=True)
 class SearchResult:
     """The configuration a search found for each of L layouts: ``objective_bps`` (L,) the
     constrained sum rate (0 where no point meets R_min), ``uav_m`` (L, U, 3),
@@ -86,7 +100,7 @@ def response_refusal(scenario: Scenario) -> str | None:
     """Where one UAV's best response of several would value more than
     :data:`RESPONSE_MAX_VALUES` (point, vector) pairs (clusters of M > 2, the uplink), the
     one-line refusal, else None."""
-    if scenario.uav.count == 1 or (scenario.cluster_size == 2 and not scenario.uplink):
+    if scenario.uav.count == 1 or not scenario.sic_chains:
         return None
     xs, ys, hs, _ = lattice(scenario)
     points = len(xs) * len(ys) * len(hs)
@@ -129,7 +143,7 @@ class BestResponseSearch:
         self.full_reuse = radio.reuse == "full"
         # clusters of M > 2 and the uplink: their SIC chains (docs/model.md §15, §17)
         self.chains = None
-        if not oma and (self.cluster_size > 2 or self.uplink):
+        if not oma and scenario.sic_chains:
             self.chains = LayoutClusters.of(a, layout, scenario.shares_per_uav,
                                             scenario.shares_per_cluster,
                                             self.uplink and self.full_reuse)
@@ -227,23 +241,28 @@ class BestResponseSearch:
                                         np.repeat(chunk_h, len(plane))]),
                        (start + len(chunk_h)) / len(heights))
 
+        blocks = self._uplink_blocks(u, fixed_gain, alpha_first) if self.uplink else None
+
         def values(points: FloatArray) -> tuple[FloatArray, FloatArray]:
-            return self.totals(u, points, fixed_gain, alpha_first)
+            return self.totals(u, points, fixed_gain, alpha_first, blocks)
 
         return best_in_chunks(chunks(), values, Best(-np.inf, uav_m[u], alpha_first[u]),
                               on_chunk)
 
     def totals(self, u: int, points_m: FloatArray, fixed_gain: FloatArray,
-               alpha_first: FloatArray) -> tuple[FloatArray, FloatArray]:
+               alpha_first: FloatArray, blocks: list[UplinkBlock] | None = None
+               ) -> tuple[FloatArray, FloatArray]:
         """The network's objective (P,) with UAV ``u`` at each of ``points_m`` (P, 3) with its
         best shares there (P, K) (its ``alpha_first`` row for OMA), the others at the gains
         ``fixed_gain`` (U, N) with their ``alpha_first`` (U, K); -inf where a user misses
-        R_min or the point lies in a building."""
+        R_min or the point lies in a building. The uplink's ``blocks``
+        (:meth:`_uplink_blocks` of the same UAV and the others' configuration)."""
         gain = np.broadcast_to(fixed_gain, (len(points_m), *fixed_gain.shape)).copy()
         gain[:, u] = self.gains(points_m)
         shares = np.broadcast_to(alpha_first, (len(points_m), *alpha_first.shape)).copy()
         if self.uplink:
-            shares[:, u] = self._best_uplink_shares(u, gain, alpha_first)
+            assert blocks is not None
+            shares[:, u] = self._best_uplink_shares(u, gain, blocks)
         elif self.chains is not None:
             shares[:, u] = self._best_share_vectors(u, gain)
         elif not self.oma:
@@ -280,34 +299,47 @@ class BestResponseSearch:
             chosen[:, width] = self.components[index]
         return chosen
 
-    def _best_uplink_shares(self, u: int, gain: FloatArray, fixed: FloatArray
-                            ) -> FloatArray:
-        """UAV ``u``'s users' best transmit shares (P, S) on the grid, the others' at
-        ``fixed`` (U, S) (docs/model.md §17). A cluster's shares change what the other UAVs
-        hear on its block, not where ``u`` is: so each cluster takes the vector of the
-        largest sum of its own rate (at each point, hearing the other UAVs' users on its
-        block) and the other UAVs' rates on that block (one number per vector), exact for
-        the network's objective."""
-        heard_w = np.zeros(gain.shape[0])
-        chosen = np.full((len(gain), self.scenario.shares_per_uav), self.scenario.uav.start_alpha)
+    def _uplink_blocks(self, u: int, fixed_gain: FloatArray, fixed: FloatArray
+                       ) -> list[UplinkBlock]:
+        """What UAV ``u``'s response in the uplink needs of each of its clusters, the other
+        UAVs at the gains ``fixed_gain`` (U, N) with the transmit shares ``fixed`` (U, S):
+        none of it depends on where ``u`` goes, so it is made once per response."""
+        assert self.chains is not None
+        blocks = []
         for members, width in self._clusters_of(u):
-            others = None
-            if self.chains is not None and self.chains.cross is not None:
-                senders = self.chains.cross[members[0]]         # other UAVs' users on the block
-                sent_w = self.power * self._shares_of_users(fixed)[senders]
-                heard_w = gain[:, u, senders] @ sent_w                      # (P,), W
-                others = self._block_rates(u, members, width, senders, gain[0], fixed)
-            own = gain[:, u, members] / (1.0 + heard_w / self.noise_w)[:, None]
+            if self.chains.cross is None:          # no other UAV's user on the block
+                blocks.append(UplinkBlock(members, width))
+                continue
+            senders = self.chains.cross[members[0]]     # the other UAVs' users on the block
+            sent_w = self.power * self.chains.user_shares(fixed.reshape(-1))[senders]
+            blocks.append(UplinkBlock(members, width, senders, sent_w, self._block_rates(
+                u, width, senders, fixed_gain, fixed)))
+        return blocks
+
+    def _best_uplink_shares(self, u: int, gain: FloatArray, blocks: list[UplinkBlock]
+                            ) -> FloatArray:
+        """UAV ``u``'s users' best transmit shares (P, S) on the grid at the gains ``gain``
+        (P, U, N) (docs/model.md §17). A cluster's shares change what the other UAVs hear on
+        its block, not where ``u`` is: so each cluster takes the vector of the largest sum of
+        its own rate (at each point, hearing the other UAVs' users on its block) and the
+        other UAVs' rates on that block (its block's ``others_bps``, one number per vector),
+        exact for the network's objective."""
+        chosen = np.full((len(gain), self.scenario.shares_per_uav), self.scenario.uav.start_alpha)
+        for block in blocks:
+            own = gain[:, u, block.members]
+            if block.senders is not None:
+                heard_w = gain[:, u, block.senders] @ block.sent_w                # (P,), W
+                own = own / (1.0 + heard_w / self.noise_w)[:, None]
             index, _ = best_uplink_vectors(own, self.vectors, self.scenario,
-                                           self.power / self.noise_w, others)
-            chosen[:, width] = self.components[index]
+                                           self.power / self.noise_w, block.others_bps)
+            chosen[:, block.width] = self.components[index]
         return chosen
 
-    def _block_rates(self, u: int, members: IntArray, width: slice, senders: NDArray[np.bool_],
+    def _block_rates(self, u: int, width: slice, senders: NDArray[np.bool_],
                      gain: FloatArray, fixed: FloatArray) -> FloatArray:
-        """The sum rate (V,) of the other UAVs' users on the block of UAV ``u``'s cluster
-        ``members`` with its transmit shares at each grid vector (their gains ``gain`` (U, N)
-        and shares ``fixed``), -inf where one misses R_min."""
+        """The sum rate (V,) of the other UAVs' users ``senders`` on the block of UAV ``u``'s
+        cluster of components ``width`` with its transmit shares at each grid vector (the
+        gains ``gain`` (U, N) and shares ``fixed``), -inf where one misses R_min."""
         shares = np.broadcast_to(fixed, (len(self.vectors), *fixed.shape)).copy()
         shares[:, u, width] = self.vectors
         rates = self._chain_rates(np.broadcast_to(gain, (len(shares), *gain.shape)), shares)
@@ -322,11 +354,6 @@ class BestResponseSearch:
         for k in np.flatnonzero(self.association.has_cluster[u]):
             yield (self.association.members[self.layout, u, k],
                    slice(k * per_cluster, (k + 1) * per_cluster))
-
-    def _shares_of_users(self, shares: FloatArray) -> FloatArray:
-        """Every user's transmit share (N,) in the uplink from every UAV's (U, S)."""
-        assert self.chains is not None
-        return shares.reshape(-1)[self.chains.components].reshape(-1)[self.chains.places]
 
 
 def layout_share(rounds_done: float, expected: float) -> float:
@@ -347,7 +374,7 @@ def _search(scenario: Scenario, users_m: FloatArray, rounds: int, oma: bool,
         raise ValueError(f"rounds must be >= 1, got {rounds}")
     started = time.process_time()
     env = NetworkBatch(scenario, num_envs=len(users_m), users_m=users_m)
-    if scenario.cluster_size == 2 and not scenario.uplink:
+    if not scenario.sic_chains:
         start_uav, start_alpha = soa_per_uav_configuration(env)
     else:   # SoA's positions, the start's components (SoA plans the downlink's pairs)
         start_uav = soa_positions(env)
@@ -403,9 +430,7 @@ def best_response(scenario: Scenario, users_m: FloatArray, *, rounds: int = DEFA
     (one search, converged)."""
     if scenario.uav.count == 1:
         started = time.process_time()
-        search = (oracle if scenario.cluster_size == 2 and not scenario.uplink
-                  else cluster_oracle)
-        found = search(scenario, users_m, on_layout, on_search)
+        found = exact_oracle(scenario, users_m, on_layout, on_search)
         seconds = (time.process_time() - started) / max(1, len(users_m))
         count = len(users_m)
         return SearchResult(found.objective_bps, found.uav_m[:, None], found.alpha_first[:, None],

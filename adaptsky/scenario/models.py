@@ -940,6 +940,12 @@ class Scenario(Section):
         return self.radio.direction == "uplink"
 
     @property
+    def sic_chains(self) -> bool:
+        """Whether NOMA's clusters are SIC chains (clusters of M > 2, or the uplink: docs/
+        model.md §15, §17), not the paper's downlink pairs with their closed forms."""
+        return self.cluster_size > 2 or self.uplink
+
+    @property
     def shares_per_cluster(self) -> int:
         """A cluster's power components: M - 1 shares of the downlink's split (docs/model.md
         §15), M transmit shares in the uplink (§17)."""

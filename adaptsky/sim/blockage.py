@@ -178,6 +178,16 @@ def inside_buildings(points_m: FloatArray, city: City) -> BoolArray:
             & (h <= city.heights_m[:, None, :])).any(axis=-1)
 
 
+def roofs_m(points_xy_m: FloatArray, city: City) -> FloatArray:
+    """The tallest roof standing over each point (B, ..., 2) [x, y] of its environment,
+    m, walls included (0 where none): (B, ...)."""
+    f = city.footprints_m
+    x, y = points_xy_m[..., 0, None], points_xy_m[..., 1, None]
+    under = (x >= f[:, 0]) & (x <= f[:, 1]) & (y >= f[:, 2]) & (y <= f[:, 3])
+    heights = city.heights_m.reshape(len(city.heights_m), *[1] * (points_xy_m.ndim - 2), -1)
+    return np.where(under, heights, 0.0).max(axis=-1)
+
+
 def above_buildings(points_m: FloatArray, city: City, clearance_m: float = 1.0) -> FloatArray:
     """The points (B, K, 3), m, each inside a building of its environment raised to
     ``clearance_m`` above the highest roof it stands under (docs/model.md §12); the others
@@ -185,10 +195,7 @@ def above_buildings(points_m: FloatArray, city: City, clearance_m: float = 1.0) 
     inside = inside_buildings(points_m, city)
     if not inside.any():
         return points_m
-    f = city.footprints_m
-    x, y = points_m[..., 0, None], points_m[..., 1, None]
-    under = (x >= f[:, 0]) & (x <= f[:, 1]) & (y >= f[:, 2]) & (y <= f[:, 3])
-    roof_m = np.where(under, city.heights_m[:, None, :], 0.0).max(axis=-1)
+    roof_m = roofs_m(points_m[..., :2], city)
     raised = points_m.copy()
     raised[..., 2] = np.where(inside, roof_m + clearance_m, points_m[..., 2])
     return raised

@@ -194,13 +194,18 @@ class LayoutClusters:
                              power_w=power_w, noise_w=noise_w, sic_residual=sic_residual)[0]
         return noma.rate_bps(sinr.reshape(len(sinr), -1)[:, self.places], bandwidth_hz)
 
+    def user_shares(self, shares: FloatArray) -> FloatArray:
+        """Every user's component (..., N) (the uplink's transmit share) from every UAV's
+        (..., U S)."""
+        beta = shares[..., self.components]                                   # (..., C, M)
+        return beta.reshape(*beta.shape[:-2], -1)[..., self.places]
+
     def uplink_rates(self, gains: FloatArray, shares: FloatArray, *, power_w: float,
                      noise_w: float, bandwidth_hz: float, sic_residual: float = 0.0
                      ) -> FloatArray:
         """The uplink: every user's rate (P, N) from every link's gain (P, U, N) and every
         UAV's transmit shares (P, U S); ``power_w`` = P_u G."""
-        beta = shares[:, self.components]                                      # (P, C, M)
-        share = beta.reshape(len(beta), -1)[:, self.places]                    # (P, N)
+        share = self.user_shares(shares)                                       # (P, N)
         users = np.arange(len(self.serving))
         at_uav = gains[:, self.serving]                     # (P, N, N): g_{u(i), j}
         received = power_w * share * at_uav[:, users, users]

@@ -308,7 +308,8 @@ class NetworkBatch:
         and, for the observation, ``_serving_xy`` (2, B, N) the positions of its serving
         UAV's x and y in the configuration, and ``_view_flat`` where the agent's view
         (``view``) takes its components from the network's observation
-        (:func:`~adaptsky.sim.observation.flat_gather`; None: all of it, as it is).
+        (:func:`~adaptsky.sim.observation.flat_gather`; None: all of it, as it is), and
+        ``_world_reader`` what adds the view's observations of the world (None: none).
         """
         association = self.association
         num_envs, n, num_uavs = self.num_envs, self.num_users, self.num_uavs
@@ -322,7 +323,7 @@ class NetworkBatch:
         link_base = (np.arange(num_envs * num_uavs) * width)[:, None] + np.zeros(n, np.intp)
         self._link_source = np.stack([link_base, link_base + 1, link_base + 2])
         self._interferer = interferers(association)
-        self._chain = (None if self.cluster_size == 2 and not self._uplink else
+        self._chain = (None if not self.scenario.sic_chains else
                        Chain.of(association, width, self.scenario.shares_per_cluster))
         if self._chain is None:
             self._index_pairs(uav_base)
@@ -332,6 +333,8 @@ class NetworkBatch:
             self._cross = ((association.cluster[:, :, None] == association.cluster[:, None, :])
                            & (serving[:, :, None] != serving[:, None, :]))
         gather = None if self._view is None else self._view.gather(association)
+        self._world_reader = (self._view.world_reader(association)
+                              if self._view is not None and self._observes_world else None)
         self._view_flat = (None if gather is None
                            else flat_gather(gather, observation_size(n, num_uavs)))
         self._repeated_of: FloatArray | None = None    # see _repeated_users
@@ -854,13 +857,13 @@ class NetworkBatch:
                     link_p_los: FloatArray) -> NDArray[np.float32]:
         """The agent's observations with its view's observations of the world appended
         (docs/environment.md, "Observations of the world")."""
-        assert self._view is not None
+        assert self._world_reader is not None
         los = (np.asarray(link_p_los, dtype=np.float64) if link_los is None
                else np.asarray(link_los, dtype=np.float64))
         self.world_data = WorldData(uav_m.reshape(self.num_envs, self.num_uavs, 3),
                                     np.broadcast_to(los, (self.num_envs, self.num_users)),
                                     self._moved_m, self.scenario.uav.step_s, self.city)
-        return self._view.with_world(self._obs, self.world_data, self.association)
+        return self._world_reader(self._obs, self.world_data)
 
     def observation(self) -> NDArray[np.float32]:
         """The observations of the last evaluated state (B, size), float32."""

@@ -25,6 +25,7 @@ Users come in the order the layout lists them (the paper's); an agent with
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -250,6 +251,11 @@ class WorldData:
     city: City | None
 
 
+WorldReader = Callable[[NDArray[np.float32], WorldData], NDArray[np.float32]]
+"""The agent's observations (B, W) and the step's :class:`WorldData` in, the observations
+with its observations of the world out (:meth:`ObservationView.world_reader`)."""
+
+
 class ObservationView(Protocol):
     """What an agent sees of the network's observation (B, size), users as listed: the
     adapter its settings pick (:class:`adaptsky.envs.observations.AgentView`: scaled or raw
@@ -260,14 +266,14 @@ class ObservationView(Protocol):
 
     scaled: bool
     observes_world: bool
-    """Whether :meth:`with_world` adds features (then called at every step)."""
+    """Whether :meth:`world_reader` adds features (then called once per association, its
+    reader at every step)."""
 
     def gather(self, association: Association) -> NDArray[np.intp] | None: ...
 
-    def with_world(self, observations: NDArray[np.float32], data: WorldData,
-                   association: Association) -> NDArray[np.float32]:
-        """The agent's ``observations`` (after :meth:`gather`) with its observations of the
-        world added."""
+    def world_reader(self, association: Association) -> WorldReader:
+        """What adds the agent's observations of the world to its observations (after
+        :meth:`gather`) at every step of ``association``."""
         ...
 
 

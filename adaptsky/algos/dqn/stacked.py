@@ -154,7 +154,6 @@ class StackedDqn:
         self._dueling_back = self._dueling.T.expand(self.size, -1, -1)
         self._host = ([(weight.numpy(), bias.numpy()) for weight, bias in self._policy]
                       if self.device.type == "cpu" else None)
-        self._host_set = [(weight.numpy(), bias.numpy()) for weight, bias in self._policy_set]
 
     @staticmethod
     def _dueling_head(config: DqnAgent | BdqAgent) -> bool:
@@ -229,22 +228,11 @@ class StackedDqn:
             x = torch.from_numpy(observations).to(self.device)
             return self.device_greedy(x).cpu().numpy()
         if self.encoder is not None:
-            observations = self._host_encoded(observations)
+            layout = self.encoder.layout
+            observations = self.net.host_set_encoded("set", observations, layout.per_user,
+                                                     layout.rest, _relu_host)
         return self._host_greedy(head_output(self._host, observations, _matmul_add,
                                              _relu_host))
-
-    def _host_encoded(self, x: np.ndarray) -> np.ndarray:
-        """:meth:`_encoded` in numpy over the policy's memory (CPU)."""
-        assert self.encoder is not None
-        layout = self.encoder.layout
-        stack, rows = x.shape[:2]
-        slots, features = layout.per_user.shape
-        h = x[..., layout.per_user].reshape(stack, rows * slots, features)
-        for weight, bias in self._host_set:
-            h = _relu_host(_matmul_add(h, weight, bias))
-        users = h.reshape(stack, rows, slots, -1)
-        return np.concatenate([users.mean(axis=2), users.max(axis=2), x[..., layout.rest]],
-                              axis=-1)
 
     def device_greedy(self, observations: torch.Tensor) -> torch.Tensor:
         """Greedy actions (S, n) for observations (S, n, obs) on the device."""

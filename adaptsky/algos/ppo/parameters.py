@@ -11,17 +11,15 @@ or the Gaussian's mean) and the critic (``critic.<i>.*``, one output); a continu
 
 from __future__ import annotations
 
-from adaptsky.algos.shared.set_layout import SetEncoder
-from adaptsky.algos.shared.shapes import HeadShape, mlp_shapes
+from adaptsky.algos.shared.set_layout import SetEncoder, reading_shapes
+from adaptsky.algos.shared.shapes import HeadShape
 
 
 def policy_shapes(obs: int, hidden_sizes: list[int], head: HeadShape,
                   encoder: SetEncoder | None = None) -> dict[str, tuple[int, ...]]:
     """The greedy policy's parameters: the actor (and ``log_std`` for a Gaussian); with a
     set ``encoder`` its shared network ``actor_set.*`` first, the actor reading its output."""
-    shapes = {} if encoder is None else encoder.shapes("actor_set")
-    shapes |= mlp_shapes("actor", [obs if encoder is None else encoder.width, *hidden_sizes,
-                                   head.width])
+    shapes = reading_shapes("actor", obs, [*hidden_sizes, head.width], encoder)
     if head.kind == "gaussian":
         shapes["log_std"] = (head.components,)
     return shapes
@@ -30,6 +28,4 @@ def policy_shapes(obs: int, hidden_sizes: list[int], head: HeadShape,
 def critic_shapes(obs: int, hidden_sizes: list[int], encoder: SetEncoder | None = None
                   ) -> dict[str, tuple[int, ...]]:
     """The critic's parameters (with a set ``encoder``, its own ``critic_set.*`` first)."""
-    shapes = {} if encoder is None else encoder.shapes("critic_set")
-    return shapes | mlp_shapes("critic", [obs if encoder is None else encoder.width,
-                                          *hidden_sizes, 1])
+    return reading_shapes("critic", obs, [*hidden_sizes, 1], encoder)

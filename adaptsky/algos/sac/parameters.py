@@ -12,8 +12,7 @@ and output one value. The temperature is ``log_alpha`` (a scalar). With ``agent.
 
 from __future__ import annotations
 
-from adaptsky.algos.shared.set_layout import SetEncoder
-from adaptsky.algos.shared.shapes import mlp_shapes
+from adaptsky.algos.shared.set_layout import SetEncoder, reading_shapes
 
 LOG_STD_MIN, LOG_STD_MAX = -5.0, 2.0
 """The actor's log standard deviation, squashed into this range (CleanRL)."""
@@ -25,18 +24,14 @@ def actor_shapes(obs: int, hidden_sizes: list[int], components: int,
                  encoder: SetEncoder | None = None) -> dict[str, tuple[int, ...]]:
     """The actor (the greedy policy) for D = ``components``; with a set ``encoder`` its
     shared network ``actor_set.*`` first, the actor reading its output."""
-    shapes = {} if encoder is None else encoder.shapes("actor_set")
-    return shapes | mlp_shapes("actor", [obs if encoder is None else encoder.width,
-                                         *hidden_sizes, 2 * components])
+    return reading_shapes("actor", obs, [*hidden_sizes, 2 * components], encoder)
 
 
 def q_shapes(name: str, obs: int, hidden_sizes: list[int], components: int,
              encoder: SetEncoder | None = None) -> dict[str, tuple[int, ...]]:
     """Q network ``name`` (``q1`` or ``q2``) of an observation and an action (with a set
     ``encoder``, its own ``<name>_set.*`` first, reading the observation)."""
-    shapes = {} if encoder is None else encoder.shapes(f"{name}_set")
-    return shapes | mlp_shapes(name, [(obs if encoder is None else encoder.width) + components,
-                                      *hidden_sizes, 1])
+    return reading_shapes(name, obs, [*hidden_sizes, 1], encoder, extra_inputs=components)
 
 
 def critic_shapes(obs: int, hidden_sizes: list[int], components: int,

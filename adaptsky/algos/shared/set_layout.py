@@ -92,6 +92,16 @@ class SetEncoder:
         return mlp_shapes(prefix, [self.layout.per_user.shape[1], *self.sizes])
 
 
+def reading_shapes(prefix: str, obs: int, sizes: list[int], encoder: SetEncoder | None,
+                   extra_inputs: int = 0) -> Shapes:
+    """The MLP ``prefix`` of layers ``sizes`` reading an observation of ``obs`` components
+    (and ``extra_inputs`` more: an action), or with a set ``encoder`` its shared network
+    ``<prefix>_set.*`` first and the MLP reading its output."""
+    shapes = {} if encoder is None else encoder.shapes(f"{prefix}_set")
+    width = obs if encoder is None else encoder.width
+    return shapes | mlp_shapes(prefix, [width + extra_inputs, *sizes])
+
+
 def set_encoder_of(scenario: Scenario) -> SetEncoder | None:
     """``scenario``'s agent's set encoder, None where its networks read the whole vector."""
     if getattr(scenario.agent, "network", "mlp") != "set":

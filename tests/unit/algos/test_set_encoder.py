@@ -170,6 +170,9 @@ def test_the_target_network_reads_through_the_targets_encoder():
     with torch.no_grad():
         policy_q = agent._forward(agent._policy, obs)
         assert torch.equal(agent._forward(agent._target, obs), policy_q)   # a copy at first
+    # the numpy greedy path (through the encoder's numpy form) acts as torch's Q values say
+    np.testing.assert_array_equal(agent.greedy(obs.numpy()), policy_q.argmax(dim=-1).numpy())
+    with torch.no_grad():
         agent._target_set[0][0].mul_(0.5)                # the target's first shared layer
         assert not torch.equal(agent._forward(agent._target, obs), policy_q)
         assert torch.equal(agent._forward(agent._policy, obs), policy_q)
